@@ -1,0 +1,202 @@
+use std::fmt;
+
+/// Everything that can go wrong while acquiring or using a GPU.
+#[derive(Debug, thiserror::Error)]
+pub enum GpuError {
+    /// No adapter at all: on a machine without a GPU, install Mesa's lavapipe.
+    #[error(
+        "no GPU adapter found (backends: {backends}). On a machine without a GPU install Mesa's \
+         CPU Vulkan driver: `apt-get install -y mesa-vulkan-drivers libvulkan1` (or run \
+         `cargo xtask test`, which installs it when run as root)"
+    )]
+    NoAdapter { backends: String },
+    /// `WGPU_ADAPTER_NAME` matched none of the adapters present.
+    #[error("WGPU_ADAPTER_NAME={wanted:?} matches no adapter; available: {available}")]
+    AdapterNotFound { wanted: String, available: String },
+    /// The adapter refused the device request.
+    #[error("the adapter {adapter:?} refused to create a device: {source}")]
+    RequestDevice {
+        adapter: String,
+        #[source]
+        source: wgpu::RequestDeviceError,
+    },
+    /// Waiting for the GPU failed (device lost, timeout).
+    #[error("waiting for the GPU failed: {0}")]
+    Poll(#[from] wgpu::PollError),
+    /// Mapping a buffer for readback failed.
+    #[error("mapping a buffer for readback failed: {0}")]
+    Map(String),
+    /// The feature is not available on this adapter.
+    #[error("{0} is unavailable on this adapter")]
+    Unavailable(&'static str),
+}
+
+/// Optional adapter features this project uses when they are present.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct OptionalFeatures {
+    /// `Features::SUBGROUP`: subgroup builtins in compute shaders.
+    pub subgroup: bool,
+    /// `Features::TIMESTAMP_QUERY` + `TIMESTAMP_QUERY_INSIDE_ENCODERS`: GPU timing spans.
+    pub timestamps: bool,
+}
+
+/// An adapter, its device and queue, and what we learned about them.
+///
+/// `wgpu::Device` and `wgpu::Queue` are cheap handles: clone them freely.
+#[derive(Clone)]
+pub struct GpuContext {
+    pub adapter: wgpu::Adapter,
+    pub device: wgpu::Device,
+    pub queue: wgpu::Queue,
+    pub info: wgpu::AdapterInfo,
+    pub features: OptionalFeatures,
+}
+
+impl fmt::Debug for GpuContext {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.debug_struct("GpuContext")
+            .field("adapter", &self.info.name)
+            .field("backend", &self.info.backend)
+            .field("features", &self.features)
+            .finish()
+    }
+}
+
+fn type_rank(t: wgpu::DeviceType) -> u8 {
+    match t {
+        wgpu::DeviceType::DiscreteGpu => 0,
+        wgpu::DeviceType::IntegratedGpu => 1,
+        wgpu::DeviceType::VirtualGpu => 2,
+        wgpu::DeviceType::Cpu => 3,
+        wgpu::DeviceType::Other => 4,
+    }
+}
+
+impl GpuContext {
+    /// Acquires an adapter and device, blocking.
+    ///
+    /// `WGPU_BACKEND` (e.g. `vulkan`, `gl`) restricts the backends; `WGPU_ADAPTER_NAME` picks the
+    /// first adapter whose name contains it (case-insensitive). Otherwise a discrete GPU is
+    /// preferred over an integrated one, then over a CPU adapter such as llvmpipe.
+    ///
+    /// The device gets the adapter's full limits plus `SUBGROUP` and timestamp queries when the
+    /// adapter has them; [`GpuContext::features`] says which it got.
+    pub fn new() -> Result<Self, GpuError> {
+        pollster::block_on(Self::new_async())
+    }
+
+    /// Async form of [`GpuContext::new`].
+    pub async fn new_async() -> Result<Self, GpuError> {
+        let backends = wgpu::Backends::from_env().unwrap_or_default();
+        let mut desc = wgpu::InstanceDescriptor::new_without_display_handle_from_env();
+        desc.backends = backends;
+        let instance = wgpu::Instance::new(desc);
+        let mut adapters = instance.enumerate_adapters(backends).await;
+        if adapters.is_empty() {
+            return Err(GpuError::NoAdapter {
+                backends: format!("{backends:?}"),
+            });
+        }
+        adapters.sort_by_key(|a| type_rank(a.get_info().device_type));
+        let adapter = match std::env::var("WGPU_ADAPTER_NAME") {
+            Ok(wanted) if !wanted.is_empty() => {
+                let needle = wanted.to_lowercase();
+                let pos = adapters
+                    .iter()
+                    .position(|a| a.get_info().name.to_lowercase().contains(&needle));
+                match pos {
+                    Some(i) => adapters.swap_remove(i),
+                    None => {
+                        let available = adapters
+                            .iter()
+                            .map(|a| format!("{:?}", a.get_info().name))
+                            .collect::<Vec<_>>()
+                            .join(", ");
+                        return Err(GpuError::AdapterNotFound { wanted, available });
+                    }
+                }
+            }
+            _ => adapters.swap_remove(0),
+        };
+        Self::from_adapter(adapter).await
+    }
+
+    /// Creates the device on a given adapter (the caller chose it).
+    pub async fn from_adapter(adapter: wgpu::Adapter) -> Result<Self, GpuError> {
+        let info = adapter.get_info();
+        let available = adapter.features();
+        let timestamp_features =
+            wgpu::Features::TIMESTAMP_QUERY | wgpu::Features::TIMESTAMP_QUERY_INSIDE_ENCODERS;
+        let features = OptionalFeatures {
+            subgroup: available.contains(wgpu::Features::SUBGROUP),
+            timestamps: available.contains(timestamp_features),
+        };
+        let mut required = wgpu::Features::empty();
+        if features.subgroup {
+            required |= wgpu::Features::SUBGROUP;
+        }
+        if features.timestamps {
+            required |= timestamp_features;
+        }
+        let (device, queue) = adapter
+            .request_device(&wgpu::DeviceDescriptor {
+                label: Some("restir-world device"),
+                required_features: required,
+                required_limits: adapter.limits(),
+                experimental_features: wgpu::ExperimentalFeatures::disabled(),
+                memory_hints: wgpu::MemoryHints::Performance,
+                trace: wgpu::Trace::Off,
+            })
+            .await
+            .map_err(|source| GpuError::RequestDevice {
+                adapter: info.name.clone(),
+                source,
+            })?;
+        Ok(Self {
+            adapter,
+            device,
+            queue,
+            info,
+            features,
+        })
+    }
+
+    /// The device's limits (equal to the adapter's: we request all of them).
+    pub fn limits(&self) -> wgpu::Limits {
+        self.device.limits()
+    }
+
+    /// Largest number of `u32` one storage binding can hold on this device.
+    pub fn max_storage_u32s(&self) -> u64 {
+        let l = self.limits();
+        l.max_storage_buffer_binding_size.min(l.max_buffer_size) / 4
+    }
+
+    /// Blocks until all submitted work is done.
+    pub fn wait(&self) -> Result<(), GpuError> {
+        self.device.poll(wgpu::PollType::wait_indefinitely())?;
+        Ok(())
+    }
+
+    /// One line naming the adapter, backend, driver and optional features.
+    pub fn describe(&self) -> String {
+        format!(
+            "adapter \"{}\" ({:?}, {:?}, driver {} {}); subgroup: {}; timestamps: {}",
+            self.info.name,
+            self.info.device_type,
+            self.info.backend,
+            self.info.driver,
+            self.info.driver_info,
+            if self.features.subgroup {
+                "yes"
+            } else {
+                "unavailable"
+            },
+            if self.features.timestamps {
+                "yes"
+            } else {
+                "unavailable"
+            },
+        )
+    }
+}

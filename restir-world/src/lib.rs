@@ -1,0 +1,20 @@
+//! # restir-world
+//!
+//! World-space spatiotemporal reservoir reuse for ray-traced global illumination
+//! (Boissé 2021), composed from the `gpu-scan`, `gpu-hash` and `reservoir` primitives on a
+//! software-BVH ray tracer.
+//!
+//! This crate also holds the GPU plumbing shared by the demo, the tests and the benchmarks:
+//! [`gpu::GpuContext`] (adapter + device acquisition that honours `WGPU_BACKEND` and
+//! `WGPU_ADAPTER_NAME`), [`gpu::GpuTimer`] (named timestamp spans) and the buffer
+//! upload/readback helpers in [`gpu::buffers`].
+
+pub mod gpu;
+
+pub use gpu::{GpuContext, GpuError, GpuTimer};
+
+/// Every WGSL module this crate ships, composed as it is used, as `(name, source)`: the
+/// workspace's naga checks validate each of them.
+pub fn wgsl_modules() -> Vec<(String, String)> {
+    Vec::new()
+}

@@ -1,0 +1,69 @@
+//! Benchmark plumbing: GPU-timestamp timing for criterion's `iter_custom`, and the `RESULT` line.
+
+use std::time::Duration;
+
+use restir_world::{GpuContext, GpuTimer};
+
+/// GPU time of `iters` repetitions of `record`, recorded into one encoder between two
+/// timestamps. Panics with a clear message when the adapter has no timestamp queries: a
+/// benchmark without GPU timing has nothing honest to report.
+pub fn gpu_time(
+    ctx: &GpuContext,
+    iters: u64,
+    mut record: impl FnMut(&mut wgpu::CommandEncoder),
+) -> Duration {
+    let mut timer = GpuTimer::new(ctx, 1);
+    let mut encoder = ctx
+        .device
+        .create_command_encoder(&wgpu::CommandEncoderDescriptor {
+            label: Some("bench"),
+        });
+    timer.span(&mut encoder, "bench", |enc| {
+        for _ in 0..iters {
+            record(enc);
+        }
+    });
+    timer.resolve(&mut encoder);
+    ctx.queue.submit([encoder.finish()]);
+    let times = timer
+        .read(ctx)
+        .unwrap_or_else(|e| panic!("benchmark needs GPU timestamps: {e}"));
+    Duration::from_secs_f64(times.total() * 1e-3)
+}
+
+/// Mean GPU milliseconds of one `record` over `reps` timed runs (after one warm-up run).
+pub fn gpu_ms(
+    ctx: &GpuContext,
+    reps: u32,
+    mut record: impl FnMut(&mut wgpu::CommandEncoder),
+) -> f64 {
+    gpu_time(ctx, 1, &mut record);
+    let total: f64 = (0..reps)
+        .map(|_| gpu_time(ctx, 1, &mut record).as_secs_f64())
+        .sum();
+    total * 1e3 / f64::from(reps.max(1))
+}
+
+/// Formats `RESULT <name> k=v ... device=<adapter>`; values with spaces are quoted.
+pub fn result_line(ctx: &GpuContext, name: &str, pairs: &[(&str, String)]) -> String {
+    let mut line = format!("RESULT {name}");
+    let device = ("device", ctx.info.name.clone());
+    for (k, v) in pairs.iter().chain(std::iter::once(&device)) {
+        if v.contains(char::is_whitespace) {
+            line.push_str(&format!(" {k}={v:?}"));
+        } else {
+            line.push_str(&format!(" {k}={v}"));
+        }
+    }
+    line
+}
+
+/// Prints the `RESULT` line (see [`result_line`]).
+pub fn print_result(ctx: &GpuContext, name: &str, pairs: &[(&str, String)]) {
+    println!("{}", result_line(ctx, name, pairs));
+}
+
+/// Formats a rate with three significant figures in scientific notation (`1.23e9`).
+pub fn sci(x: f64) -> String {
+    format!("{x:.3e}")
+}

@@ -1,0 +1,21 @@
+//! Floor kernels measured in the same run as a benchmark: what any kernel moving the same bytes
+//! must pay on this device. Benchmarks print their speed as a ratio to these.
+
+mod copy;
+
+pub use copy::CopyKernel;
+
+/// WGSL modules of the floor kernels, for the naga checks.
+pub fn wgsl_modules() -> Vec<(String, String)> {
+    vec![("floors/copy".into(), copy::SOURCE.into())]
+}
+
+/// Splits `groups` workgroups into an `(x, y)` dispatch within the 65535-per-dimension limit.
+pub fn dispatch_2d(groups: u32, max_per_dim: u32) -> (u32, u32) {
+    if groups <= max_per_dim {
+        (groups, 1)
+    } else {
+        let y = groups.div_ceil(max_per_dim);
+        (groups.div_ceil(y), y)
+    }
+}

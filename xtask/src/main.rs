@@ -1,0 +1,171 @@
+//! `cargo xtask test` and `cargo xtask demo`: the README's two commands.
+//!
+//! Both first make sure a Vulkan driver is present. On a machine without one (a fresh headless
+//! Debian box, CI) they install Mesa's CPU driver, lavapipe, when running as root with apt-get;
+//! otherwise they print the exact command to run and exit non-zero.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, ExitCode};
+
+const LAVAPIPE_PACKAGES: [&str; 2] = ["mesa-vulkan-drivers", "libvulkan1"];
+
+fn main() -> ExitCode {
+    let mut args = std::env::args().skip(1);
+    let task = args.next();
+    let rest: Vec<String> = args.collect();
+    let result = match task.as_deref() {
+        Some("test") => test(&rest),
+        Some("demo") => demo(&rest),
+        _ => {
+            eprintln!(
+                "usage: cargo xtask <test|demo> [args...]\n  test  run every test of the \
+                 workspace on the available adapter (args go to `cargo test`)\n  demo  build \
+                 in release and run the demo's default job (args go to `restir-demo`)"
+            );
+            return ExitCode::from(2);
+        }
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("xtask: {e}");
+            ExitCode::FAILURE
+        }
+    }
+}
+
+fn test(args: &[String]) -> Result<(), String> {
+    ensure_vulkan()?;
+    // Print the adapter up front, so every log names the device the tests ran on.
+    cargo(&["run", "--quiet", "--package", "demo", "--", "info"])?;
+    let mut test_args = vec!["test", "--workspace"];
+    test_args.extend(args.iter().map(String::as_str));
+    cargo(&test_args)
+}
+
+fn demo(args: &[String]) -> Result<(), String> {
+    ensure_vulkan()?;
+    let mut run = vec!["run", "--release", "--package", "demo", "--"];
+    run.extend(args.iter().map(String::as_str));
+    cargo(&run)
+}
+
+fn cargo(args: &[&str]) -> Result<(), String> {
+    let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
+    let status = Command::new(&cargo)
+        .args(args)
+        .current_dir(workspace_root())
+        .status()
+        .map_err(|e| format!("could not run {cargo}: {e}"))?;
+    if status.success() {
+        Ok(())
+    } else {
+        Err(format!("`cargo {}` failed ({status})", args.join(" ")))
+    }
+}
+
+fn workspace_root() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .parent()
+        .map(Path::to_path_buf)
+        .unwrap_or_else(|| PathBuf::from("."))
+}
+
+/// Makes sure a Vulkan loader and at least one driver exist, installing lavapipe if allowed.
+fn ensure_vulkan() -> Result<(), String> {
+    if !cfg!(target_os = "linux") {
+        return Ok(()); // Metal / DX12 machines need no help from us.
+    }
+    if let Ok(backend) = std::env::var("WGPU_BACKEND")
+        && !backend.to_lowercase().contains("vulkan")
+    {
+        return Ok(()); // the user chose another backend (e.g. gl)
+    }
+    if vulkan_present() {
+        return Ok(());
+    }
+    let install = format!("apt-get install -y {}", LAVAPIPE_PACKAGES.join(" "));
+    if !is_root() || !on_path("apt-get") {
+        return Err(format!(
+            "no Vulkan driver found. Install Mesa's CPU Vulkan driver (lavapipe):\n    \
+             sudo apt-get update && sudo {install}\nor install your GPU's Vulkan driver, then \
+             run this command again."
+        ));
+    }
+    eprintln!("xtask: no Vulkan driver found; installing lavapipe: apt-get update && {install}");
+    run_apt(&["update", "-qq"])?;
+    let mut install_args = vec!["install", "-y", "-qq", "--no-install-recommends"];
+    install_args.extend(LAVAPIPE_PACKAGES);
+    run_apt(&install_args)?;
+    if vulkan_present() {
+        eprintln!("xtask: lavapipe installed");
+        Ok(())
+    } else {
+        Err("installed lavapipe but still found no Vulkan loader and driver".into())
+    }
+}
+
+fn run_apt(args: &[&str]) -> Result<(), String> {
+    let status = Command::new("apt-get")
+        .args(args)
+        .env("DEBIAN_FRONTEND", "noninteractive")
+        .status()
+        .map_err(|e| format!("could not run apt-get: {e}"))?;
+    if status.success() {
+        Ok(())
+    } else {
+        Err(format!("`apt-get {}` failed ({status})", args.join(" ")))
+    }
+}
+
+/// A Vulkan loader (`libvulkan.so.1`) and at least one installable client driver manifest.
+fn vulkan_present() -> bool {
+    let loader = Command::new("ldconfig")
+        .arg("-p")
+        .output()
+        .map(|o| String::from_utf8_lossy(&o.stdout).contains("libvulkan.so.1"))
+        .unwrap_or(false)
+        || [
+            "/usr/lib/x86_64-linux-gnu",
+            "/usr/lib/aarch64-linux-gnu",
+            "/usr/lib",
+            "/usr/lib64",
+        ]
+        .iter()
+        .any(|d| Path::new(d).join("libvulkan.so.1").exists());
+    let explicit_driver = ["VK_DRIVER_FILES", "VK_ICD_FILENAMES"]
+        .iter()
+        .any(|v| std::env::var_os(v).is_some_and(|s| !s.is_empty()));
+    let driver = explicit_driver
+        || [
+            "/usr/share/vulkan/icd.d",
+            "/etc/vulkan/icd.d",
+            "/usr/local/share/vulkan/icd.d",
+        ]
+        .iter()
+        .any(|d| {
+            std::fs::read_dir(d)
+                .map(|mut entries| {
+                    entries
+                        .any(|e| e.is_ok_and(|e| e.path().extension().is_some_and(|x| x == "json")))
+                })
+                .unwrap_or(false)
+        });
+    loader && driver
+}
+
+fn is_root() -> bool {
+    std::fs::read_to_string("/proc/self/status")
+        .ok()
+        .and_then(|s| {
+            s.lines()
+                .find(|l| l.starts_with("Uid:"))
+                .and_then(|l| l.split_whitespace().nth(1).map(|uid| uid == "0"))
+        })
+        .unwrap_or(false)
+}
+
+fn on_path(program: &str) -> bool {
+    std::env::var_os("PATH")
+        .is_some_and(|paths| std::env::split_paths(&paths).any(|dir| dir.join(program).is_file()))
+}
