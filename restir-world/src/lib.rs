@@ -10,6 +10,7 @@
 //! upload/readback helpers in [`gpu::buffers`].
 
 pub mod gpu;
+pub mod scene;
 
 pub use gpu::{GpuContext, GpuError, GpuTimer};
 
