@@ -4,9 +4,635 @@
 //! (Merrill & Garland 2016) made portable by a bounded spin and a fallback (Smith, Levien &
 //! Owens, "Decoupled Fallback", SPAA 2025). Encodes into the caller's command encoder over
 //! caller-owned buffers.
+//!
+//! ```no_run
+//! # fn demo(device: &wgpu::Device, queue: &wgpu::Queue, input: &wgpu::Buffer,
+//! #         output: &wgpu::Buffer) -> Result<(), gpu_scan::ScanError> {
+//! use gpu_scan::{Scan, ScanDescriptor, ScanKind};
+//! let scan = Scan::new(device, &ScanDescriptor::for_device(device, 1 << 20))?;
+//! let mut encoder = device.create_command_encoder(&Default::default());
+//! scan.encode(&mut encoder, input, output, 1000, ScanKind::Exclusive, None)?;
+//! queue.submit([encoder.finish()]);
+//! # Ok(()) }
+//! ```
+//!
+//! See [`Scan`] for the contract, `examples/scan.rs` for a complete program, and the
+//! workspace's `tests` crate for the GPU tests and the benchmark.
+
+pub mod cpu;
+pub mod shaders;
+pub mod state;
+
+use wgpu::util::DeviceExt;
+
+pub use shaders::KernelConfig;
+
+/// Default failed polls of one predecessor before a workgroup takes the fallback.
+pub const DEFAULT_SPIN_LIMIT: u32 = 256;
+
+/// Which prefix sum.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum ScanKind {
+    /// `out[i] = in[0] + ... + in[i-1]` (`out[0] = 0`).
+    Exclusive,
+    /// `out[i] = in[0] + ... + in[i]`.
+    Inclusive,
+}
+
+/// How to build a [`Scan`].
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct ScanDescriptor {
+    /// Largest number of elements one scan may cover. Must fit one storage binding on the device.
+    pub max_len: u32,
+    /// Use subgroup operations for the workgroup scan. Needs `Features::SUBGROUP` on the device
+    /// (an error otherwise); [`ScanDescriptor::for_device`] turns it on when available.
+    pub use_subgroups: bool,
+    /// Failed polls of one not-yet-published predecessor before the waiting workgroup reduces
+    /// that predecessor's input itself. Default [`DEFAULT_SPIN_LIMIT`].
+    ///
+    /// **Testing knob:** `0` forces the fallback: every tile reduces its immediate predecessor
+    /// itself without polling, and falls back at once on any later predecessor that is not
+    /// ready. Results stay exact; the scan then reads its input about twice.
+    pub spin_limit: u32,
+    /// Count tiles, look-back steps, failed polls and fallbacks into a debug buffer
+    /// ([`Scan::counters_buffer`]). Costs a few atomics per tile; for benchmarks and tests.
+    pub debug_counters: bool,
+    /// Elements per thread (tile = workgroup size x this). `None` picks the largest of
+    /// 16, 8, 4, 2, 1 that fits the device's workgroup memory.
+    pub items_per_thread: Option<u32>,
+}
+
+impl ScanDescriptor {
+    /// Defaults for `max_len` elements: no subgroups, default spin limit, no counters.
+    pub fn new(max_len: u32) -> Self {
+        Self {
+            max_len,
+            use_subgroups: false,
+            spin_limit: DEFAULT_SPIN_LIMIT,
+            debug_counters: false,
+            items_per_thread: None,
+        }
+    }
+
+    /// Like [`ScanDescriptor::new`], with subgroups when `device` has `Features::SUBGROUP`.
+    pub fn for_device(device: &wgpu::Device, max_len: u32) -> Self {
+        Self {
+            use_subgroups: device.features().contains(wgpu::Features::SUBGROUP),
+            ..Self::new(max_len)
+        }
+    }
+}
+
+/// Errors of [`Scan`]: all are returned before anything is created or encoded.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+pub enum ScanError {
+    /// `max_len` does not fit one storage binding on this device.
+    #[error("max_len {max_len} exceeds the device's storage binding limit of {limit} u32s")]
+    MaxLenAboveBindingLimit { max_len: u32, limit: u64 },
+    /// Subgroups were requested on a device without `Features::SUBGROUP`.
+    #[error("use_subgroups was requested but the device lacks Features::SUBGROUP")]
+    SubgroupsUnavailable,
+    /// The device's compute limits cannot hold the kernel's workgroup.
+    #[error("the device's compute limits cannot run the scan kernel: {0}")]
+    UnsupportedLimits(String),
+    /// `n` is larger than the scan's `max_len` (which never exceeds the binding limit).
+    #[error("n = {n} exceeds this scan's max_len of {max_len} elements")]
+    TooLong { n: u32, max_len: u32 },
+    /// A buffer is smaller than the scan needs.
+    #[error("the {which} buffer holds {size} bytes, fewer than the {needed} this scan needs")]
+    BufferTooSmall {
+        which: &'static str,
+        size: u64,
+        needed: u64,
+    },
+    /// A buffer lacks a usage the scan needs.
+    #[error("the {which} buffer lacks BufferUsages::STORAGE")]
+    MissingStorageUsage { which: &'static str },
+    /// Two buffers that must differ are the same buffer.
+    #[error("the {0} and {1} buffers must not alias")]
+    Aliasing(&'static str, &'static str),
+    /// The indirect length's offset is not a multiple of 4.
+    #[error("the length offset {0} is not a multiple of 4")]
+    UnalignedLenOffset(u64),
+}
+
+/// Per-encode parameters of the kernel (the WGSL struct `ScanParams`).
+#[repr(C)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct ScanParams {
+    /// Number of elements (the indirect pre-pass overwrites it).
+    pub n: u32,
+    /// 1 for an inclusive scan.
+    pub inclusive: u32,
+    /// 1 to write the total.
+    pub write_total: u32,
+    /// Indirect: word index of n in the length buffer.
+    pub len_index: u32,
+}
+
+/// The debug counters (see [`ScanDescriptor::debug_counters`]), accumulated over every scan
+/// encoded since the last [`Scan::clear_counters`].
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct ScanCounters {
+    /// Tiles scanned.
+    pub tiles: u32,
+    /// Predecessor states consumed by look-backs (aggregates and inclusive prefixes).
+    pub lookback_steps: u32,
+    /// Polls that found a predecessor not ready.
+    pub failed_polls: u32,
+    /// Predecessor tiles reduced by a waiting workgroup.
+    pub fallbacks: u32,
+}
+
+/// A reusable prefix-sum operator: pipelines plus scratch (tile states, ticket counter).
+///
+/// # Contract
+/// - Results are modulo 2^32 (wrapping adds), bit-exact against [`cpu::scan`].
+/// - One dispatch per scan (plus a one-thread pre-pass for [`Scan::encode_indirect`] and a
+///   `clear_buffer` of the scratch). Everything is recorded into the caller's encoder; the
+///   scratch reset is part of the recorded work, so any number of scans may be encoded in one
+///   submit, on the same or different buffers.
+/// - `n = 0` records nothing, unless a total is requested: then 0 is written to it.
+/// - `input` and `output` must not alias (nor either of them alias `total`); `input` must hold
+///   at least `n` u32s, `output` at least `n`, `total` at least one; all need `STORAGE` usage.
+/// - `n` above the scan's `max_len` (which [`Scan::new`] checks against the device's storage
+///   binding limit) is an error returned before anything is encoded.
+/// - A scan sharing one `Scan` with another scan must not run concurrently with it (they share
+///   the scratch); scans recorded in one encoder or in successive submits never do.
+///
+/// # Forward progress
+/// Tiles are ranked by an atomic ticket, so a workgroup only ever waits for tiles whose
+/// workgroups started before it. A workgroup that has polled a predecessor
+/// [`ScanDescriptor::spin_limit`] times without result reduces that predecessor's input itself,
+/// so the scan completes even where a waiting workgroup could starve the one it waits for.
+#[derive(Debug)]
+pub struct Scan {
+    device: wgpu::Device,
+    config: KernelConfig,
+    layout: wgpu::BindGroupLayout,
+    pipeline: wgpu::ComputePipeline,
+    prepare_layout: wgpu::BindGroupLayout,
+    prepare_pipeline: wgpu::ComputePipeline,
+    scratch: wgpu::Buffer,
+    dispatch: wgpu::Buffer,
+    counters: wgpu::Buffer,
+    dummy_in: wgpu::Buffer,
+    dummy_out: wgpu::Buffer,
+    binding_limit: u64,
+}
+
+fn storage_entry(binding: u32, read_only: bool) -> wgpu::BindGroupLayoutEntry {
+    wgpu::BindGroupLayoutEntry {
+        binding,
+        visibility: wgpu::ShaderStages::COMPUTE,
+        ty: wgpu::BindingType::Buffer {
+            ty: wgpu::BufferBindingType::Storage { read_only },
+            has_dynamic_offset: false,
+            min_binding_size: None,
+        },
+        count: None,
+    }
+}
+
+fn buffer_entry(binding: u32, buffer: &wgpu::Buffer, size: Option<u64>) -> wgpu::BindGroupEntry<'_> {
+    wgpu::BindGroupEntry {
+        binding,
+        resource: wgpu::BindingResource::Buffer(wgpu::BufferBinding {
+            buffer,
+            offset: 0,
+            size: size.and_then(wgpu::BufferSize::new),
+        }),
+    }
+}
+
+/// Splits `groups` into an (x, y) dispatch with x <= `max_x`.
+fn split_groups(groups: u32, max_x: u32) -> (u32, u32) {
+    let x = groups.min(max_x).max(1);
+    (x, groups.div_ceil(x).max(1))
+}
+
+impl Scan {
+    /// Builds the pipelines and scratch for scans of up to `desc.max_len` elements.
+    pub fn new(device: &wgpu::Device, desc: &ScanDescriptor) -> Result<Self, ScanError> {
+        let limits = device.limits();
+        let binding_limit =
+            limits.max_storage_buffer_binding_size.min(limits.max_buffer_size) / 4;
+        if u64::from(desc.max_len) > binding_limit {
+            return Err(ScanError::MaxLenAboveBindingLimit {
+                max_len: desc.max_len,
+                limit: binding_limit,
+            });
+        }
+        if desc.use_subgroups && !device.features().contains(wgpu::Features::SUBGROUP) {
+            return Err(ScanError::SubgroupsUnavailable);
+        }
+        let max_threads = limits
+            .max_compute_invocations_per_workgroup
+            .min(limits.max_compute_workgroup_size_x)
+            .min(256);
+        if max_threads < 32 {
+            return Err(ScanError::UnsupportedLimits(format!(
+                "{max_threads} invocations per workgroup (need 32)"
+            )));
+        }
+        let workgroup_size = 1 << max_threads.ilog2();
+        let mut config = KernelConfig {
+            workgroup_size,
+            items_per_thread: 1,
+            spin_limit: desc.spin_limit,
+            counters: desc.debug_counters,
+            max_len: desc.max_len,
+            max_groups_x: limits.max_compute_workgroups_per_dimension,
+            subgroups: desc.use_subgroups,
+        };
+        let candidates: Vec<u32> = match desc.items_per_thread {
+            Some(items) => vec![items.max(1)],
+            None => vec![16, 8, 4, 2, 1],
+        };
+        let items = candidates.into_iter().find(|&items| {
+            let c = KernelConfig {
+                items_per_thread: items,
+                ..config
+            };
+            c.workgroup_bytes() <= limits.max_compute_workgroup_storage_size
+        });
+        config.items_per_thread = items.ok_or_else(|| {
+            ScanError::UnsupportedLimits(format!(
+                "{} bytes of workgroup memory",
+                limits.max_compute_workgroup_storage_size
+            ))
+        })?;
+        let tiles = desc.max_len.div_ceil(config.tile_len()).max(1);
+        let groups = split_groups(tiles, config.max_groups_x);
+        if groups.1 > limits.max_compute_workgroups_per_dimension {
+            return Err(ScanError::UnsupportedLimits(format!(
+                "{tiles} tiles exceed the dispatch limits"
+            )));
+        }
+
+        let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("gpu-scan"),
+            entries: &[
+                storage_entry(0, true),
+                storage_entry(1, false),
+                storage_entry(2, false),
+                storage_entry(3, false),
+                storage_entry(4, true),
+                storage_entry(5, false),
+            ],
+        });
+        let prepare_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("gpu-scan prepare"),
+            entries: &[
+                storage_entry(0, true),
+                storage_entry(1, false),
+                storage_entry(2, false),
+            ],
+        });
+        let make = |label: &str, source: String, layout: &wgpu::BindGroupLayout, entry: &str| {
+            let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+                label: Some(label),
+                source: wgpu::ShaderSource::Wgsl(source.into()),
+            });
+            let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+                label: Some(label),
+                bind_group_layouts: &[Some(layout)],
+                immediate_size: 0,
+            });
+            device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+                label: Some(label),
+                layout: Some(&pipeline_layout),
+                module: &module,
+                entry_point: Some(entry),
+                compilation_options: Default::default(),
+                cache: None,
+            })
+        };
+        let pipeline = make("gpu-scan", config.scan_source(), &layout, "scan_main");
+        let prepare_pipeline = make(
+            "gpu-scan prepare",
+            config.prepare_source(),
+            &prepare_layout,
+            "scan_prepare",
+        );
+        let buffer = |label: &str, size: u64, usage: wgpu::BufferUsages| {
+            device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some(label),
+                size,
+                usage,
+                mapped_at_creation: false,
+            })
+        };
+        use wgpu::BufferUsages as U;
+        let scratch = buffer(
+            "gpu-scan scratch",
+            (1 + 2 * u64::from(tiles)) * 4,
+            U::STORAGE | U::COPY_DST,
+        );
+        let dispatch = buffer("gpu-scan dispatch", 16, U::STORAGE | U::INDIRECT);
+        let counters = buffer(
+            "gpu-scan counters",
+            16,
+            U::STORAGE | U::COPY_SRC | U::COPY_DST,
+        );
+        let dummy_in = buffer("gpu-scan empty input", 16, U::STORAGE);
+        let dummy_out = buffer("gpu-scan empty output", 16, U::STORAGE);
+        Ok(Self {
+            device: device.clone(),
+            config,
+            layout,
+            pipeline,
+            prepare_layout,
+            prepare_pipeline,
+            scratch,
+            dispatch,
+            counters,
+            dummy_in,
+            dummy_out,
+            binding_limit,
+        })
+    }
+
+    /// The compiled kernel's configuration (tile size, workgroup size, ...).
+    pub fn config(&self) -> &KernelConfig {
+        &self.config
+    }
+
+    /// Elements per tile (one workgroup's share).
+    pub fn tile_len(&self) -> u32 {
+        self.config.tile_len()
+    }
+
+    /// Largest `n` this scan accepts.
+    pub fn max_len(&self) -> u32 {
+        self.config.max_len
+    }
+
+    /// The debug counters buffer (a [`ScanCounters`]) when
+    /// [`ScanDescriptor::debug_counters`] is set. It has `COPY_SRC` usage for readback.
+    pub fn counters_buffer(&self) -> Option<&wgpu::Buffer> {
+        self.config.counters.then_some(&self.counters)
+    }
+
+    /// Records a reset of the debug counters.
+    pub fn clear_counters(&self, encoder: &mut wgpu::CommandEncoder) {
+        encoder.clear_buffer(&self.counters, 0, None);
+    }
+
+    fn check_total(&self, total: Option<&wgpu::Buffer>, others: [&wgpu::Buffer; 2]) -> Result<(), ScanError> {
+        if let Some(t) = total {
+            check_storage("total", t)?;
+            if t.size() < 4 {
+                return Err(ScanError::BufferTooSmall {
+                    which: "total",
+                    size: t.size(),
+                    needed: 4,
+                });
+            }
+            if t == others[0] {
+                return Err(ScanError::Aliasing("input", "total"));
+            }
+            if t == others[1] {
+                return Err(ScanError::Aliasing("output", "total"));
+            }
+        }
+        Ok(())
+    }
+
+    /// Records a scan of the first `n` elements of `input` into the first `n` of `output`;
+    /// with `total`, also writes the sum of the `n` inputs to its first word. See the
+    /// [contract](Scan#contract).
+    pub fn encode(
+        &self,
+        encoder: &mut wgpu::CommandEncoder,
+        input: &wgpu::Buffer,
+        output: &wgpu::Buffer,
+        n: u32,
+        kind: ScanKind,
+        total: Option<&wgpu::Buffer>,
+    ) -> Result<(), ScanError> {
+        if n > self.config.max_len {
+            return Err(ScanError::TooLong {
+                n,
+                max_len: self.config.max_len,
+            });
+        }
+        if input == output {
+            return Err(ScanError::Aliasing("input", "output"));
+        }
+        check_storage("input", input)?;
+        check_storage("output", output)?;
+        let bytes = u64::from(n) * 4;
+        for (which, b) in [("input", input), ("output", output)] {
+            if b.size() < bytes {
+                return Err(ScanError::BufferTooSmall {
+                    which,
+                    size: b.size(),
+                    needed: bytes,
+                });
+            }
+        }
+        self.check_total(total, [input, output])?;
+        if n == 0 && total.is_none() {
+            return Ok(());
+        }
+        let (input, output, size) = if n == 0 {
+            (&self.dummy_in, &self.dummy_out, None)
+        } else {
+            (input, output, Some(bytes))
+        };
+        let params = self.params(n, kind, total.is_some(), 0);
+        let bind_group = self.bind_group(input, output, size, total, &params);
+        let tiles = n.div_ceil(self.config.tile_len()).max(1);
+        let tiles_bytes = (1 + 2 * u64::from(tiles)) * 4;
+        encoder.clear_buffer(&self.scratch, 0, Some(tiles_bytes));
+        let (x, y) = split_groups(tiles, self.config.max_groups_x);
+        let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+            label: Some("gpu-scan"),
+            timestamp_writes: None,
+        });
+        pass.set_pipeline(&self.pipeline);
+        pass.set_bind_group(0, &bind_group, &[]);
+        pass.dispatch_workgroups(x, y, 1);
+        Ok(())
+    }
+
+    /// Like [`Scan::encode`], but `n` is the `u32` at byte `len_offset` of `len`, read on the GPU
+    /// when the work runs. A one-thread pre-pass clamps it to `max_len` and writes the scan's own
+    /// indirect dispatch arguments; the kernel further clamps `n` to the `input` and `output`
+    /// bindings (each bound whole, up to the device's binding limit). `n = 0` writes only the
+    /// total (0), if requested.
+    #[allow(clippy::too_many_arguments)]
+    pub fn encode_indirect(
+        &self,
+        encoder: &mut wgpu::CommandEncoder,
+        input: &wgpu::Buffer,
+        output: &wgpu::Buffer,
+        len: &wgpu::Buffer,
+        len_offset: u64,
+        kind: ScanKind,
+        total: Option<&wgpu::Buffer>,
+    ) -> Result<(), ScanError> {
+        if input == output {
+            return Err(ScanError::Aliasing("input", "output"));
+        }
+        if len == output {
+            return Err(ScanError::Aliasing("length", "output"));
+        }
+        check_storage("input", input)?;
+        check_storage("output", output)?;
+        check_storage("length", len)?;
+        if len_offset % 4 != 0 {
+            return Err(ScanError::UnalignedLenOffset(len_offset));
+        }
+        if len.size() < len_offset + 4 {
+            return Err(ScanError::BufferTooSmall {
+                which: "length",
+                size: len.size(),
+                needed: len_offset + 4,
+            });
+        }
+        for (which, b) in [("input", input), ("output", output)] {
+            if b.size() < 4 {
+                return Err(ScanError::BufferTooSmall {
+                    which,
+                    size: b.size(),
+                    needed: 4,
+                });
+            }
+        }
+        self.check_total(total, [input, output])?;
+        if let Some(t) = total {
+            if t == len {
+                return Err(ScanError::Aliasing("length", "total"));
+            }
+        }
+        let len_index = u32::try_from(len_offset / 4).map_err(|_| ScanError::BufferTooSmall {
+            which: "length (offset beyond u32 words)",
+            size: len.size(),
+            needed: len_offset + 4,
+        })?;
+        let params = self.params(0, kind, total.is_some(), len_index);
+        let prepare_group = self.device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("gpu-scan prepare"),
+            layout: &self.prepare_layout,
+            entries: &[
+                buffer_entry(0, len, None),
+                buffer_entry(1, &params, None),
+                buffer_entry(2, &self.dispatch, Some(12)),
+            ],
+        });
+        let whole = |b: &wgpu::Buffer| Some(b.size().min(self.binding_limit * 4) & !3);
+        let bind_group = self.device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("gpu-scan"),
+            layout: &self.layout,
+            entries: &[
+                buffer_entry(0, input, whole(input)),
+                buffer_entry(1, output, whole(output)),
+                buffer_entry(2, &self.scratch, None),
+                buffer_entry(3, total.unwrap_or(&self.dummy_out), Some(4)),
+                buffer_entry(4, &params, None),
+                buffer_entry(5, &self.counters, None),
+            ],
+        });
+        encoder.clear_buffer(&self.scratch, 0, None);
+        let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+            label: Some("gpu-scan indirect"),
+            timestamp_writes: None,
+        });
+        pass.set_pipeline(&self.prepare_pipeline);
+        pass.set_bind_group(0, &prepare_group, &[]);
+        pass.dispatch_workgroups(1, 1, 1);
+        pass.set_pipeline(&self.pipeline);
+        pass.set_bind_group(0, &bind_group, &[]);
+        pass.dispatch_workgroups_indirect(&self.dispatch, 0);
+        Ok(())
+    }
+
+    fn params(&self, n: u32, kind: ScanKind, write_total: bool, len_index: u32) -> wgpu::Buffer {
+        let params = ScanParams {
+            n,
+            inclusive: u32::from(kind == ScanKind::Inclusive),
+            write_total: u32::from(write_total),
+            len_index,
+        };
+        self.device
+            .create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some("gpu-scan params"),
+                contents: bytemuck::bytes_of(&params),
+                usage: wgpu::BufferUsages::STORAGE,
+            })
+    }
+
+    fn bind_group(
+        &self,
+        input: &wgpu::Buffer,
+        output: &wgpu::Buffer,
+        size: Option<u64>,
+        total: Option<&wgpu::Buffer>,
+        params: &wgpu::Buffer,
+    ) -> wgpu::BindGroup {
+        self.device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("gpu-scan"),
+            layout: &self.layout,
+            entries: &[
+                buffer_entry(0, input, size),
+                buffer_entry(1, output, size),
+                buffer_entry(2, &self.scratch, None),
+                buffer_entry(3, total.unwrap_or(&self.dummy_out), Some(4)),
+                buffer_entry(4, params, None),
+                buffer_entry(5, &self.counters, None),
+            ],
+        })
+    }
+}
+
+fn check_storage(which: &'static str, buffer: &wgpu::Buffer) -> Result<(), ScanError> {
+    if buffer.usage().contains(wgpu::BufferUsages::STORAGE) {
+        Ok(())
+    } else {
+        Err(ScanError::MissingStorageUsage { which })
+    }
+}
 
 /// Every WGSL module this crate ships, composed as it is used, as `(name, source)`: the
-/// workspace's naga checks validate each of them.
+/// workspace's naga checks validate each of them. The kernel is listed with and without
+/// subgroups, with debug counters, and in the forced-fallback testing mode.
 pub fn wgsl_modules() -> Vec<(String, String)> {
-    Vec::new()
+    let base = KernelConfig {
+        workgroup_size: 256,
+        items_per_thread: 16,
+        spin_limit: DEFAULT_SPIN_LIMIT,
+        counters: false,
+        max_len: 1 << 25,
+        max_groups_x: 65535,
+        subgroups: false,
+    };
+    let subgroups = KernelConfig {
+        subgroups: true,
+        ..base
+    };
+    let testing = KernelConfig {
+        spin_limit: 0,
+        counters: true,
+        ..base
+    };
+    let testing_subgroups = KernelConfig {
+        subgroups: true,
+        ..testing
+    };
+    vec![
+        ("gpu-scan/scan (no subgroups)".into(), base.scan_source()),
+        ("gpu-scan/scan (subgroups)".into(), subgroups.scan_source()),
+        (
+            "gpu-scan/scan (no subgroups, forced fallback, counters)".into(),
+            testing.scan_source(),
+        ),
+        (
+            "gpu-scan/scan (subgroups, forced fallback, counters)".into(),
+            testing_subgroups.scan_source(),
+        ),
+        ("gpu-scan/prepare".into(), base.prepare_source()),
+    ]
 }

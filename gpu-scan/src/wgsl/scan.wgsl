@@ -1,0 +1,199 @@
+// gpu-scan: single-pass prefix sum of u32 (modulo 2^32) by chained scan with decoupled look-back
+// (Merrill & Garland 2016) and a forward-progress fallback (Smith, Levien & Owens, SPAA 2025).
+//
+// Composed as: constants header + common.wgsl + this file + ONE workgroup-scan variant
+// (wg_shared.wgsl or wg_subgroup.wgsl), which defines `scan_t`, `wg_scan` and the entry point.
+//
+// Each workgroup takes a tile rank from an atomic ticket (never from workgroup_id, so a tile only
+// waits on tiles whose workgroups already started), scans its SCAN_TILE elements, publishes its
+// aggregate, looks back over its predecessors' published states for its exclusive prefix,
+// publishes its inclusive prefix and writes the output.
+//
+// Tile state: two atomic words per tile, each `flag | 16-bit half of the value`, flags in the
+// high bits (0: nothing yet, SCAN_FLAG_AGGREGATE: the tile's sum, SCAN_FLAG_PREFIX: the sum of
+// all tiles up to and including it). Every publisher of a given flag publishes the same value
+// (sums are unique modulo 2^32) and publishes with atomicMax, so a word never moves backwards.
+// A reader trusts a state only when both words carry the same flag.
+//
+// When a predecessor's state stays empty for more than SCAN_SPIN_LIMIT polls, the workgroup
+// reduces that tile's input itself (the fallback), publishes the aggregate with atomicMax and
+// looks further back. A stalled workgroup can therefore never block its successors.
+
+@group(0) @binding(0) var<storage, read> scan_in: array<u32>;
+@group(0) @binding(1) var<storage, read_write> scan_out: array<u32>;
+// [0]: ticket counter; [1 + 2 t], [2 + 2 t]: low and high state words of tile t.
+// The host clears it in the same encoder before every scan.
+@group(0) @binding(2) var<storage, read_write> scan_scratch: array<atomic<u32>>;
+@group(0) @binding(3) var<storage, read_write> scan_total: array<u32>;
+@group(0) @binding(4) var<storage, read> scan_params: ScanParams;
+// Debug counters (only touched when SCAN_COUNTERS): tiles, look-back steps, failed polls, fallbacks.
+@group(0) @binding(5) var<storage, read_write> scan_counters: array<atomic<u32>, 4>;
+
+const SCAN_TILE_PADDED: u32 = SCAN_TILE + SCAN_TILE / 32u;
+
+// The tile in workgroup memory, with one padding word every 32 so that both the coalesced
+// (k * SCAN_WG + i) and the per-thread (t * SCAN_ITEMS + j) access patterns avoid bank conflicts.
+var<workgroup> scan_tile_buf: array<u32, SCAN_TILE_PADDED>;
+// Broadcast slot for values thread 0 reads (ticket, polled state).
+var<workgroup> scan_bcast: vec2<u32>;
+
+fn scan_pad(i: u32) -> u32 {
+    return i + (i >> 5u);
+}
+
+fn scan_publish(tile: u32, flag: u32, value: u32) {
+    atomicMax(&scan_scratch[1u + 2u * tile], flag | (value & 0xFFFFu));
+    atomicMax(&scan_scratch[2u + 2u * tile], flag | (value >> 16u));
+}
+
+// Sum of the full tile `tile`, by the whole workgroup (the fallback).
+fn scan_reduce_tile(li: u32, tile: u32) -> u32 {
+    let base = tile * SCAN_TILE + li;
+    var x = 0u;
+    for (var k = 0u; k < SCAN_ITEMS; k++) {
+        x += scan_in[base + k * SCAN_WG];
+    }
+    return wg_scan(x).y;
+}
+
+// Exclusive prefix of tile `tile` (> 0) from its predecessors' states. Called by the whole
+// workgroup; every branch depends only on workgroup-uniform values.
+fn scan_lookback(li: u32, tile: u32) -> u32 {
+    var prefix = 0u;
+    var j = tile - 1u;
+    var polls = 0u;
+    // Testing knob: with SCAN_SPIN_LIMIT = 0 every tile takes the fallback for its predecessor
+    // without polling, then falls back at once on any predecessor that is not ready.
+    var force = SCAN_SPIN_LIMIT == 0u;
+    var steps = 0u;
+    var failed = 0u;
+    var fallbacks = 0u;
+    loop {
+        if li == 0u {
+            var lo = 0u;
+            var hi = 0u;
+            if !force {
+                lo = atomicLoad(&scan_scratch[1u + 2u * j]);
+                hi = atomicLoad(&scan_scratch[2u + 2u * j]);
+            }
+            var flag = lo & SCAN_FLAG_MASK;
+            if (hi & SCAN_FLAG_MASK) != flag {
+                flag = 0u; // halves of a publish in progress: not usable yet
+            }
+            scan_bcast = vec2<u32>(flag, (lo & 0xFFFFu) | (hi << 16u));
+        }
+        let state = workgroupUniformLoad(&scan_bcast);
+        if state.x == SCAN_FLAG_PREFIX {
+            prefix += state.y;
+            steps += 1u;
+            break;
+        }
+        if state.x == SCAN_FLAG_AGGREGATE {
+            prefix += state.y;
+            steps += 1u;
+            polls = 0u;
+            if j == 0u {
+                break;
+            }
+            j -= 1u;
+            continue;
+        }
+        polls += 1u;
+        failed += select(1u, 0u, force);
+        if force || polls > SCAN_SPIN_LIMIT {
+            force = false;
+            let agg = scan_reduce_tile(li, j);
+            if li == 0u {
+                // The sum of tile 0 is its inclusive prefix.
+                scan_publish(j, select(SCAN_FLAG_AGGREGATE, SCAN_FLAG_PREFIX, j == 0u), agg);
+            }
+            prefix += agg;
+            fallbacks += 1u;
+            polls = 0u;
+            if j == 0u {
+                break;
+            }
+            j -= 1u;
+        }
+    }
+    if SCAN_COUNTERS && li == 0u {
+        atomicAdd(&scan_counters[1], steps);
+        atomicAdd(&scan_counters[2], failed);
+        atomicAdd(&scan_counters[3], fallbacks);
+    }
+    return prefix;
+}
+
+fn scan_tile(li: u32) {
+    if li == 0u {
+        scan_bcast.x = atomicAdd(&scan_scratch[0], 1u);
+    }
+    let tile = workgroupUniformLoad(&scan_bcast).x;
+    let n = min(scan_params.n, min(arrayLength(&scan_in), arrayLength(&scan_out)));
+    let num_tiles = scan_num_tiles(n);
+    if tile >= num_tiles {
+        return; // surplus workgroup of a 2D or indirect dispatch
+    }
+    let base = tile * SCAN_TILE;
+    let full = base + SCAN_TILE <= n;
+
+    // Coalesced load into workgroup memory.
+    for (var k = 0u; k < SCAN_ITEMS; k++) {
+        let i = k * SCAN_WG + li;
+        var v = 0u;
+        if full || base + i < n {
+            v = scan_in[base + i];
+        }
+        scan_tile_buf[scan_pad(i)] = v;
+    }
+    workgroupBarrier();
+
+    // Each thread scans SCAN_ITEMS consecutive elements in registers.
+    var items: array<u32, SCAN_ITEMS>;
+    var x = 0u;
+    for (var j = 0u; j < SCAN_ITEMS; j++) {
+        x += scan_tile_buf[scan_pad(scan_t * SCAN_ITEMS + j)];
+        items[j] = x;
+    }
+    let local = wg_scan(x);
+    let aggregate = local.y;
+
+    var prefix = 0u;
+    if tile == 0u {
+        if li == 0u {
+            scan_publish(0u, SCAN_FLAG_PREFIX, aggregate);
+        }
+    } else {
+        if li == 0u {
+            scan_publish(tile, SCAN_FLAG_AGGREGATE, aggregate);
+        }
+        prefix = scan_lookback(li, tile);
+        if li == 0u {
+            scan_publish(tile, SCAN_FLAG_PREFIX, prefix + aggregate);
+        }
+    }
+    if li == 0u {
+        if tile == num_tiles - 1u && scan_params.write_total != 0u {
+            scan_total[0] = prefix + aggregate;
+        }
+        if SCAN_COUNTERS {
+            atomicAdd(&scan_counters[0], 1u);
+        }
+    }
+
+    // Results back through workgroup memory, then a coalesced store.
+    let offset = prefix + local.x;
+    let inclusive = scan_params.inclusive != 0u;
+    var before = 0u;
+    for (var j = 0u; j < SCAN_ITEMS; j++) {
+        scan_tile_buf[scan_pad(scan_t * SCAN_ITEMS + j)] = offset + select(before, items[j], inclusive);
+        before = items[j];
+    }
+    workgroupBarrier();
+    for (var k = 0u; k < SCAN_ITEMS; k++) {
+        let i = k * SCAN_WG + li;
+        if full || base + i < n {
+            scan_out[base + i] = scan_tile_buf[scan_pad(i)];
+        }
+    }
+}
