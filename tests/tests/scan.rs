@@ -1,0 +1,440 @@
+//! GPU tests of `gpu-scan` against its CPU twin (bit-exact), on awkward sizes up to the
+//! adapter's binding maximum, hard inputs, both workgroup-scan variants, many scans in one
+//! submit, the indirect variant, the forced fallback and the error contract.
+
+use gpu_scan::{Scan, ScanCounters, ScanDescriptor, ScanError, ScanKind, cpu};
+use rand::{Rng, SeedableRng, rngs::StdRng};
+use tests::{GpuContext, buffers, gpu};
+
+const KINDS: [ScanKind; 2] = [ScanKind::Exclusive, ScanKind::Inclusive];
+
+#[derive(Debug, Clone, Copy)]
+enum Pattern {
+    /// Uniform over all of u32: totals wrap past 2^32 many times.
+    Random(u64),
+    Zeros,
+    AllOnes,
+}
+
+fn make_input(pattern: Pattern, n: usize) -> Vec<u32> {
+    match pattern {
+        Pattern::Random(seed) => {
+            let mut rng = StdRng::seed_from_u64(seed);
+            (0..n).map(|_| rng.random()).collect()
+        }
+        Pattern::Zeros => vec![0; n],
+        Pattern::AllOnes => vec![u32::MAX; n],
+    }
+}
+
+/// The largest n one storage binding holds on this adapter (2^25 on lavapipe).
+fn adapter_max(ctx: &GpuContext) -> u32 {
+    u32::try_from(ctx.max_storage_u32s()).unwrap_or(u32::MAX)
+}
+
+/// The scan variants this adapter can run: always the shared-memory one, plus subgroups when
+/// the adapter has them.
+fn variants(ctx: &GpuContext, desc: ScanDescriptor, test: &str) -> Vec<(&'static str, Scan)> {
+    let mut out = vec![(
+        "no subgroups",
+        Scan::new(&ctx.device, &ScanDescriptor { use_subgroups: false, ..desc }).unwrap(),
+    )];
+    if gpu::with_subgroups(test).is_some() {
+        out.push((
+            "subgroups",
+            Scan::new(&ctx.device, &ScanDescriptor { use_subgroups: true, ..desc }).unwrap(),
+        ));
+    }
+    out
+}
+
+/// Scans `input` on the GPU, returns (output, total).
+fn gpu_scan(ctx: &GpuContext, scan: &Scan, input: &[u32], kind: ScanKind) -> (Vec<u32>, u32) {
+    let n = u32::try_from(input.len()).unwrap();
+    let in_buf = buffers::storage_from(&ctx.device, "input", input);
+    let out_buf = buffers::storage_zeroed(&ctx.device, "output", u64::from(n) * 4);
+    let total = buffers::storage_from(&ctx.device, "total", &[0xDEAD_BEEFu32]);
+    gpu::run(ctx, |enc| {
+        scan.encode(enc, &in_buf, &out_buf, n, kind, Some(&total))
+            .unwrap()
+    });
+    drop(in_buf);
+    let got = buffers::read_range(ctx, &out_buf, 0, u64::from(n) * 4).unwrap();
+    let total: Vec<u32> = buffers::read_range(ctx, &total, 0, 4).unwrap();
+    (got, total[0])
+}
+
+/// Panics with the first mismatch (index, got, expected) instead of printing 2^25 numbers.
+fn assert_scan_eq(got: &[u32], input: &[u32], kind: ScanKind, what: &str) {
+    let expected = cpu::scan(input, kind);
+    assert_eq!(got.len(), expected.len(), "{what}: length");
+    if let Some(i) = got.iter().zip(&expected).position(|(g, e)| g != e) {
+        let tail = got.iter().zip(&expected).filter(|(g, e)| g != e).count();
+        panic!(
+            "{what}: first mismatch at {i}: got {} expected {} ({tail} mismatches)",
+            got[i], expected[i]
+        );
+    }
+}
+
+fn check(ctx: &GpuContext, scan: &Scan, name: &str, pattern: Pattern, n: u32, kind: ScanKind) {
+    let input = make_input(pattern, n as usize);
+    let (got, total) = gpu_scan(ctx, scan, &input, kind);
+    let what = format!("{name} {pattern:?} n={n} {kind:?}");
+    assert_scan_eq(&got, &input, kind, &what);
+    assert_eq!(total, cpu::total(&input), "{what}: total");
+}
+
+#[test]
+fn awkward_sizes_match_cpu_twin() {
+    let ctx = gpu::context();
+    let desc = ScanDescriptor::new(adapter_max(ctx));
+    for (name, scan) in variants(ctx, desc, "awkward_sizes_match_cpu_twin (subgroup half)") {
+        let t = scan.tile_len();
+        let sizes = [0, 1, 2, 3, 31, 32, 33, t - 1, t, t + 1, 2 * t - 1, 2 * t + 1, 1_000_003];
+        for (i, &n) in sizes.iter().enumerate() {
+            for kind in KINDS {
+                check(ctx, &scan, name, Pattern::Random(i as u64), n, kind);
+            }
+        }
+    }
+}
+
+#[test]
+fn random_totals_wrap_past_2_32() {
+    // The inputs of the other tests are uniform over u32; make sure that means wrapping.
+    let input = make_input(Pattern::Random(1), 1000);
+    let wide: u64 = input.iter().map(|&x| u64::from(x)).sum();
+    assert!(wide > 100 * (1u64 << 32));
+    let ctx = gpu::context();
+    let scan = Scan::new(&ctx.device, &ScanDescriptor::for_device(&ctx.device, 1 << 16)).unwrap();
+    let (got, total) = gpu_scan(ctx, &scan, &input, ScanKind::Inclusive);
+    assert_eq!(u64::from(total), wide % (1u64 << 32));
+    assert_eq!(got[999], total);
+}
+
+#[test]
+fn zeros_and_all_ones() {
+    let ctx = gpu::context();
+    let desc = ScanDescriptor::new(1 << 21);
+    for (name, scan) in variants(ctx, desc, "zeros_and_all_ones (subgroup half)") {
+        for pattern in [Pattern::Zeros, Pattern::AllOnes] {
+            for (n, kind) in [(3 * scan.tile_len() + 5, ScanKind::Exclusive), (1_000_003, ScanKind::Inclusive)] {
+                check(ctx, &scan, name, pattern, n, kind);
+            }
+        }
+    }
+}
+
+#[test]
+fn large_sizes_cover_each_variant_kind_and_pattern() {
+    // A cross product that touches each axis at 2^22 + 7 and at the adapter's maximum without
+    // running all of them (each maximum-size run moves 3 x 128 MiB on lavapipe).
+    let ctx = gpu::context();
+    let max = adapter_max(ctx);
+    let desc = ScanDescriptor::new(max);
+    let scans = variants(ctx, desc, "large_sizes (subgroup half)");
+    let last = scans.len() - 1; // the subgroup variant when the adapter has it
+    let cases = [
+        (last, Pattern::Random(22), (1 << 22) + 7, ScanKind::Exclusive),
+        (0, Pattern::AllOnes, (1 << 22) + 7, ScanKind::Inclusive),
+        (last, Pattern::Random(25), max, ScanKind::Exclusive),
+        (0, Pattern::Random(26), max, ScanKind::Inclusive),
+    ];
+    for (v, pattern, n, kind) in cases {
+        let (name, scan) = &scans[v];
+        check(ctx, scan, name, pattern, n, kind);
+    }
+}
+
+#[test]
+fn hundred_scans_in_one_submit() {
+    let ctx = gpu::context();
+    let desc = ScanDescriptor::for_device(&ctx.device, 1 << 16);
+    let scan = Scan::new(&ctx.device, &desc).unwrap();
+    let t = scan.tile_len() as usize;
+    let mut rng = StdRng::seed_from_u64(100);
+    struct Job {
+        input: Vec<u32>,
+        kind: ScanKind,
+        out: wgpu::Buffer,
+        total: wgpu::Buffer,
+    }
+    // One shared input buffer too: several scans read it with different n.
+    let shared_input = make_input(Pattern::Random(7), 5 * t + 3);
+    let shared_buf = buffers::storage_from(&ctx.device, "shared input", &shared_input);
+    let mut jobs = Vec::new();
+    let mut encoder = ctx.device.create_command_encoder(&Default::default());
+    for i in 0..100 {
+        let n = match i % 4 {
+            0 => rng.random_range(0..40),
+            1 => rng.random_range(0..3 * t),
+            2 => rng.random_range(3 * t..5 * t + 3),
+            _ => t * rng.random_range(1..4),
+        };
+        let kind = KINDS[i % 2];
+        let out = buffers::storage_zeroed(&ctx.device, "out", n as u64 * 4);
+        let total = buffers::storage_zeroed(&ctx.device, "total", 4);
+        let input = if i % 5 == 0 {
+            scan.encode(&mut encoder, &shared_buf, &out, n as u32, kind, Some(&total))
+                .unwrap();
+            shared_input[..n].to_vec()
+        } else {
+            let input = make_input(Pattern::Random(1000 + i as u64), n);
+            let buf = buffers::storage_from(&ctx.device, "input", &input);
+            scan.encode(&mut encoder, &buf, &out, n as u32, kind, Some(&total))
+                .unwrap();
+            input
+        };
+        jobs.push(Job { input, kind, out, total });
+    }
+    ctx.queue.submit([encoder.finish()]);
+    ctx.wait().unwrap();
+    for (i, job) in jobs.iter().enumerate() {
+        let n = job.input.len() as u64;
+        let got: Vec<u32> = buffers::read_range(ctx, &job.out, 0, n * 4).unwrap();
+        assert_scan_eq(&got, &job.input, job.kind, &format!("scan {i} of 100 (n={n})"));
+        let total: Vec<u32> = buffers::read_range(ctx, &job.total, 0, 4).unwrap();
+        assert_eq!(total[0], cpu::total(&job.input), "scan {i}: total");
+    }
+}
+
+#[test]
+fn indirect_length_read_on_the_gpu() {
+    let ctx = gpu::context();
+    let max_len = 300_000;
+    for (name, scan) in variants(ctx, ScanDescriptor::new(max_len), "indirect (subgroup half)") {
+        let t = scan.tile_len();
+        let input = make_input(Pattern::Random(9), max_len as usize + 100);
+        let in_buf = buffers::storage_from(&ctx.device, "input", &input);
+        // n at word 3 of the length buffer, after junk. The last case exceeds max_len and is
+        // clamped to it; the one before exceeds the (smaller) output buffer and is clamped to it.
+        let cases: [(u32, u64, u32); 6] = [
+            (0, 4 * max_len as u64, 0),
+            (1, 4 * max_len as u64, 1),
+            (t + 1, 4 * max_len as u64, t + 1),
+            (123_457, 4 * max_len as u64, 123_457),
+            (200_000, 4 * 150_001, 150_001),
+            (u32::MAX, 4 * max_len as u64, max_len),
+        ];
+        let mut encoder = ctx.device.create_command_encoder(&Default::default());
+        let mut jobs = Vec::new();
+        for (i, &(gpu_n, out_bytes, effective)) in cases.iter().enumerate() {
+            let len = buffers::storage_from(&ctx.device, "len", &[7u32, 7, 7, gpu_n, 7]);
+            let out = buffers::storage_zeroed(&ctx.device, "out", out_bytes);
+            let total = buffers::storage_from(&ctx.device, "total", &[0xDEAD_BEEFu32]);
+            let kind = KINDS[i % 2];
+            scan.encode_indirect(&mut encoder, &in_buf, &out, &len, 12, kind, Some(&total))
+                .unwrap();
+            jobs.push((out, total, kind, effective));
+        }
+        ctx.queue.submit([encoder.finish()]);
+        ctx.wait().unwrap();
+        for (out, total, kind, effective) in jobs {
+            let what = format!("{name} indirect n={effective} {kind:?}");
+            let want = &input[..effective as usize];
+            let got: Vec<u32> = buffers::read_range(ctx, &out, 0, u64::from(effective) * 4).unwrap();
+            assert_scan_eq(&got, want, kind, &what);
+            let total: Vec<u32> = buffers::read_range(ctx, &total, 0, 4).unwrap();
+            assert_eq!(total[0], cpu::total(want), "{what}: total");
+            if effective == 0 {
+                // n = 0 must not touch the output.
+                let first: Vec<u32> = buffers::read_range(ctx, &out, 0, 4).unwrap();
+                assert_eq!(first[0], 0);
+            }
+        }
+    }
+}
+
+fn read_counters(ctx: &GpuContext, scan: &Scan) -> ScanCounters {
+    let words: Vec<u32> = buffers::read(ctx, scan.counters_buffer().unwrap()).unwrap();
+    bytemuck::pod_read_unaligned(bytemuck::cast_slice(&words[..4]))
+}
+
+#[test]
+fn forced_fallback_is_exact() {
+    // spin_limit 0: every tile reduces its predecessor itself and publishes it with atomicMax,
+    // racing the predecessor's own publishes; the result must still be exact.
+    let ctx = gpu::context();
+    let desc = ScanDescriptor {
+        spin_limit: 0,
+        debug_counters: true,
+        ..ScanDescriptor::new(1 << 21)
+    };
+    for (name, scan) in variants(ctx, desc, "forced_fallback_is_exact (subgroup half)") {
+        for (n, kind, seed) in [(33, ScanKind::Exclusive, 1), ((1 << 20) + 3, ScanKind::Inclusive, 2), ((1 << 21) - 1, ScanKind::Exclusive, 3)] {
+            gpu::run(ctx, |enc| scan.clear_counters(enc));
+            check(ctx, &scan, name, Pattern::Random(seed), n, kind);
+            let c = read_counters(ctx, &scan);
+            let tiles = n.div_ceil(scan.tile_len());
+            eprintln!("{name} forced fallback n={n}: {c:?}");
+            assert_eq!(c.tiles, tiles, "{name}: every tile counted once");
+            assert!(c.fallbacks >= tiles - 1, "{name}: every tile > 0 must fall back: {c:?}");
+        }
+    }
+}
+
+#[test]
+fn short_spin_limit_is_exact_and_counted() {
+    // spin_limit 1: tiles fall back whenever a predecessor is not ready on the second poll,
+    // the natural (not forced) fallback path, racing real publishes.
+    let ctx = gpu::context();
+    let desc = ScanDescriptor {
+        spin_limit: 1,
+        debug_counters: true,
+        ..ScanDescriptor::new(1 << 21)
+    };
+    for (name, scan) in variants(ctx, desc, "short_spin_limit (subgroup half)") {
+        gpu::run(ctx, |enc| scan.clear_counters(enc));
+        let n = (1 << 21) - 5;
+        for seed in 0..4 {
+            check(ctx, &scan, name, Pattern::Random(seed), n, KINDS[seed as usize % 2]);
+        }
+        let c = read_counters(ctx, &scan);
+        let tiles = 4 * n.div_ceil(scan.tile_len());
+        eprintln!("{name} spin_limit=1, 4 scans of n={n}: {c:?}");
+        assert_eq!(c.tiles, tiles);
+        // Each tile > 0 consumes at least one published state or falls back at least once.
+        assert!(c.lookback_steps + c.fallbacks >= tiles - 4, "{c:?}");
+    }
+}
+
+#[test]
+fn errors_are_returned_before_encoding() {
+    let ctx = gpu::context();
+    let max = adapter_max(ctx);
+    // max_len above the binding limit.
+    if let Some(over) = max.checked_add(1) {
+        let err = Scan::new(&ctx.device, &ScanDescriptor::new(over)).unwrap_err();
+        assert!(matches!(err, ScanError::MaxLenAboveBindingLimit { .. }), "{err}");
+    }
+    let scan = Scan::new(&ctx.device, &ScanDescriptor::new(1000)).unwrap();
+    let a = buffers::storage_zeroed(&ctx.device, "a", 4000);
+    let b = buffers::storage_zeroed(&ctx.device, "b", 4000);
+    let small = buffers::storage_zeroed(&ctx.device, "small", 400);
+    let mut enc = ctx.device.create_command_encoder(&Default::default());
+    let ex = ScanKind::Exclusive;
+    assert_eq!(
+        scan.encode(&mut enc, &a, &b, 1001, ex, None),
+        Err(ScanError::TooLong { n: 1001, max_len: 1000 })
+    );
+    assert_eq!(
+        scan.encode(&mut enc, &a, &a, 10, ex, None),
+        Err(ScanError::Aliasing("input", "output"))
+    );
+    assert_eq!(
+        scan.encode(&mut enc, &a, &b, 10, ex, Some(&b)),
+        Err(ScanError::Aliasing("output", "total"))
+    );
+    assert!(matches!(
+        scan.encode(&mut enc, &a, &small, 101, ex, None),
+        Err(ScanError::BufferTooSmall { which: "output", .. })
+    ));
+    let not_storage = ctx.device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("uniform"),
+        size: 4000,
+        usage: wgpu::BufferUsages::UNIFORM,
+        mapped_at_creation: false,
+    });
+    assert_eq!(
+        scan.encode(&mut enc, &not_storage, &b, 10, ex, None),
+        Err(ScanError::MissingStorageUsage { which: "input" })
+    );
+    assert_eq!(
+        scan.encode_indirect(&mut enc, &a, &b, &small, 2, ex, None),
+        Err(ScanError::UnalignedLenOffset(2))
+    );
+    assert!(matches!(
+        scan.encode_indirect(&mut enc, &a, &b, &small, 400, ex, None),
+        Err(ScanError::BufferTooSmall { which: "length", .. })
+    ));
+    // n = 0 without a total records nothing; the encoder is still valid afterwards.
+    scan.encode(&mut enc, &a, &b, 0, ex, None).unwrap();
+    ctx.queue.submit([enc.finish()]);
+    ctx.wait().unwrap();
+    // n = 0 with a total writes 0.
+    let total = buffers::storage_from(&ctx.device, "total", &[5u32]);
+    gpu::run(ctx, |enc| scan.encode(enc, &a, &b, 0, ex, Some(&total)).unwrap());
+    let t: Vec<u32> = buffers::read_range(ctx, &total, 0, 4).unwrap();
+    assert_eq!(t[0], 0);
+}
+
+#[test]
+fn own_device_without_subgroups() {
+    // A user's device without SUBGROUP: requesting subgroups is an error, the portable path
+    // scans correctly.
+    let ctx = gpu::context();
+    let (device, queue) = pollster_block_on(ctx.adapter.request_device(&wgpu::DeviceDescriptor {
+        label: Some("plain device"),
+        required_limits: ctx.adapter.limits(),
+        ..Default::default()
+    }))
+    .expect("a plain device on the same adapter");
+    assert!(!device.features().contains(wgpu::Features::SUBGROUP));
+    let desc = ScanDescriptor { use_subgroups: true, ..ScanDescriptor::new(1 << 16) };
+    assert_eq!(Scan::new(&device, &desc).unwrap_err(), ScanError::SubgroupsUnavailable);
+    let desc = ScanDescriptor::for_device(&device, 1 << 16);
+    assert!(!desc.use_subgroups);
+    let scan = Scan::new(&device, &desc).unwrap();
+    let plain = GpuContext {
+        device,
+        queue,
+        ..ctx.clone()
+    };
+    let input = make_input(Pattern::Random(5), 50_000);
+    let (got, total) = gpu_scan(&plain, &scan, &input, ScanKind::Inclusive);
+    assert_scan_eq(&got, &input, ScanKind::Inclusive, "own device");
+    assert_eq!(total, cpu::total(&input));
+}
+
+fn pollster_block_on<F: std::future::Future>(f: F) -> F::Output {
+    // A minimal executor: wgpu's native futures are ready when polled after the call returns.
+    let waker = std::task::Waker::noop();
+    let mut cx = std::task::Context::from_waker(waker);
+    let mut f = std::pin::pin!(f);
+    loop {
+        if let std::task::Poll::Ready(v) = f.as_mut().poll(&mut cx) {
+            return v;
+        }
+        std::thread::yield_now();
+    }
+}
+
+#[test]
+fn differential_check_catches_a_planted_error() {
+    // Negative control for the checks above: one flipped bit in a GPU result must be caught.
+    let ctx = gpu::context();
+    let scan = Scan::new(&ctx.device, &ScanDescriptor::new(1 << 16)).unwrap();
+    let input = make_input(Pattern::Random(3), 20_000);
+    let (mut got, _) = gpu_scan(ctx, &scan, &input, ScanKind::Exclusive);
+    got[12_345] ^= 1 << 7;
+    let caught = std::panic::catch_unwind(|| {
+        assert_scan_eq(&got, &input, ScanKind::Exclusive, "planted")
+    });
+    assert!(caught.is_err());
+}
+
+#[test]
+fn params_layout_matches_wgsl() {
+    let src = [
+        gpu_scan::KernelConfig {
+            workgroup_size: 256,
+            items_per_thread: 16,
+            spin_limit: 1,
+            counters: false,
+            max_len: 1,
+            max_groups_x: 1,
+            subgroups: false,
+        }
+        .constants_header()
+        .as_str(),
+        gpu_scan::shaders::COMMON_WGSL,
+    ]
+    .join("\n");
+    tests::assert_wgsl_layout!(
+        gpu_scan::ScanParams,
+        src,
+        "ScanParams",
+        [n, inclusive, write_total, len_index]
+    );
+}
