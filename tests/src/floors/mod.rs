@@ -2,12 +2,17 @@
 //! must pay on this device. Benchmarks print their speed as a ratio to these.
 
 mod copy;
+mod rts;
 
 pub use copy::CopyKernel;
+pub use rts::ReduceThenScan;
 
 /// WGSL modules of the floor kernels, for the naga checks.
 pub fn wgsl_modules() -> Vec<(String, String)> {
-    vec![("floors/copy".into(), copy::SOURCE.into())]
+    vec![
+        ("floors/copy".into(), copy::SOURCE.into()),
+        ("floors/rts".into(), rts::composed()),
+    ]
 }
 
 /// Splits `groups` workgroups into an `(x, y)` dispatch within the 65535-per-dimension limit.
