@@ -90,22 +90,24 @@ impl HashBatch {
                 entries,
             })
         };
-        let buffer_entry = |binding: u32, ty: wgpu::BufferBindingType| wgpu::BindGroupLayoutEntry {
-            binding,
-            visibility: wgpu::ShaderStages::COMPUTE,
-            ty: wgpu::BindingType::Buffer {
-                ty,
-                has_dynamic_offset: false,
-                min_binding_size: NonZeroU64::new(4),
-            },
-            count: None,
+        let buffer_entry = |binding: u32, ty: wgpu::BufferBindingType, min: u64| {
+            wgpu::BindGroupLayoutEntry {
+                binding,
+                visibility: wgpu::ShaderStages::COMPUTE,
+                ty: wgpu::BindingType::Buffer {
+                    ty,
+                    has_dynamic_offset: false,
+                    min_binding_size: NonZeroU64::new(min),
+                },
+                count: None,
+            }
         };
         let io_layout = layout(
             "gpu-hash batch io",
             &[
-                buffer_entry(0, wgpu::BufferBindingType::Uniform),
-                buffer_entry(1, wgpu::BufferBindingType::Storage { read_only: true }),
-                buffer_entry(2, wgpu::BufferBindingType::Storage { read_only: false }),
+                buffer_entry(0, wgpu::BufferBindingType::Uniform, 4),
+                buffer_entry(1, wgpu::BufferBindingType::Storage { read_only: true }, 16),
+                buffer_entry(2, wgpu::BufferBindingType::Storage { read_only: false }, 4),
             ],
         );
         let table_layout = layout(
