@@ -149,13 +149,14 @@ impl Reservoir {
             self.w_sum = SUM_MAX;
             self.w_sum_err = 0.0;
         } else {
-            // Two-sum: t + e == s + w exactly.
-            let t = s + w;
+            // Two-sum: t + e == s + w exactly. The max(.., 0.0) are identities (see the WGSL:
+            // they keep GPU compilers from folding the error terms away).
+            let t = (s + w).max(0.0);
             let e = if s >= w { (s - t) + w } else { (w - t) + s };
             // Renormalize (fast two-sum, |t| >= |c|) so the compensation stays below half an
             // ulp of the sum and never accumulates rounding of its own.
             let c = self.w_sum_err + e;
-            let hi = t + c;
+            let hi = (t + c).max(0.0);
             self.w_sum_err = flush(c - (hi - t));
             self.w_sum = hi;
         }

@@ -75,8 +75,10 @@ fn reservoir_accumulate(r: ptr<function, Reservoir>, w: f32, u: f32) -> bool {
         (*r).w_sum = RESERVOIR_SUM_MAX;
         (*r).w_sum_err = 0.0;
     } else {
-        // Two-sum: t + e == s + w exactly.
-        let t = s + w;
+        // Two-sum: t + e == s + w exactly. The max(.., 0.0) are identities here (every term
+        // is >= 0 and |c| < ulp(t)) that stop compilers which treat float math as
+        // reassociable (e.g. Mesa's NIR) from folding the error terms to 0.
+        let t = max(s + w, 0.0);
         var e: f32;
         if s >= w {
             e = (s - t) + w;
@@ -85,7 +87,7 @@ fn reservoir_accumulate(r: ptr<function, Reservoir>, w: f32, u: f32) -> bool {
         }
         // Renormalize (fast two-sum) so the compensation stays below half an ulp of the sum.
         let c = (*r).w_sum_err + e;
-        let hi = t + c;
+        let hi = max(t + c, 0.0);
         (*r).w_sum_err = reservoir_flush(c - (hi - t));
         (*r).w_sum = hi;
     }
