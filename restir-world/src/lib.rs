@@ -11,11 +11,14 @@
 
 pub mod gpu;
 pub mod scene;
+pub mod trace;
 
 pub use gpu::{GpuContext, GpuError, GpuTimer};
 
 /// Every WGSL module this crate ships, composed as it is used, as `(name, source)`: the
 /// workspace's naga checks validate each of them.
 pub fn wgsl_modules() -> Vec<(String, String)> {
-    Vec::new()
+    let mut modules = Vec::new();
+    modules.extend(trace::wgsl_modules());
+    modules
 }
