@@ -10,6 +10,10 @@
 //! upload/readback helpers in [`gpu::buffers`].
 
 pub mod gpu;
+pub mod image_io;
+pub mod lights;
+pub mod reference;
+pub mod sampling;
 pub mod scene;
 
 pub use gpu::{GpuContext, GpuError, GpuTimer};
@@ -17,5 +21,8 @@ pub use gpu::{GpuContext, GpuError, GpuTimer};
 /// Every WGSL module this crate ships, composed as it is used, as `(name, source)`: the
 /// workspace's naga checks validate each of them.
 pub fn wgsl_modules() -> Vec<(String, String)> {
-    Vec::new()
+    vec![
+        ("restir-world/sampling".into(), sampling::WGSL.into()),
+        ("restir-world/lights".into(), lights::composed_wgsl(0, 0)),
+    ]
 }
