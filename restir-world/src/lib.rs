@@ -10,6 +10,10 @@
 //! upload/readback helpers in [`gpu::buffers`].
 
 pub mod gpu;
+pub mod image_io;
+pub mod lights;
+pub mod reference;
+pub mod sampling;
 pub mod scene;
 pub mod trace;
 
@@ -18,7 +22,10 @@ pub use gpu::{GpuContext, GpuError, GpuTimer};
 /// Every WGSL module this crate ships, composed as it is used, as `(name, source)`: the
 /// workspace's naga checks validate each of them.
 pub fn wgsl_modules() -> Vec<(String, String)> {
-    let mut modules = Vec::new();
+    let mut modules = vec![
+        ("restir-world/sampling".into(), sampling::WGSL.into()),
+        ("restir-world/lights".into(), lights::composed_wgsl(0, 0)),
+    ];
     modules.extend(trace::wgsl_modules());
     modules
 }

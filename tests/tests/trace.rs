@@ -357,3 +357,13 @@ fn gpu_structs_match_wgsl_layout() {
     tests::assert_wgsl_layout!(Ray, src, "Ray", [origin, tmin, dir, tmax]);
     tests::assert_wgsl_layout!(Hit, src, "Hit", [t, prim, b1, b2]);
 }
+
+#[test]
+fn builtin_scenes_match_obvhs() {
+    use restir_world::scene::{BUILTIN_NAMES, BuiltinOptions, builtin};
+    let opts = BuiltinOptions::default();
+    for (i, name) in BUILTIN_NAMES.iter().enumerate() {
+        let scene = builtin(name, &opts).expect("built-in scene");
+        check_scene(name, &scene, 100 + i as u64);
+    }
+}
