@@ -13,6 +13,7 @@ pub mod gpu;
 pub mod image_io;
 pub mod lights;
 pub mod reference;
+pub mod render;
 pub mod sampling;
 pub mod scene;
 pub mod trace;
@@ -27,5 +28,6 @@ pub fn wgsl_modules() -> Vec<(String, String)> {
         ("restir-world/lights".into(), lights::composed_wgsl(0, 0)),
     ];
     modules.extend(trace::wgsl_modules());
+    modules.extend(render::wgsl_modules());
     modules
 }

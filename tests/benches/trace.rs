@@ -176,7 +176,7 @@ fn trace(c: &mut Criterion) {
                     ("gpu_rays_per_s", bench::sci(gpu_rps)),
                     ("cpu_rays_per_s", bench::sci(cpu_rps)),
                     ("ratio", format!("{:.3}", gpu_rps / cpu_rps)),
-                    ("bvh_build_ms", format!("{build_ms:.1}")),
+                    ("bvh_build_ms", format!("{build_ms:.3}")),
                     (
                         "cpu_threads",
                         std::thread::available_parallelism()
