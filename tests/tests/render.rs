@@ -42,15 +42,15 @@ fn furnace_error(img: &Images, rho: f64, le: f64) -> f64 {
         .fold(0.0, f64::max)
 }
 
-/// Tolerance 1%: 32x32 pixels x 64 frames = 65,536 samples per image; the per-sample relative
-/// standard deviation of both estimators in the furnace is below 1, so the mean's is below
-/// 0.4%, and 1% is > 2.5 sigma.
+/// Tolerance 1%: 64x64 pixels x 64 frames = 262,144 samples per image. Both estimators are
+/// unbiased but heavy-tailed in the furnace (the geometry term diverges near the box's edges),
+/// so the error of the mean is skewed; measured here: < 0.5% for both methods at this count.
 #[test]
 fn furnace_matches_analytic_nee_and_ris() {
     let (rho, le) = (0.5f32, 1.0f32);
-    let scene = furnace(rho, le, 32, 32).expect("furnace");
+    let scene = furnace(rho, le, 64, 64).expect("furnace");
     for method in [Method::Nee, Method::ris()] {
-        let img = render(&scene, 32, 32, method, 1, 64);
+        let img = render(&scene, 64, 64, method, 1, 64);
         let err = furnace_error(&img, f64::from(rho), f64::from(le));
         eprintln!(
             "furnace {method:?}: direct {:?} indirect {:?} max rel err {err:.4}",
