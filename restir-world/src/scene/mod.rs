@@ -14,7 +14,9 @@
 pub mod builtin;
 mod loaders;
 
-pub use builtin::{BUILTIN_NAMES, BuiltinOptions, builtin, cornell, furnace, many_lights};
+pub use builtin::{
+    BUILTIN_NAMES, BuiltinOptions, builtin, cornell, furnace, furnace_sphere, many_lights,
+};
 pub use loaders::{load, load_gltf, load_obj};
 
 use std::path::PathBuf;
