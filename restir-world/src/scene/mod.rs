@@ -1,7 +1,51 @@
 //! The scene model: triangles, a diffuse albedo and an emitted radiance per material, and a
 //! camera. Nothing else until a scene needs it.
+//!
+//! Conventions every consumer (GPU renderer, CPU reference) follows:
+//! - Surfaces are **two-sided**: both the diffuse reflection and the emission act on either side
+//!   of a triangle; a renderer flips the geometric normal to face the incoming ray. Loaders
+//!   disagree about winding, and two-sided surfaces make that harmless.
+//! - Units are whatever the scene uses; the built-in scenes are in metres.
+//!
+//! Entry points: [`builtin`] (procedural scenes by name), [`load`] (glTF 2.0 / OBJ+MTL files),
+//! [`Scene::sanitize`] (drops NaN/Inf and degenerate triangles, counts them in a
+//! [`SanitizeReport`]).
+
+pub mod builtin;
+mod loaders;
+
+pub use builtin::{
+    BUILTIN_NAMES, BuiltinOptions, builtin, cornell, furnace, furnace_sphere, many_lights,
+};
+pub use loaders::{load, load_gltf, load_obj};
+
+use std::path::PathBuf;
 
 use glam::Vec3;
+
+/// What can go wrong when building, loading or checking a scene.
+#[derive(Debug, thiserror::Error)]
+pub enum SceneError {
+    #[error("{path}: {source}")]
+    Io {
+        path: PathBuf,
+        #[source]
+        source: std::io::Error,
+    },
+    #[error("{path}: {message}")]
+    Parse { path: PathBuf, message: String },
+    #[error("{path}: unsupported scene format (expected .gltf, .glb or .obj)")]
+    UnsupportedFormat { path: PathBuf },
+    #[error("unknown built-in scene {name:?} (expected one of {})", BUILTIN_NAMES.join(", "))]
+    UnknownBuiltin { name: String },
+    #[error("bad scene option: {0}")]
+    BadOption(String),
+    #[error("{what}: the scene has no valid triangles{}", .report.map(|r| format!(" ({r})")).unwrap_or_default())]
+    Empty {
+        what: String,
+        report: Option<SanitizeReport>,
+    },
+}
 
 /// A diffuse material: reflectance and emitted radiance, linear RGB.
 #[repr(C)]
@@ -10,7 +54,7 @@ pub struct Material {
     /// Diffuse albedo in [0, 1] per channel.
     pub albedo: [f32; 3],
     pub _pad0: f32,
-    /// Emitted radiance (W sr^-1 m^-2 per channel); zero for non-emitters.
+    /// Emitted radiance (W sr^-1 m^-2 per channel); zero for non-emitters. Two-sided.
     pub emission: [f32; 3],
     pub _pad1: f32,
 }
@@ -40,6 +84,14 @@ pub struct Triangle {
 }
 
 impl Triangle {
+    /// A triangle without shading normals.
+    pub const fn new(v: [Vec3; 3], material: u32) -> Self {
+        Self {
+            v,
+            n: None,
+            material,
+        }
+    }
     /// Geometric normal (unnormalized: its length is twice the area).
     pub fn cross(&self) -> Vec3 {
         (self.v[1] - self.v[0]).cross(self.v[2] - self.v[0])
@@ -47,6 +99,19 @@ impl Triangle {
     /// Area of the triangle.
     pub fn area(&self) -> f32 {
         0.5 * self.cross().length()
+    }
+    /// Whether the triangle has (numerically) no area: a zero or non-finite cross product, or
+    /// edges so close to collinear that the sine of their angle is below 1e-7.
+    pub fn is_degenerate(&self) -> bool {
+        let c = self.cross();
+        let len = c.length();
+        let e = [
+            (self.v[1] - self.v[0]).length_squared(),
+            (self.v[2] - self.v[1]).length_squared(),
+            (self.v[0] - self.v[2]).length_squared(),
+        ];
+        let longest = e[0].max(e[1]).max(e[2]);
+        !len.is_finite() || len == 0.0 || len <= 1e-7 * longest
     }
 }
 
@@ -62,10 +127,300 @@ pub struct Camera {
     pub height: u32,
 }
 
+impl Camera {
+    /// Checks that the camera can produce rays: finite vectors, eye != target, up not parallel
+    /// to the view direction, 0 < fov < 180, non-zero size.
+    pub fn validate(&self) -> Result<(), SceneError> {
+        let bad = |m: &str| Err(SceneError::BadOption(format!("camera: {m}")));
+        if !(self.eye.is_finite() && self.target.is_finite() && self.up.is_finite()) {
+            return bad("eye, target and up must be finite");
+        }
+        let fwd = self.target - self.eye;
+        if fwd.length_squared() == 0.0 {
+            return bad("eye and target coincide");
+        }
+        if fwd.normalize().cross(self.up.normalize_or_zero()).length() < 1e-6 {
+            return bad("up is zero or parallel to the view direction");
+        }
+        if !(self.vfov_deg > 0.0 && self.vfov_deg < 180.0) {
+            return bad("vertical field of view must be in (0, 180) degrees");
+        }
+        if self.width == 0 || self.height == 0 {
+            return bad("image size must be at least 1x1");
+        }
+        Ok(())
+    }
+}
+
 /// A scene ready to render: triangles with materials, and an optional camera from the file.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct Scene {
     pub triangles: Vec<Triangle>,
     pub materials: Vec<Material>,
     pub camera: Option<Camera>,
+}
+
+/// What [`Scene::sanitize`] dropped or repaired. All counts are zero for a clean scene.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct SanitizeReport {
+    /// Triangles dropped because a vertex had a NaN or infinite coordinate.
+    pub non_finite: usize,
+    /// Triangles dropped because they had no area.
+    pub degenerate: usize,
+    /// Triangles dropped because their material index was out of range.
+    pub bad_material: usize,
+    /// Triangles whose shading normals were non-finite or zero and were removed (the geometric
+    /// normal is used instead).
+    pub bad_normals: usize,
+    /// Materials whose albedo or emission was non-finite, negative or (albedo) above 1, and
+    /// was clamped into range (non-finite values become 0).
+    pub clamped_materials: usize,
+}
+
+impl SanitizeReport {
+    /// Whether nothing was dropped or repaired.
+    pub fn is_clean(&self) -> bool {
+        *self == Self::default()
+    }
+    /// Number of triangles dropped.
+    pub fn dropped(&self) -> usize {
+        self.non_finite + self.degenerate + self.bad_material
+    }
+}
+
+impl std::fmt::Display for SanitizeReport {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "dropped {} triangles ({} with NaN/Inf vertices, {} degenerate, {} with a bad material \
+             index); removed bad shading normals on {}; clamped {} materials",
+            self.dropped(),
+            self.non_finite,
+            self.degenerate,
+            self.bad_material,
+            self.bad_normals,
+            self.clamped_materials
+        )
+    }
+}
+
+impl Scene {
+    /// Drops triangles with NaN/Inf vertices, degenerate triangles and triangles with an
+    /// out-of-range material; removes unusable shading normals; clamps materials into range.
+    /// Returns what it did. A scene left with no triangle is an error ([`SceneError::Empty`]);
+    /// a scene without emitters is fine (it renders black).
+    pub fn sanitize(&mut self, what: &str) -> Result<SanitizeReport, SceneError> {
+        let mut report = SanitizeReport::default();
+        for m in &mut self.materials {
+            let mut changed = false;
+            for a in &mut m.albedo {
+                let c = if a.is_finite() {
+                    a.clamp(0.0, 1.0)
+                } else {
+                    0.0
+                };
+                changed |= c != *a || a.is_nan();
+                *a = c;
+            }
+            for e in &mut m.emission {
+                let c = if e.is_finite() { e.max(0.0) } else { 0.0 };
+                changed |= c != *e || e.is_nan();
+                *e = c;
+            }
+            report.clamped_materials += usize::from(changed);
+        }
+        let n_materials = self.materials.len();
+        self.triangles.retain_mut(|t| {
+            if !t.v.iter().all(|v| v.is_finite()) {
+                report.non_finite += 1;
+                return false;
+            }
+            if t.is_degenerate() {
+                report.degenerate += 1;
+                return false;
+            }
+            if t.material as usize >= n_materials {
+                report.bad_material += 1;
+                return false;
+            }
+            if let Some(n) = &t.n
+                && !n.iter().all(|n| n.is_finite() && n.length_squared() > 0.0)
+            {
+                t.n = None;
+                report.bad_normals += 1;
+            }
+            true
+        });
+        if self.triangles.is_empty() {
+            return Err(SceneError::Empty {
+                what: what.to_owned(),
+                report: Some(report),
+            });
+        }
+        Ok(report)
+    }
+
+    /// Axis-aligned bounds of all vertices, `(min, max)`; `None` for an empty scene.
+    pub fn bounds(&self) -> Option<(Vec3, Vec3)> {
+        let mut it = self.triangles.iter().flat_map(|t| t.v);
+        let first = it.next()?;
+        Some(it.fold((first, first), |(lo, hi), v| (lo.min(v), hi.max(v))))
+    }
+
+    /// The scene's camera, or one that frames its bounds from the -z side (45 degrees vertical
+    /// field of view, y up), at `width` x `height`.
+    pub fn camera_or_default(&self, width: u32, height: u32) -> Camera {
+        if let Some(c) = self.camera {
+            return Camera { width, height, ..c };
+        }
+        let (lo, hi) = self
+            .bounds()
+            .unwrap_or((Vec3::splat(-1.0), Vec3::splat(1.0)));
+        let center = 0.5 * (lo + hi);
+        let radius = (0.5 * (hi - lo).length()).max(1e-3);
+        let vfov_deg = 45.0f32;
+        let dist = radius / (0.5 * vfov_deg.to_radians()).sin();
+        Camera {
+            eye: center - Vec3::Z * dist,
+            target: center,
+            up: Vec3::Y,
+            vfov_deg,
+            width,
+            height,
+        }
+    }
+
+    /// Number of triangles whose material emits.
+    pub fn emissive_triangles(&self) -> usize {
+        self.triangles
+            .iter()
+            .filter(|t| {
+                self.materials
+                    .get(t.material as usize)
+                    .is_some_and(Material::is_emissive)
+            })
+            .count()
+    }
+
+    /// Appends the two triangles (a, b, c) and (a, c, d) of the planar quad a-b-c-d.
+    pub fn push_quad(&mut self, q: [Vec3; 4], material: u32) {
+        self.triangles
+            .push(Triangle::new([q[0], q[1], q[2]], material));
+        self.triangles
+            .push(Triangle::new([q[0], q[2], q[3]], material));
+    }
+
+    /// Appends the 12 triangles of the box with corners `lo` and `hi`.
+    pub fn push_box(&mut self, lo: Vec3, hi: Vec3, material: u32) {
+        let c = |x: bool, y: bool, z: bool| {
+            Vec3::new(
+                if x { hi.x } else { lo.x },
+                if y { hi.y } else { lo.y },
+                if z { hi.z } else { lo.z },
+            )
+        };
+        let (f, t) = (false, true);
+        for q in [
+            [c(f, f, f), c(t, f, f), c(t, f, t), c(f, f, t)], // bottom
+            [c(f, t, f), c(f, t, t), c(t, t, t), c(t, t, f)], // top
+            [c(f, f, f), c(f, t, f), c(t, t, f), c(t, f, f)], // z = lo
+            [c(f, f, t), c(t, f, t), c(t, t, t), c(f, t, t)], // z = hi
+            [c(f, f, f), c(f, f, t), c(f, t, t), c(f, t, f)], // x = lo
+            [c(t, f, f), c(t, t, f), c(t, t, t), c(t, f, t)], // x = hi
+        ] {
+            self.push_quad(q, material);
+        }
+    }
+
+    /// Adds a material and returns its index.
+    pub fn add_material(&mut self, m: Material) -> u32 {
+        self.materials.push(m);
+        (self.materials.len() - 1) as u32
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn tri(a: [f32; 3], b: [f32; 3], c: [f32; 3]) -> Triangle {
+        Triangle::new([a.into(), b.into(), c.into()], 0)
+    }
+
+    #[test]
+    fn sanitize_drops_and_counts_bad_triangles() {
+        let mut s = Scene {
+            triangles: vec![
+                tri([0.0; 3], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]),
+                tri([f32::NAN, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]),
+                tri([0.0; 3], [f32::INFINITY, 0.0, 0.0], [0.0, 1.0, 0.0]),
+                tri([0.0; 3], [1.0, 0.0, 0.0], [2.0, 0.0, 0.0]),
+                tri([0.0; 3], [0.0; 3], [0.0, 1.0, 0.0]),
+                Triangle {
+                    material: 7,
+                    ..tri([0.0; 3], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0])
+                },
+                Triangle {
+                    n: Some([Vec3::Z, Vec3::ZERO, Vec3::Z]),
+                    ..tri([0.0; 3], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0])
+                },
+            ],
+            materials: vec![Material::new([2.0, f32::NAN, 0.5], [-1.0, 0.0, 0.0])],
+            camera: None,
+        };
+        let r = s.sanitize("test").unwrap();
+        assert_eq!(
+            r,
+            SanitizeReport {
+                non_finite: 2,
+                degenerate: 2,
+                bad_material: 1,
+                bad_normals: 1,
+                clamped_materials: 1
+            }
+        );
+        assert_eq!(s.triangles.len(), 2);
+        assert_eq!(s.materials[0], Material::new([1.0, 0.0, 0.5], [0.0; 3]));
+        assert!(s.triangles[1].n.is_none());
+        assert!(!r.is_clean());
+        assert!(r.to_string().contains("dropped 5 triangles"));
+    }
+
+    #[test]
+    fn sanitize_rejects_a_scene_left_empty() {
+        let mut s = Scene {
+            triangles: vec![tri([0.0; 3], [0.0; 3], [0.0; 3])],
+            materials: vec![Material::new([0.5; 3], [0.0; 3])],
+            camera: None,
+        };
+        let e = s.sanitize("x.obj").unwrap_err();
+        assert!(matches!(e, SceneError::Empty { .. }), "{e}");
+        assert!(e.to_string().contains("x.obj"));
+        let mut empty = Scene::default();
+        assert!(empty.sanitize("e").is_err());
+    }
+
+    #[test]
+    fn default_camera_sees_the_bounds_and_validates() {
+        let mut s = Scene::default();
+        let m = s.add_material(Material::new([0.5; 3], [0.0; 3]));
+        s.push_box(Vec3::splat(-2.0), Vec3::splat(3.0), m);
+        let c = s.camera_or_default(64, 32);
+        c.validate().unwrap();
+        assert_eq!((c.width, c.height), (64, 32));
+        assert!(c.eye.z < -2.0);
+        let bad = Camera { vfov_deg: 0.0, ..c };
+        assert!(bad.validate().is_err());
+        let bad = Camera { up: Vec3::Z, ..c };
+        assert!(bad.validate().is_err());
+    }
+
+    #[test]
+    fn box_is_closed_with_the_right_area() {
+        let mut s = Scene::default();
+        s.push_box(Vec3::ZERO, Vec3::new(1.0, 2.0, 3.0), 0);
+        assert_eq!(s.triangles.len(), 12);
+        let area: f32 = s.triangles.iter().map(Triangle::area).sum();
+        assert!((area - 2.0 * (2.0 + 3.0 + 6.0)).abs() < 1e-5);
+    }
 }

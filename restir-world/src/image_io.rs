@@ -1,0 +1,275 @@
+//! Linear f32 RGB images: write as OpenEXR (linear) and as tone-mapped sRGB PNG, each written
+//! whole or not at all (temporary file in the same directory + rename); read EXR back (for
+//! reference images).
+
+use std::path::{Path, PathBuf};
+
+/// A linear HDR RGB image, rows top to bottom.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Image {
+    pub width: u32,
+    pub height: u32,
+    pub pixels: Vec<[f32; 3]>,
+}
+
+/// What can go wrong reading or writing an image.
+#[derive(Debug, thiserror::Error)]
+pub enum ImageIoError {
+    #[error("{path}: {source}")]
+    Io {
+        path: PathBuf,
+        #[source]
+        source: std::io::Error,
+    },
+    #[error("{path}: {source}")]
+    Codec {
+        path: PathBuf,
+        #[source]
+        source: image::ImageError,
+    },
+    #[error("image of {width}x{height} needs {} pixels, has {len}", *width as u64 * *height as u64)]
+    Size { width: u32, height: u32, len: usize },
+}
+
+impl Image {
+    /// A black image.
+    pub fn new(width: u32, height: u32) -> Self {
+        Self {
+            width,
+            height,
+            pixels: vec![[0.0; 3]; width as usize * height as usize],
+        }
+    }
+
+    /// An image from pixels (row-major, top row first); errors if the count is wrong.
+    pub fn from_pixels(
+        width: u32,
+        height: u32,
+        pixels: Vec<[f32; 3]>,
+    ) -> Result<Self, ImageIoError> {
+        if pixels.len() as u64 != u64::from(width) * u64::from(height) {
+            return Err(ImageIoError::Size {
+                width,
+                height,
+                len: pixels.len(),
+            });
+        }
+        Ok(Self {
+            width,
+            height,
+            pixels,
+        })
+    }
+
+    /// The pixel at (x, y).
+    pub fn get(&self, x: u32, y: u32) -> [f32; 3] {
+        self.pixels[y as usize * self.width as usize + x as usize]
+    }
+
+    /// Mean of each channel (f64).
+    pub fn mean(&self) -> [f64; 3] {
+        let mut s = [0.0f64; 3];
+        for p in &self.pixels {
+            for c in 0..3 {
+                s[c] += f64::from(p[c]);
+            }
+        }
+        let n = self.pixels.len().max(1) as f64;
+        s.map(|x| x / n)
+    }
+
+    /// Whether every value is finite.
+    pub fn is_finite(&self) -> bool {
+        self.pixels.iter().flatten().all(|v| v.is_finite())
+    }
+
+    fn to_rgb32f(&self) -> Result<image::Rgb32FImage, ImageIoError> {
+        let size_err = || ImageIoError::Size {
+            width: self.width,
+            height: self.height,
+            len: self.pixels.len(),
+        };
+        if self.pixels.len() as u64 != u64::from(self.width) * u64::from(self.height) {
+            return Err(size_err());
+        }
+        let flat: Vec<f32> = self.pixels.iter().flatten().copied().collect();
+        image::Rgb32FImage::from_raw(self.width, self.height, flat).ok_or_else(size_err)
+    }
+}
+
+/// The sRGB transfer function of a linear value in [0, 1].
+pub fn srgb_encode(x: f32) -> f32 {
+    if x <= 0.003_130_8 {
+        12.92 * x
+    } else {
+        1.055 * x.powf(1.0 / 2.4) - 0.055
+    }
+}
+
+/// Tone mapping for PNGs: multiply by `exposure`, clamp to [0, 1] (NaN -> 0), sRGB-encode,
+/// round to 8 bits. Deliberately simple and monotonic: the PNGs are for looking at; numbers
+/// come from the EXRs.
+pub fn tone_map(p: [f32; 3], exposure: f32) -> [u8; 3] {
+    p.map(|v| {
+        let v = v * exposure;
+        let v = if v.is_nan() { 0.0 } else { v.clamp(0.0, 1.0) };
+        (srgb_encode(v) * 255.0 + 0.5) as u8
+    })
+}
+
+/// Writes `img` as a linear 32-bit float RGB OpenEXR file, whole or not at all.
+pub fn write_exr(path: &Path, img: &Image) -> Result<(), ImageIoError> {
+    let buf = img.to_rgb32f()?;
+    write_atomically(path, |tmp| {
+        buf.save_with_format(tmp, image::ImageFormat::OpenExr)
+    })
+}
+
+/// Writes `img` tone-mapped ([`tone_map`] with `exposure`) as an 8-bit sRGB PNG, whole or not
+/// at all.
+pub fn write_png(path: &Path, img: &Image, exposure: f32) -> Result<(), ImageIoError> {
+    img.to_rgb32f()?; // size check
+    let bytes: Vec<u8> = img
+        .pixels
+        .iter()
+        .flat_map(|&p| tone_map(p, exposure))
+        .collect();
+    let buf =
+        image::RgbImage::from_raw(img.width, img.height, bytes).ok_or(ImageIoError::Size {
+            width: img.width,
+            height: img.height,
+            len: img.pixels.len(),
+        })?;
+    write_atomically(path, |tmp| {
+        buf.save_with_format(tmp, image::ImageFormat::Png)
+    })
+}
+
+/// Reads an OpenEXR file as linear RGB (alpha dropped).
+pub fn read_exr(path: &Path) -> Result<Image, ImageIoError> {
+    let codec = |source| ImageIoError::Codec {
+        path: path.to_owned(),
+        source,
+    };
+    let reader = image::ImageReader::open(path).map_err(|source| ImageIoError::Io {
+        path: path.to_owned(),
+        source,
+    })?;
+    let img = reader
+        .with_guessed_format()
+        .map_err(|source| ImageIoError::Io {
+            path: path.to_owned(),
+            source,
+        })?
+        .decode()
+        .map_err(codec)?
+        .into_rgb32f();
+    let (width, height) = img.dimensions();
+    let pixels = img
+        .into_raw()
+        .chunks_exact(3)
+        .map(|c| [c[0], c[1], c[2]])
+        .collect();
+    Image::from_pixels(width, height, pixels)
+}
+
+/// Writes through a temporary file beside `path` and renames it into place; removes the
+/// temporary file on failure.
+fn write_atomically(
+    path: &Path,
+    write: impl FnOnce(&Path) -> image::ImageResult<()>,
+) -> Result<(), ImageIoError> {
+    let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("out");
+    let name = path
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    // Keep the real extension last: the encoder is chosen by format, but tools like to see it.
+    let tmp = path.with_file_name(format!(".{name}.tmp{}.{ext}", std::process::id()));
+    let result = write(&tmp)
+        .map_err(|source| ImageIoError::Codec {
+            path: path.to_owned(),
+            source,
+        })
+        .and_then(|()| {
+            std::fs::rename(&tmp, path).map_err(|source| ImageIoError::Io {
+                path: path.to_owned(),
+                source,
+            })
+        });
+    if result.is_err() {
+        let _ = std::fs::remove_file(&tmp);
+    }
+    result
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn temp_dir(name: &str) -> PathBuf {
+        let d = std::env::temp_dir().join(format!("restir-image-io-{name}-{}", std::process::id()));
+        std::fs::create_dir_all(&d).unwrap();
+        d
+    }
+
+    #[test]
+    fn exr_round_trips_exactly_and_png_is_written() {
+        let d = temp_dir("rt");
+        let mut img = Image::new(5, 3);
+        for (i, p) in img.pixels.iter_mut().enumerate() {
+            *p = [i as f32 * 0.37, 1e-3 / (i as f32 + 1.0), 123.5];
+        }
+        let exr = d.join("a.exr");
+        write_exr(&exr, &img).unwrap();
+        assert_eq!(read_exr(&exr).unwrap(), img);
+        let png = d.join("a.png");
+        write_png(&png, &img, 1.0).unwrap();
+        let back = image::open(&png).unwrap().into_rgb8();
+        assert_eq!(back.dimensions(), (5, 3));
+        assert_eq!(back.get_pixel(0, 0).0, [0, 3, 255]);
+        // No temporary files left behind.
+        let names: Vec<_> = std::fs::read_dir(&d).unwrap().flatten().collect();
+        assert_eq!(names.len(), 2);
+        std::fs::remove_dir_all(&d).unwrap();
+    }
+
+    #[test]
+    fn failed_writes_leave_nothing_and_name_the_file() {
+        let d = temp_dir("fail");
+        let path = d.join("missing-dir").join("x.exr");
+        let e = write_exr(&path, &Image::new(2, 2)).unwrap_err();
+        assert!(e.to_string().contains("x.exr"), "{e}");
+        let bad = Image {
+            width: 3,
+            height: 3,
+            pixels: vec![[0.0; 3]; 2],
+        };
+        assert!(matches!(
+            write_png(&d.join("b.png"), &bad, 1.0),
+            Err(ImageIoError::Size { .. })
+        ));
+        assert_eq!(std::fs::read_dir(&d).unwrap().count(), 0);
+        let junk = d.join("junk.exr");
+        std::fs::write(&junk, b"not an exr").unwrap();
+        assert!(
+            read_exr(&junk)
+                .unwrap_err()
+                .to_string()
+                .contains("junk.exr")
+        );
+        std::fs::remove_dir_all(&d).unwrap();
+    }
+
+    #[test]
+    fn tone_map_is_monotonic_and_safe() {
+        assert_eq!(tone_map([0.0, 1.0, 2.0], 1.0), [0, 255, 255]);
+        assert_eq!(tone_map([f32::NAN, -1.0, f32::INFINITY], 1.0), [0, 0, 255]);
+        let mut last = 0;
+        for i in 0..=100 {
+            let v = tone_map([i as f32 / 100.0; 3], 1.0)[0];
+            assert!(v >= last);
+            last = v;
+        }
+    }
+}

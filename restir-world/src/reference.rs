@@ -1,0 +1,467 @@
+//! The CPU reference renderer: the same estimators as the GPU renderer, traced with obvhs's CPU
+//! traversal of its CWBVH (medium build preset), multi-threaded over rows
+//! (`std::thread::scope`), accumulated in f64.
+//!
+//! Per sample of pixel p (box filter: the sub-pixel position is uniform in the pixel):
+//! 1. Primary ray from the eye; a miss contributes 0 everywhere (black background).
+//! 2. At the primary hit x1 (geometric normal n1 flipped towards the eye, albedo a1, emission
+//!    Le1): **direct** = Le1 (emission seen) + one light estimate at x1 (reflected direct light).
+//! 3. One cosine-weighted GI ray from x1. At its hit x2: **indirect** = a1 x (one light
+//!    estimate at x2). The cosine pdf cancels a1 cos / pi. Emission seen at x2 is *not* added
+//!    (that light is the direct light at x1, already estimated by NEE).
+//! 4. **combined** = direct + indirect.
+//!
+//! A "light estimate" at x (normal n, albedo a) is, for method `Nee`, one power-proportional
+//! light sample y (see [`crate::lights`]) with a shadow ray:
+//! a/pi Le(y) cos_x cos_y / |x-y|^2 / pdf_area(y) V(x, y); for method `Ris { candidates: K }`,
+//! K such samples resampled by RIS with target p̂ = luminance of the unshadowed reflected
+//! radiance, then one shadow ray for the chosen one: f(y) V W, W = w_sum / (K p̂(y)).
+//!
+//! In the furnace (closed box, albedo rho, emission Le everywhere) this gives:
+//! direct = Le + rho Le, indirect = rho^2 Le, exactly in expectation.
+//!
+//! Surfaces are two-sided (see [`crate::scene`]); shading uses the geometric normal (per-vertex
+//! normals are not used yet). Ray origins are offset along the normal by 1e-5 of the scene's
+//! extent; shadow rays stop 1e-4 short of the light point (relative).
+
+use std::sync::atomic::{AtomicU32, Ordering};
+
+use glam::{Vec2, Vec3, Vec3A};
+use obvhs::{BvhBuildParams, cwbvh::CwBvh, ray::Ray, ray::RayHit};
+use reservoir::rng::Rng;
+
+use crate::image_io::Image;
+use crate::lights::Lights;
+use crate::sampling::{self, CameraGpu};
+use crate::scene::{Camera, Scene, SceneError, builtin::luminance};
+
+/// Light estimator at each shading point.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Method {
+    /// One light sample + shadow ray.
+    Nee,
+    /// `candidates` light samples resampled by RIS + one shadow ray (default 16).
+    Ris { candidates: u32 },
+}
+
+/// Options of [`ReferenceRenderer::render`].
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ReferenceOptions {
+    pub method: Method,
+    /// Samples per pixel.
+    pub spp: u32,
+    /// Seed of the random streams: pixel p, sample s draws from `Rng::seed(p, s, seed)`.
+    pub seed: u32,
+    /// Worker threads; 0 = all available cores.
+    pub threads: usize,
+}
+
+impl Default for ReferenceOptions {
+    fn default() -> Self {
+        Self {
+            method: Method::Nee,
+            spp: 64,
+            seed: 0,
+            threads: 0,
+        }
+    }
+}
+
+/// The three outputs, linear HDR, averaged over the samples.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Rendered {
+    pub direct: Image,
+    pub indirect: Image,
+    pub combined: Image,
+}
+
+/// A scene prepared for CPU tracing.
+#[derive(Debug)]
+pub struct ReferenceRenderer {
+    scene: Scene,
+    lights: Lights,
+    bvh: CwBvh,
+    tris: Vec<obvhs::triangle::Triangle>,
+    eps: f32,
+}
+
+fn u4(rng: &mut Rng) -> [f32; 4] {
+    [0; 4].map(|_| rng.next_f32())
+}
+
+struct Hit {
+    t: f32,
+    triangle: usize,
+}
+
+impl ReferenceRenderer {
+    /// Builds the CWBVH (obvhs medium preset) and the light table. The scene should be
+    /// sanitized; an empty scene is an error.
+    pub fn new(scene: &Scene) -> Result<Self, SceneError> {
+        if scene.triangles.is_empty() {
+            return Err(SceneError::Empty {
+                what: "reference renderer".into(),
+                report: None,
+            });
+        }
+        let tris: Vec<obvhs::triangle::Triangle> = scene
+            .triangles
+            .iter()
+            .map(|t| obvhs::triangle::Triangle {
+                v0: t.v[0].into(),
+                v1: t.v[1].into(),
+                v2: t.v[2].into(),
+            })
+            .collect();
+        let mut build_time = std::time::Duration::ZERO;
+        let bvh = obvhs::cwbvh::builder::build_cwbvh_from_tris(
+            &tris,
+            BvhBuildParams::medium_build(),
+            &mut build_time,
+        );
+        let (lo, hi) = scene.bounds().unwrap_or((Vec3::ZERO, Vec3::ONE));
+        let eps = 1e-5 * (hi - lo).max_element().max(1e-3);
+        Ok(Self {
+            scene: scene.clone(),
+            lights: Lights::build(scene),
+            bvh,
+            tris,
+            eps,
+        })
+    }
+
+    /// The light table (same as the GPU's).
+    pub fn lights(&self) -> &Lights {
+        &self.lights
+    }
+
+    fn closest(&self, origin: Vec3, dir: Vec3) -> Option<Hit> {
+        let ray = Ray::new(Vec3A::from(origin), Vec3A::from(dir), 0.0, f32::INFINITY);
+        let mut hit = RayHit::none();
+        if self.bvh.ray_traverse(ray, &mut hit, |r, id| {
+            self.tris[self.bvh.primitive_indices[id] as usize].intersect(r)
+        }) {
+            Some(Hit {
+                t: hit.t,
+                triangle: self.bvh.primitive_indices[hit.primitive_id as usize] as usize,
+            })
+        } else {
+            None
+        }
+    }
+
+    fn unoccluded(&self, origin: Vec3, dir: Vec3, tmax: f32) -> bool {
+        let ray = Ray::new(Vec3A::from(origin), Vec3A::from(dir), 0.0, tmax);
+        self.bvh.ray_traverse_miss(ray, |r, id| {
+            self.tris[self.bvh.primitive_indices[id] as usize].intersect(r)
+        })
+    }
+
+    /// Unshadowed reflected radiance at x (normal n, albedo a) from light sample `u`, and the
+    /// sample: (f, position, pdf_area); None when the sample cannot contribute.
+    fn light_term(&self, x: Vec3, n: Vec3, a: Vec3, u: [f32; 4]) -> Option<(Vec3, Vec3, f32)> {
+        let s = self.lights.sample(u)?;
+        let to = s.position - x;
+        let d2 = to.length_squared();
+        if d2 <= 0.0 || s.pdf_area <= 0.0 {
+            return None;
+        }
+        let d = d2.sqrt();
+        let cos_x = n.dot(to) / d;
+        let cos_l = s.normal.dot(to).abs() / d;
+        if cos_x <= 0.0 || cos_l <= 0.0 {
+            return None;
+        }
+        let f = a * std::f32::consts::FRAC_1_PI * s.emission * (cos_x * cos_l / d2);
+        Some((f, s.position, s.pdf_area))
+    }
+
+    fn visible(&self, x: Vec3, n: Vec3, y: Vec3) -> bool {
+        let o = x + n * self.eps;
+        let to = y - o;
+        let d = to.length();
+        d > 0.0 && self.unoccluded(o, to / d, d * (1.0 - 1e-4))
+    }
+
+    /// One light estimate of the reflected radiance at x.
+    fn estimate(&self, method: Method, x: Vec3, n: Vec3, a: Vec3, rng: &mut Rng) -> Vec3 {
+        if self.lights.is_empty() {
+            return Vec3::ZERO;
+        }
+        match method {
+            Method::Nee => match self.light_term(x, n, a, u4(rng)) {
+                Some((f, y, pdf)) if self.visible(x, n, y) => f / pdf,
+                _ => Vec3::ZERO,
+            },
+            Method::Ris { candidates } => {
+                let k = candidates.max(1);
+                let mut w_sum = 0.0f32;
+                let mut chosen: Option<(Vec3, Vec3, f32)> = None;
+                for _ in 0..k {
+                    let u = u4(rng);
+                    let pick = rng.next_f32();
+                    if let Some((f, y, pdf)) = self.light_term(x, n, a, u) {
+                        let p_hat = luminance(f.to_array());
+                        let w = p_hat / pdf;
+                        if w > 0.0 && w.is_finite() {
+                            w_sum += w;
+                            if pick * w_sum < w {
+                                chosen = Some((f, y, p_hat));
+                            }
+                        }
+                    }
+                }
+                match chosen {
+                    Some((f, y, p_hat)) if self.visible(x, n, y) => {
+                        f * (w_sum / (k as f32 * p_hat))
+                    }
+                    _ => Vec3::ZERO,
+                }
+            }
+        }
+    }
+
+    /// Surface data at a hit: position, normal facing against `dir`, albedo, emission.
+    fn surface(&self, origin: Vec3, dir: Vec3, h: &Hit) -> (Vec3, Vec3, Vec3, Vec3) {
+        let t = &self.scene.triangles[h.triangle];
+        let m = self.scene.materials[t.material as usize];
+        let mut n = t.cross().normalize();
+        if n.dot(dir) > 0.0 {
+            n = -n;
+        }
+        (
+            origin + dir * h.t,
+            n,
+            Vec3::from(m.albedo),
+            Vec3::from(m.emission),
+        )
+    }
+
+    /// (direct, indirect) of one sample.
+    fn sample(&self, cam: &CameraGpu, px: [u32; 2], method: Method, rng: &mut Rng) -> (Vec3, Vec3) {
+        let jitter = Vec2::new(rng.next_f32(), rng.next_f32());
+        let eye = Vec3::from(cam.eye);
+        let dir = cam.ray_dir(px, jitter);
+        let Some(h1) = self.closest(eye, dir) else {
+            return (Vec3::ZERO, Vec3::ZERO);
+        };
+        let (x1, n1, a1, le1) = self.surface(eye, dir, &h1);
+        let direct = le1 + self.estimate(method, x1, n1, a1, rng);
+        let wi = sampling::cosine_hemisphere(n1, Vec2::new(rng.next_f32(), rng.next_f32()));
+        let o1 = x1 + n1 * self.eps;
+        let indirect = match self.closest(o1, wi) {
+            Some(h2) => {
+                let (x2, n2, a2, _) = self.surface(o1, wi, &h2);
+                a1 * self.estimate(method, x2, n2, a2, rng)
+            }
+            None => Vec3::ZERO,
+        };
+        (direct, indirect)
+    }
+
+    /// Renders `camera` (its width x height) with `opts`. `progress`, if given, is called with
+    /// the number of rows finished so far (from worker threads).
+    pub fn render(
+        &self,
+        camera: &Camera,
+        opts: &ReferenceOptions,
+        progress: Option<&(dyn Fn(u32) + Sync)>,
+    ) -> Result<Rendered, SceneError> {
+        camera.validate()?;
+        if opts.spp == 0 {
+            return Err(SceneError::BadOption("spp must be at least 1".into()));
+        }
+        let cam = CameraGpu::new(camera);
+        let (w, h) = (camera.width, camera.height);
+        let threads = if opts.threads == 0 {
+            std::thread::available_parallelism().map_or(1, |n| n.get())
+        } else {
+            opts.threads
+        };
+        let next_row = AtomicU32::new(0);
+        let done = AtomicU32::new(0);
+        let mut rows: Vec<(u32, Vec<[f64; 6]>)> = std::thread::scope(|s| {
+            let workers: Vec<_> = (0..threads.min(h as usize).max(1))
+                .map(|_| {
+                    s.spawn(|| {
+                        let mut out = Vec::new();
+                        loop {
+                            let y = next_row.fetch_add(1, Ordering::Relaxed);
+                            if y >= h {
+                                break;
+                            }
+                            let mut row = vec![[0.0f64; 6]; w as usize];
+                            for (x, acc) in row.iter_mut().enumerate() {
+                                let pixel = y * w + x as u32;
+                                for s in 0..opts.spp {
+                                    let mut rng = Rng::seed(pixel, s, opts.seed);
+                                    let (d, i) =
+                                        self.sample(&cam, [x as u32, y], opts.method, &mut rng);
+                                    for c in 0..3 {
+                                        acc[c] += f64::from(d[c]);
+                                        acc[3 + c] += f64::from(i[c]);
+                                    }
+                                }
+                            }
+                            out.push((y, row));
+                            let n = done.fetch_add(1, Ordering::Relaxed) + 1;
+                            if let Some(p) = progress {
+                                p(n);
+                            }
+                        }
+                        out
+                    })
+                })
+                .collect();
+            workers
+                .into_iter()
+                .flat_map(|w| w.join().unwrap_or_default())
+                .collect()
+        });
+        if rows.len() != h as usize {
+            return Err(SceneError::BadOption(
+                "a reference worker thread panicked".into(),
+            ));
+        }
+        rows.sort_by_key(|r| r.0);
+        let inv = 1.0 / f64::from(opts.spp);
+        let mut direct = Image::new(w, h);
+        let mut indirect = Image::new(w, h);
+        let mut combined = Image::new(w, h);
+        for (y, row) in rows {
+            for (x, acc) in row.into_iter().enumerate() {
+                let i = y as usize * w as usize + x;
+                for c in 0..3 {
+                    direct.pixels[i][c] = (acc[c] * inv) as f32;
+                    indirect.pixels[i][c] = (acc[3 + c] * inv) as f32;
+                    combined.pixels[i][c] = ((acc[c] + acc[3 + c]) * inv) as f32;
+                }
+            }
+        }
+        Ok(Rendered {
+            direct,
+            indirect,
+            combined,
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scene::{self, Material};
+
+    /// Renders `s` and returns the channel means of (direct - Le, indirect).
+    fn furnace_means(s: &Scene, method: Method, spp: u32, seed: u32) -> ([f64; 3], [f64; 3]) {
+        let r = ReferenceRenderer::new(s).unwrap();
+        let out = r
+            .render(
+                &s.camera.unwrap(),
+                &ReferenceOptions {
+                    method,
+                    spp,
+                    seed,
+                    threads: 0,
+                },
+                None,
+            )
+            .unwrap();
+        let le = f64::from(s.materials[0].emission[0]);
+        let (d, i, c) = (out.direct.mean(), out.indirect.mean(), out.combined.mean());
+        for ch in 0..3 {
+            assert!((c[ch] - d[ch] - i[ch]).abs() < 1e-5);
+        }
+        (d.map(|x| x - le), i)
+    }
+
+    #[test]
+    fn furnace_matches_the_analytic_values() {
+        // rho = 0.5, Le = 1: direct = Le + rho Le (reflected part 0.5), indirect = rho^2 Le =
+        // 0.25. On the icosphere furnace, 32x32 pixels x 32 spp: across seeds the image means
+        // scatter by ~0.15% (reflected direct) and ~0.1% (indirect), so 1% is > 6 sd.
+        let s = scene::furnace_sphere(0.5, 1.0, 32, 32).unwrap();
+        for method in [Method::Nee, Method::Ris { candidates: 4 }] {
+            let (d, i) = furnace_means(&s, method, 32, 1);
+            for ch in 0..3 {
+                assert!(
+                    (d[ch] - 0.5).abs() < 0.005,
+                    "{method:?} reflected direct {d:?}"
+                );
+                assert!((i[ch] - 0.25).abs() < 0.0025, "{method:?} indirect {i:?}");
+            }
+        }
+    }
+
+    #[test]
+    fn box_furnace_is_close_to_the_analytic_values() {
+        // The box furnace has edges where cos cos / d^2 is unbounded: the NEE estimator's
+        // variance diverges there and fixed-seed means scatter by a few percent (one seed of
+        // 32x32x32 gave an indirect 15% high). This is a sanity check at 3% with 128 spp and a
+        // fixed seed, not a statistical test; the tight test uses the icosphere.
+        let s = scene::furnace(0.5, 1.0, 32, 32).unwrap();
+        let (d, i) = furnace_means(&s, Method::Nee, 128, 1);
+        assert!((d[0] - 0.5).abs() < 0.015, "{d:?}");
+        assert!((i[0] - 0.25).abs() < 0.0075, "{i:?}");
+    }
+
+    #[test]
+    fn furnace_negative_control_catches_a_wrong_albedo() {
+        // Planted error: rho = 0.515 (3% more reflected direct light, 6% more indirect) checked
+        // against the rho = 0.5 values must fall outside the 1% tolerance.
+        let s = scene::furnace_sphere(0.515, 1.0, 32, 32).unwrap();
+        let (d, i) = furnace_means(&s, Method::Nee, 32, 1);
+        assert!((d[0] - 0.5).abs() > 0.005, "{d:?}");
+        assert!((i[0] - 0.25).abs() > 0.0025, "{i:?}");
+    }
+
+    #[test]
+    fn no_emitters_renders_black_without_nan() {
+        let mut s = Scene::default();
+        let m = s.add_material(Material::new([0.8; 3], [0.0; 3]));
+        s.push_box(Vec3::splat(-1.0), Vec3::splat(1.0), m);
+        let cam = Camera {
+            eye: Vec3::ZERO,
+            target: Vec3::Z,
+            up: Vec3::Y,
+            vfov_deg: 60.0,
+            width: 8,
+            height: 8,
+        };
+        let r = ReferenceRenderer::new(&s).unwrap();
+        for method in [Method::Nee, Method::Ris { candidates: 16 }] {
+            let out = r
+                .render(
+                    &cam,
+                    &ReferenceOptions {
+                        method,
+                        spp: 4,
+                        ..Default::default()
+                    },
+                    None,
+                )
+                .unwrap();
+            assert!(out.combined.pixels.iter().flatten().all(|&v| v == 0.0));
+        }
+    }
+
+    #[test]
+    fn deterministic_for_a_seed_and_independent_of_threads() {
+        let s = scene::cornell(12, 10);
+        let r = ReferenceRenderer::new(&s).unwrap();
+        let cam = s.camera.unwrap();
+        let o = |seed, threads| ReferenceOptions {
+            method: Method::Ris { candidates: 4 },
+            spp: 2,
+            seed,
+            threads,
+        };
+        let a = r.render(&cam, &o(3, 1), None).unwrap();
+        let b = r.render(&cam, &o(3, 3), None).unwrap();
+        assert_eq!(a, b);
+        let c = r.render(&cam, &o(4, 1), None).unwrap();
+        assert_ne!(a.combined, c.combined);
+        assert!(a.combined.is_finite());
+        // The light is visible and bright; the box is lit.
+        assert!(a.combined.mean()[0] > 0.05, "{:?}", a.combined.mean());
+    }
+}

@@ -1,0 +1,537 @@
+//! Built-in procedural scenes: `cornell`, `many-lights` and `furnace`.
+
+use glam::Vec3;
+use reservoir::rng::Rng;
+
+use super::{Camera, Material, Scene, SceneError};
+
+/// Names accepted by [`builtin`].
+pub const BUILTIN_NAMES: [&str; 4] = ["cornell", "many-lights", "furnace", "furnace-sphere"];
+
+/// Parameters of the built-in scenes (each scene reads the ones it needs).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct BuiltinOptions {
+    /// `many-lights`: number of small emissive quads (default 10,000; tested up to 100,000).
+    pub lights: u32,
+    /// `many-lights`: seed of the light placement, colours and powers.
+    pub seed: u32,
+    /// `furnace`: albedo of every surface (grey).
+    pub rho: f32,
+    /// `furnace`: emitted radiance of every surface (grey).
+    pub le: f32,
+    /// Image size of the default camera.
+    pub width: u32,
+    pub height: u32,
+}
+
+impl Default for BuiltinOptions {
+    fn default() -> Self {
+        Self {
+            lights: 10_000,
+            seed: 1,
+            rho: 0.5,
+            le: 1.0,
+            width: 256,
+            height: 256,
+        }
+    }
+}
+
+/// A built-in scene by name (see [`BUILTIN_NAMES`]), with its default camera.
+pub fn builtin(name: &str, opts: &BuiltinOptions) -> Result<Scene, SceneError> {
+    if opts.width == 0 || opts.height == 0 {
+        return Err(SceneError::BadOption(
+            "image size must be at least 1x1".into(),
+        ));
+    }
+    match name {
+        "cornell" => Ok(cornell(opts.width, opts.height)),
+        "many-lights" => many_lights(opts.lights, opts.seed, opts.width, opts.height),
+        "furnace" => furnace(opts.rho, opts.le, opts.width, opts.height),
+        "furnace-sphere" => furnace_sphere(opts.rho, opts.le, opts.width, opts.height),
+        _ => Err(SceneError::UnknownBuiltin { name: name.into() }),
+    }
+}
+
+/// The Cornell box from the Cornell University Program of Computer Graphics' published
+/// measurements ("Cornell Box Data", graphics.cornell.edu/online/box/data.html): the measured
+/// geometry in millimetres scaled to metres (x 0.001): floor 552.8 x 559.2 (slightly
+/// non-rectangular, as measured), ceiling at y = 548.8 with the light 343-213 (x) by 227-332 (z),
+/// the short and the tall block. The ceiling is cut around the light so the two do not overlap.
+///
+/// Reflectances are the usual RGB approximations of the measured spectra: white 0.73,
+/// red (0.63, 0.065, 0.05), green (0.14, 0.45, 0.091). The light's radiance (17, 12, 4) is the
+/// RGB approximation used by the common pbrt/Mitsuba conversions of this scene. The camera is
+/// the published one: eye (278, 273, -800) mm looking along +z, 35 mm focal length on a
+/// 25 mm film, i.e. a vertical field of view of 2 atan(12.5 / 35) = 39.3 degrees.
+pub fn cornell(width: u32, height: u32) -> Scene {
+    let mut s = Scene::default();
+    let white = s.add_material(Material::new([0.73; 3], [0.0; 3]));
+    let red = s.add_material(Material::new([0.63, 0.065, 0.05], [0.0; 3]));
+    let green = s.add_material(Material::new([0.14, 0.45, 0.091], [0.0; 3]));
+    let light = s.add_material(Material::new([0.78; 3], [17.0, 12.0, 4.0]));
+    let mm = |x: f32, y: f32, z: f32| Vec3::new(x, y, z) * 0.001;
+    let quad = |s: &mut Scene, q: [[f32; 3]; 4], m: u32| {
+        s.push_quad(q.map(|p| mm(p[0], p[1], p[2])), m);
+    };
+    // Floor.
+    quad(
+        &mut s,
+        [
+            [552.8, 0.0, 0.0],
+            [0.0, 0.0, 0.0],
+            [0.0, 0.0, 559.2],
+            [549.6, 0.0, 559.2],
+        ],
+        white,
+    );
+    // Ceiling (556 x 559.2 at y = 548.8) in four pieces around the light's hole.
+    let y = 548.8;
+    for (x0, x1, z0, z1) in [
+        (0.0, 556.0, 0.0, 227.0),
+        (0.0, 556.0, 332.0, 559.2),
+        (0.0, 213.0, 227.0, 332.0),
+        (343.0, 556.0, 227.0, 332.0),
+    ] {
+        quad(
+            &mut s,
+            [[x1, y, z0], [x1, y, z1], [x0, y, z1], [x0, y, z0]],
+            white,
+        );
+    }
+    // Light.
+    quad(
+        &mut s,
+        [
+            [343.0, y, 227.0],
+            [343.0, y, 332.0],
+            [213.0, y, 332.0],
+            [213.0, y, 227.0],
+        ],
+        light,
+    );
+    // Back wall.
+    quad(
+        &mut s,
+        [
+            [549.6, 0.0, 559.2],
+            [0.0, 0.0, 559.2],
+            [0.0, 548.8, 559.2],
+            [556.0, 548.8, 559.2],
+        ],
+        white,
+    );
+    // Right wall (green, x = 0).
+    quad(
+        &mut s,
+        [
+            [0.0, 0.0, 559.2],
+            [0.0, 0.0, 0.0],
+            [0.0, 548.8, 0.0],
+            [0.0, 548.8, 559.2],
+        ],
+        green,
+    );
+    // Left wall (red, x ~ 550).
+    quad(
+        &mut s,
+        [
+            [552.8, 0.0, 0.0],
+            [549.6, 0.0, 559.2],
+            [556.0, 548.8, 559.2],
+            [556.0, 548.8, 0.0],
+        ],
+        red,
+    );
+    // Short block: top, then four sides.
+    let short: [[[f32; 3]; 4]; 5] = [
+        [
+            [130.0, 165.0, 65.0],
+            [82.0, 165.0, 225.0],
+            [240.0, 165.0, 272.0],
+            [290.0, 165.0, 114.0],
+        ],
+        [
+            [290.0, 0.0, 114.0],
+            [290.0, 165.0, 114.0],
+            [240.0, 165.0, 272.0],
+            [240.0, 0.0, 272.0],
+        ],
+        [
+            [130.0, 0.0, 65.0],
+            [130.0, 165.0, 65.0],
+            [290.0, 165.0, 114.0],
+            [290.0, 0.0, 114.0],
+        ],
+        [
+            [82.0, 0.0, 225.0],
+            [82.0, 165.0, 225.0],
+            [130.0, 165.0, 65.0],
+            [130.0, 0.0, 65.0],
+        ],
+        [
+            [240.0, 0.0, 272.0],
+            [240.0, 165.0, 272.0],
+            [82.0, 165.0, 225.0],
+            [82.0, 0.0, 225.0],
+        ],
+    ];
+    // Tall block: top, then four sides.
+    let tall: [[[f32; 3]; 4]; 5] = [
+        [
+            [423.0, 330.0, 247.0],
+            [265.0, 330.0, 296.0],
+            [314.0, 330.0, 456.0],
+            [472.0, 330.0, 406.0],
+        ],
+        [
+            [423.0, 0.0, 247.0],
+            [423.0, 330.0, 247.0],
+            [472.0, 330.0, 406.0],
+            [472.0, 0.0, 406.0],
+        ],
+        [
+            [472.0, 0.0, 406.0],
+            [472.0, 330.0, 406.0],
+            [314.0, 330.0, 456.0],
+            [314.0, 0.0, 456.0],
+        ],
+        [
+            [314.0, 0.0, 456.0],
+            [314.0, 330.0, 456.0],
+            [265.0, 330.0, 296.0],
+            [265.0, 0.0, 296.0],
+        ],
+        [
+            [265.0, 0.0, 296.0],
+            [265.0, 330.0, 296.0],
+            [423.0, 330.0, 247.0],
+            [423.0, 0.0, 247.0],
+        ],
+    ];
+    for q in short.into_iter().chain(tall) {
+        quad(&mut s, q, white);
+    }
+    s.camera = Some(Camera {
+        eye: mm(278.0, 273.0, -800.0),
+        target: mm(278.0, 273.0, 0.0),
+        up: Vec3::Y,
+        vfov_deg: 2.0 * (12.5f32 / 35.0).atan().to_degrees(),
+        width,
+        height,
+    });
+    s
+}
+
+/// Side length (x, z) and height (y) of the `many-lights` hall, metres.
+pub const HALL_SIZE: f32 = 24.0;
+pub const HALL_HEIGHT: f32 = 6.0;
+
+/// An enclosed hall (24 x 6 x 24 m, white-ish walls, floor and ceiling) lit only by `lights`
+/// small two-sided emissive quads (0.1-0.3 m, random orientation) scattered in its upper half,
+/// of varied colour (random hue) and power (log-uniform over two decades), plus occluders:
+/// a 4 x 4 grid of pillars and 40 random crates. The total emitted power is fixed
+/// independently of `lights`, so images stay comparably exposed. Deterministic in `seed`.
+pub fn many_lights(lights: u32, seed: u32, width: u32, height: u32) -> Result<Scene, SceneError> {
+    if lights == 0 || lights > 4_000_000 {
+        return Err(SceneError::BadOption(format!(
+            "many-lights: light count {lights} must be in 1..=4000000"
+        )));
+    }
+    let mut s = Scene::default();
+    let (w, h) = (HALL_SIZE, HALL_HEIGHT);
+    let floor = s.add_material(Material::new([0.6, 0.58, 0.55], [0.0; 3]));
+    let wall = s.add_material(Material::new([0.7; 3], [0.0; 3]));
+    let pillar = s.add_material(Material::new([0.5, 0.45, 0.4], [0.0; 3]));
+    let crate_m = s.add_material(Material::new([0.35, 0.5, 0.65], [0.0; 3]));
+    // Hall: floor, ceiling and four walls (an inward-facing box, two-sided anyway).
+    s.push_box(Vec3::ZERO, Vec3::new(w, h, w), wall);
+    s.triangles[0].material = floor;
+    s.triangles[1].material = floor;
+    // Pillars.
+    for i in 0..4 {
+        for j in 0..4 {
+            let c = Vec3::new(w * (i as f32 + 0.5) / 4.0, 0.0, w * (j as f32 + 0.5) / 4.0);
+            s.push_box(
+                c - Vec3::new(0.4, 0.0, 0.4),
+                c + Vec3::new(0.4, h, 0.4),
+                pillar,
+            );
+        }
+    }
+    let mut rng = Rng::seed(0x5ce9e, seed, 1);
+    // Crates.
+    for _ in 0..40 {
+        let x = 1.0 + rng.next_f32() * (w - 2.0);
+        let z = 1.0 + rng.next_f32() * (w - 2.0);
+        let size = Vec3::new(
+            0.5 + rng.next_f32(),
+            0.4 + 1.6 * rng.next_f32(),
+            0.5 + rng.next_f32(),
+        );
+        let lo = Vec3::new(x, 0.0, z);
+        s.push_box(lo, lo + size, crate_m);
+    }
+    // Lights: draw everything first, then normalize the powers.
+    struct Q {
+        corners: [Vec3; 4],
+        color: Vec3,
+        power: f32,
+    }
+    let mut quads = Vec::with_capacity(lights as usize);
+    let mut power_sum = 0.0f64;
+    for _ in 0..lights {
+        let c = Vec3::new(
+            0.3 + rng.next_f32() * (w - 0.6),
+            0.5 * h + rng.next_f32() * (0.5 * h - 0.3),
+            0.3 + rng.next_f32() * (w - 0.6),
+        );
+        // Random orientation: a uniform direction for the normal, a random size.
+        let z = 1.0 - 2.0 * rng.next_f32();
+        let phi = std::f32::consts::TAU * rng.next_f32();
+        let r = (1.0 - z * z).max(0.0).sqrt();
+        let n = Vec3::new(r * phi.cos(), z, r * phi.sin());
+        let (t, b) = n.any_orthonormal_pair();
+        let half = 0.5 * (0.1 + 0.2 * rng.next_f32());
+        let (t, b) = (t * half, b * half);
+        let corners = [c - t - b, c + t - b, c + t + b, c - t + b];
+        let hue = rng.next_f32() * 6.0;
+        let color = hue_rgb(hue, 0.25 + 0.75 * rng.next_f32());
+        let power = 10f32.powf(2.0 * rng.next_f32()); // 1..100, relative
+        power_sum += f64::from(power);
+        quads.push(Q {
+            corners,
+            color,
+            power,
+        });
+    }
+    // Total two-sided power P = sum 2 pi A_i L_i; aim for an average irradiance of about pi
+    // on the hall's surfaces (white surfaces then look about 1 before tone mapping).
+    let surface = 2.0 * w * w + 4.0 * w * h;
+    let target = f64::from(surface) * 0.5; // sum A_i L_i (luminance)
+    s.materials.reserve(quads.len());
+    s.triangles.reserve(2 * quads.len());
+    for q in quads {
+        let area = (q.corners[1] - q.corners[0])
+            .cross(q.corners[3] - q.corners[0])
+            .length();
+        let lum = (target * f64::from(q.power) / power_sum) as f32 / area;
+        let e = q.color * lum;
+        let m = s.add_material(Material::new([0.8; 3], e.to_array()));
+        s.push_quad(q.corners, m);
+    }
+    s.camera = Some(Camera {
+        eye: Vec3::new(1.5, 1.7, 1.5),
+        target: Vec3::new(w * 0.6, 2.2, w * 0.75),
+        up: Vec3::Y,
+        vfov_deg: 60.0,
+        width,
+        height,
+    });
+    Ok(s)
+}
+
+/// A fully saturated hue (0..6) blended towards white by `1 - saturation`, scaled to unit
+/// luminance (Rec. 709 weights).
+fn hue_rgb(hue: f32, saturation: f32) -> Vec3 {
+    let x = 1.0 - (hue % 2.0 - 1.0).abs();
+    let c = match hue as u32 {
+        0 => Vec3::new(1.0, x, 0.0),
+        1 => Vec3::new(x, 1.0, 0.0),
+        2 => Vec3::new(0.0, 1.0, x),
+        3 => Vec3::new(0.0, x, 1.0),
+        4 => Vec3::new(x, 0.0, 1.0),
+        _ => Vec3::new(1.0, 0.0, x),
+    };
+    let c = Vec3::ONE.lerp(c, saturation);
+    c / luminance(c.to_array())
+}
+
+/// Rec. 709 luminance of a linear RGB triple.
+pub fn luminance(c: [f32; 3]) -> f32 {
+    0.2126 * c[0] + 0.7152 * c[1] + 0.0722 * c[2]
+}
+
+/// Side length of the `furnace` box, metres.
+pub const FURNACE_SIZE: f32 = 2.0;
+
+/// The white furnace: a closed 2 m cube in which every surface has grey albedo `rho` and
+/// emits grey radiance `le`, seen from its centre (60 degree field of view). Analytic values
+/// at every visible point: emitted `le`, direct lighting reflected `rho le`, one-bounce indirect
+/// `rho^2 le`, converged radiance `le / (1 - rho)`.
+pub fn furnace(rho: f32, le: f32, width: u32, height: u32) -> Result<Scene, SceneError> {
+    if !((0.0..=1.0).contains(&rho) && le.is_finite() && le >= 0.0) {
+        return Err(SceneError::BadOption(format!(
+            "furnace: rho {rho} must be in [0, 1] and Le {le} finite and >= 0"
+        )));
+    }
+    let mut s = Scene::default();
+    let m = s.add_material(Material::new([rho; 3], [le; 3]));
+    let half = 0.5 * FURNACE_SIZE;
+    s.push_box(Vec3::splat(-half), Vec3::splat(half), m);
+    s.camera = Some(Camera {
+        eye: Vec3::ZERO,
+        target: Vec3::Z,
+        up: Vec3::Y,
+        vfov_deg: 60.0,
+        width,
+        height,
+    });
+    Ok(s)
+}
+
+/// Radius of the `furnace-sphere`, metres.
+pub const FURNACE_SPHERE_RADIUS: f32 = 1.0;
+
+/// The white furnace as a closed icosphere (icosahedron subdivided 3 times: 1280 triangles,
+/// watertight) of radius 1 m, seen from its centre. Same analytic values as [`furnace`] (any
+/// closed enclosure gives irradiance pi Le everywhere), but a far better-behaved estimator:
+/// on a sphere cos_x cos_y / d^2 = 1 / (4 R^2) for any two points, so area light sampling has
+/// almost no variance, whereas in the box that term is unbounded near the edges (the NEE
+/// estimator's variance diverges there and fixed-seed means scatter by a few percent).
+/// Use this one for tight furnace tests.
+pub fn furnace_sphere(rho: f32, le: f32, width: u32, height: u32) -> Result<Scene, SceneError> {
+    let mut s = furnace(rho, le, width, height)?;
+    s.triangles.clear();
+    let t = (1.0 + 5f32.sqrt()) / 2.0;
+    let v = [
+        [-1.0, t, 0.0],
+        [1.0, t, 0.0],
+        [-1.0, -t, 0.0],
+        [1.0, -t, 0.0],
+        [0.0, -1.0, t],
+        [0.0, 1.0, t],
+        [0.0, -1.0, -t],
+        [0.0, 1.0, -t],
+        [t, 0.0, -1.0],
+        [t, 0.0, 1.0],
+        [-t, 0.0, -1.0],
+        [-t, 0.0, 1.0],
+    ]
+    .map(|p| Vec3::from(p).normalize());
+    let faces: [[usize; 3]; 20] = [
+        [0, 11, 5],
+        [0, 5, 1],
+        [0, 1, 7],
+        [0, 7, 10],
+        [0, 10, 11],
+        [1, 5, 9],
+        [5, 11, 4],
+        [11, 10, 2],
+        [10, 7, 6],
+        [7, 1, 8],
+        [3, 9, 4],
+        [3, 4, 2],
+        [3, 2, 6],
+        [3, 6, 8],
+        [3, 8, 9],
+        [4, 9, 5],
+        [2, 4, 11],
+        [6, 2, 10],
+        [8, 6, 7],
+        [9, 8, 1],
+    ];
+    let mut tris: Vec<[Vec3; 3]> = faces.iter().map(|f| f.map(|i| v[i])).collect();
+    // Midpoints are computed symmetrically ((a + b) * 0.5 is commutative), so neighbours share
+    // bit-identical vertices and the mesh stays watertight.
+    let mid = |a: Vec3, b: Vec3| ((a + b) * 0.5).normalize();
+    for _ in 0..3 {
+        tris = tris
+            .into_iter()
+            .flat_map(|[a, b, c]| {
+                let (ab, bc, ca) = (mid(a, b), mid(b, c), mid(c, a));
+                [[a, ab, ca], [b, bc, ab], [c, ca, bc], [ab, bc, ca]]
+            })
+            .collect();
+    }
+    for t in tris {
+        s.triangles.push(super::Triangle::new(
+            t.map(|p| p * FURNACE_SPHERE_RADIUS),
+            0,
+        ));
+    }
+    Ok(s)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn builtins_are_clean_and_have_cameras() {
+        for name in BUILTIN_NAMES {
+            let mut s = builtin(
+                name,
+                &BuiltinOptions {
+                    lights: 100,
+                    ..Default::default()
+                },
+            )
+            .unwrap();
+            let r = s.sanitize(name).unwrap();
+            assert!(r.is_clean(), "{name}: {r}");
+            s.camera.unwrap().validate().unwrap();
+            assert!(s.emissive_triangles() > 0, "{name}");
+        }
+        assert!(matches!(
+            builtin("nope", &BuiltinOptions::default()),
+            Err(SceneError::UnknownBuiltin { .. })
+        ));
+    }
+
+    #[test]
+    fn cornell_matches_the_published_measurements() {
+        let s = cornell(8, 8);
+        assert_eq!(s.triangles.len(), 2 * (1 + 4 + 1 + 3 + 10));
+        let (lo, hi) = s.bounds().unwrap();
+        assert!((lo - Vec3::ZERO).abs().max_element() < 1e-6);
+        assert!((hi - Vec3::new(0.556, 0.5488, 0.5592)).abs().max_element() < 1e-6);
+        let light_area: f32 = s
+            .triangles
+            .iter()
+            .filter(|t| s.materials[t.material as usize].is_emissive())
+            .map(|t| t.area())
+            .sum();
+        assert!((light_area - 0.130 * 0.105).abs() < 1e-6);
+        let fov = s.camera.unwrap().vfov_deg;
+        assert!((fov - 39.3).abs() < 0.05, "{fov}");
+    }
+
+    #[test]
+    fn many_lights_scales_and_is_deterministic() {
+        let a = many_lights(1000, 3, 4, 4).unwrap();
+        let b = many_lights(1000, 3, 4, 4).unwrap();
+        assert_eq!(a, b);
+        assert_eq!(a.emissive_triangles(), 2000);
+        let c = many_lights(1000, 4, 4, 4).unwrap();
+        assert_ne!(a, c);
+        let big = many_lights(100_000, 1, 4, 4).unwrap();
+        assert_eq!(big.emissive_triangles(), 200_000);
+        assert!(many_lights(0, 1, 4, 4).is_err());
+    }
+
+    #[test]
+    fn furnace_is_closed_and_uniform() {
+        let s = furnace(0.5, 2.0, 4, 4).unwrap();
+        assert_eq!(s.triangles.len(), 12);
+        assert_eq!(s.materials, vec![Material::new([0.5; 3], [2.0; 3])]);
+        assert!(furnace(1.5, 1.0, 4, 4).is_err());
+        assert!(furnace(0.5, f32::NAN, 4, 4).is_err());
+        let sphere = furnace_sphere(0.5, 2.0, 4, 4).unwrap();
+        assert_eq!(sphere.triangles.len(), 1280);
+        // Watertight: every edge is shared by exactly two triangles.
+        let mut edges = std::collections::HashMap::new();
+        for t in &sphere.triangles {
+            for k in 0..3 {
+                let (a, b) = (t.v[k].to_array(), t.v[(k + 1) % 3].to_array());
+                let key = if a.map(f32::to_bits) < b.map(f32::to_bits) {
+                    (a.map(f32::to_bits), b.map(f32::to_bits))
+                } else {
+                    (b.map(f32::to_bits), a.map(f32::to_bits))
+                };
+                *edges.entry(key).or_insert(0) += 1;
+            }
+        }
+        assert!(edges.values().all(|&n| n == 2));
+    }
+}
