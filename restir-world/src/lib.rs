@@ -13,16 +13,21 @@ pub mod gpu;
 pub mod image_io;
 pub mod lights;
 pub mod reference;
+pub mod render;
 pub mod sampling;
 pub mod scene;
+pub mod trace;
 
 pub use gpu::{GpuContext, GpuError, GpuTimer};
 
 /// Every WGSL module this crate ships, composed as it is used, as `(name, source)`: the
 /// workspace's naga checks validate each of them.
 pub fn wgsl_modules() -> Vec<(String, String)> {
-    vec![
+    let mut modules = vec![
         ("restir-world/sampling".into(), sampling::WGSL.into()),
         ("restir-world/lights".into(), lights::composed_wgsl(0, 0)),
-    ]
+    ];
+    modules.extend(trace::wgsl_modules());
+    modules.extend(render::wgsl_modules());
+    modules
 }

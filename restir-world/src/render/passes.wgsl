@@ -1,0 +1,104 @@
+// The renderer's passes, one entry point each, all over one pixel per invocation:
+// render_primary -> render_gi -> [world-space ReSTIR passes go here] -> render_shade_direct,
+// render_shade_indirect -> render_accumulate.
+
+override WORKGROUP_SIZE: u32 = 64u;
+
+fn render_index(gid: vec3<u32>, groups: vec3<u32>) -> u32 {
+    return gid.x + gid.y * groups.x * WORKGROUP_SIZE;
+}
+
+// Camera ray with a uniform sub-pixel jitter (box filter) -> G-buffer.
+@compute @workgroup_size(WORKGROUP_SIZE)
+fn render_primary(@builtin(global_invocation_id) gid: vec3<u32>,
+                  @builtin(num_workgroups) groups: vec3<u32>) {
+    let i = render_index(gid, groups);
+    if i >= render_params.pixel_count {
+        return;
+    }
+    var rng = render_rng(i, RENDER_PASS_PRIMARY);
+    let w = render_params.camera.width;
+    let jitter = vec2<f32>(rng_next_f32(&rng), rng_next_f32(&rng));
+    var ray: Ray;
+    ray.origin = render_params.camera.eye;
+    ray.tmin = 0.0;
+    ray.dir = camera_ray_dir(render_params.camera, vec2<u32>(i % w, i / w), jitter);
+    ray.tmax = RENDER_T_MAX;
+    render_gbuffer[i] = render_surface(ray.dir, trace_closest(ray));
+}
+
+// One cosine-weighted GI ray from each primary hit -> secondary vertex.
+@compute @workgroup_size(WORKGROUP_SIZE)
+fn render_gi(@builtin(global_invocation_id) gid: vec3<u32>,
+             @builtin(num_workgroups) groups: vec3<u32>) {
+    let i = render_index(gid, groups);
+    if i >= render_params.pixel_count {
+        return;
+    }
+    let g = render_gbuffer[i];
+    if g.prim == BVH_NO_HIT {
+        var none: GVertex;
+        none.prim = BVH_NO_HIT;
+        render_secondary[i] = none;
+        return;
+    }
+    var rng = render_rng(i, RENDER_PASS_GI);
+    let u = vec2<f32>(rng_next_f32(&rng), rng_next_f32(&rng));
+    var ray: Ray;
+    ray.origin = render_offset(g.position, g.normal);
+    ray.tmin = 0.0;
+    ray.dir = sampling_cosine_hemisphere(g.normal, u);
+    ray.tmax = RENDER_T_MAX;
+    render_secondary[i] = render_surface(ray.dir, trace_closest(ray));
+}
+
+// Direct light at the primary vertex: emission seen + NEE.
+@compute @workgroup_size(WORKGROUP_SIZE)
+fn render_shade_direct(@builtin(global_invocation_id) gid: vec3<u32>,
+                       @builtin(num_workgroups) groups: vec3<u32>) {
+    let i = render_index(gid, groups);
+    if i >= render_params.pixel_count {
+        return;
+    }
+    let g = render_gbuffer[i];
+    var c = vec3<f32>(0.0);
+    if g.prim != BVH_NO_HIT {
+        var rng = render_rng(i, RENDER_PASS_DIRECT);
+        c = g.emission + render_nee(g, &rng);
+    }
+    render_direct_frame[i] = vec4<f32>(c, 1.0);
+}
+
+// One-bounce indirect light: primary albedo x (NEE at the secondary vertex); the cosine pdf of
+// the GI ray cancels the cosine and 1/pi of the primary's BRDF.
+@compute @workgroup_size(WORKGROUP_SIZE)
+fn render_shade_indirect(@builtin(global_invocation_id) gid: vec3<u32>,
+                         @builtin(num_workgroups) groups: vec3<u32>) {
+    let i = render_index(gid, groups);
+    if i >= render_params.pixel_count {
+        return;
+    }
+    let g = render_gbuffer[i];
+    let s = render_secondary[i];
+    var c = vec3<f32>(0.0);
+    if g.prim != BVH_NO_HIT && s.prim != BVH_NO_HIT {
+        var rng = render_rng(i, RENDER_PASS_INDIRECT);
+        c = g.albedo * render_nee(s, &rng);
+    }
+    render_indirect_frame[i] = vec4<f32>(c, 1.0);
+}
+
+// Adds this frame's direct and indirect estimates to the running sums; advances the frame.
+@compute @workgroup_size(WORKGROUP_SIZE)
+fn render_accumulate(@builtin(global_invocation_id) gid: vec3<u32>,
+                     @builtin(num_workgroups) groups: vec3<u32>) {
+    let i = render_index(gid, groups);
+    if i == 0u {
+        render_state.frame += 1u;
+    }
+    if i >= render_params.pixel_count {
+        return;
+    }
+    render_accum_direct[i] += render_direct_frame[i];
+    render_accum_indirect[i] += render_indirect_frame[i];
+}

@@ -1,0 +1,184 @@
+// Renderer library: the G-buffer vertex, surface reconstruction at a hit, and next-event
+// estimation (one light sample, or RIS over K light candidates) with one shadow ray.
+// Functions and structs only. Needs: trace.wgsl (+ its header), sampling.wgsl, lights.wgsl
+// (+ its header), reservoir's rng.wgsl, the constants header `render::constants_wgsl` and the
+// bindings header `render::bindings_wgsl` (render_params, render_materials, ...).
+// CPU reference with the same estimators: restir_world::reference.
+
+// Material, as restir_world::scene::Material.
+struct Material {
+    albedo: vec3<f32>,
+    _pad0: f32,
+    emission: vec3<f32>,
+    _pad1: f32,
+}
+
+// A surface vertex: `prim` is the BVH-order triangle (BVH_NO_HIT: the ray escaped), `normal`
+// the unit geometric normal turned towards the incoming ray.
+struct GVertex {
+    position: vec3<f32>,
+    prim: u32,
+    normal: vec3<f32>,
+    _pad0: u32,
+    albedo: vec3<f32>,
+    _pad1: u32,
+    emission: vec3<f32>,
+    _pad2: u32,
+}
+
+// Per-render constants. method: RENDER_METHOD_NEE or RENDER_METHOD_RIS.
+struct RenderParams {
+    camera: CameraGpu,
+    pixel_count: u32,
+    seed: u32,
+    method: u32,
+    candidates: u32,
+}
+
+// GPU-side frame counter: advanced by render_accumulate, read by every pass for its seeds.
+struct RenderState {
+    frame: u32,
+    _pad0: u32,
+    _pad1: u32,
+    _pad2: u32,
+}
+
+fn render_luminance(c: vec3<f32>) -> f32 {
+    return dot(c, vec3<f32>(0.2126, 0.7152, 0.0722));
+}
+
+// Random state of pass `pass_id` at pixel `pixel` in the current frame.
+fn render_rng(pixel: u32, pass_id: u32) -> u32 {
+    return rng_seed(pixel, render_state.frame, render_params.seed * RENDER_PASS_COUNT + pass_id);
+}
+
+fn render_rand4(rng: ptr<function, u32>) -> vec4<f32> {
+    let a = rng_next_f32(rng);
+    let b = rng_next_f32(rng);
+    let c = rng_next_f32(rng);
+    let d = rng_next_f32(rng);
+    return vec4<f32>(a, b, c, d);
+}
+
+// The surface the ray (origin + t dir) hit.
+fn render_surface(dir: vec3<f32>, hit: Hit) -> GVertex {
+    var v: GVertex;
+    v.prim = hit.prim;
+    if hit.prim == BVH_NO_HIT {
+        return v;
+    }
+    let tri = bvh_triangles[hit.prim];
+    let e1 = tri.v1 - tri.v0;
+    let e2 = tri.v2 - tri.v0;
+    v.position = tri.v0 + hit.b1 * e1 + hit.b2 * e2;
+    var n = normalize(cross(e1, e2));
+    if dot(n, dir) > 0.0 {
+        n = -n;
+    }
+    v.normal = n;
+    let m = render_materials[tri.material];
+    v.albedo = m.albedo;
+    v.emission = m.emission;
+    return v;
+}
+
+// Origin offset off a surface along its normal, scaled with the coordinates' magnitude.
+fn render_offset(p: vec3<f32>, n: vec3<f32>) -> vec3<f32> {
+    let scale = max(1.0, max(abs(p.x), max(abs(p.y), abs(p.z))));
+    return p + n * (RENDER_RAY_EPS * scale);
+}
+
+// Unshadowed reflected radiance integrand in area measure (no pdf): BRDF * Le * G.
+fn render_light_contribution(p: vec3<f32>, n: vec3<f32>, albedo: vec3<f32>, s: LightSample) -> vec3<f32> {
+    let to_light = s.position - p;
+    let d2 = dot(to_light, to_light);
+    if d2 <= 0.0 {
+        return vec3<f32>(0.0);
+    }
+    let wi = to_light * inverseSqrt(d2);
+    let cos_x = dot(n, wi);
+    let cos_l = abs(dot(s.normal, wi));
+    if cos_x <= 0.0 {
+        return vec3<f32>(0.0);
+    }
+    return albedo * SAMPLING_INV_PI * s.emission * (cos_x * cos_l / d2);
+}
+
+// Whether the segment from the surface point p (normal n) to the light point q is unoccluded.
+fn render_visible(p: vec3<f32>, n: vec3<f32>, q: vec3<f32>) -> bool {
+    let o = render_offset(p, n);
+    let to = q - o;
+    let d = length(to);
+    if d <= 0.0 {
+        return false;
+    }
+    var ray: Ray;
+    ray.origin = o;
+    ray.tmin = 0.0;
+    ray.dir = to / d;
+    let scale = max(1.0, max(abs(q.x), max(abs(q.y), abs(q.z))));
+    ray.tmax = d - RENDER_RAY_EPS * scale;
+    return !trace_any(ray);
+}
+
+// Reflected direct light at (p, n, albedo) from one light sample with a shadow ray.
+fn render_nee_one(p: vec3<f32>, n: vec3<f32>, albedo: vec3<f32>, rng: ptr<function, u32>) -> vec3<f32> {
+    let s = lights_sample(render_rand4(rng));
+    if s.pdf_area <= 0.0 {
+        return vec3<f32>(0.0);
+    }
+    let f = render_light_contribution(p, n, albedo, s);
+    if all(f == vec3<f32>(0.0)) || !render_visible(p, n, s.position) {
+        return vec3<f32>(0.0);
+    }
+    return f / s.pdf_area;
+}
+
+// Reflected direct light by RIS over `candidates` light samples (target: luminance of the
+// unshadowed contribution), then one shadow ray for the selected sample.
+// Plain streaming RIS loop; to be replaced by the reservoir crate's helpers once they exist.
+fn render_nee_ris(p: vec3<f32>, n: vec3<f32>, albedo: vec3<f32>, candidates: u32,
+                  rng: ptr<function, u32>) -> vec3<f32> {
+    var w_sum = 0.0;
+    var chosen_f = vec3<f32>(0.0);
+    var chosen_p_hat = 0.0;
+    var chosen_pos = vec3<f32>(0.0);
+    for (var k = 0u; k < candidates; k++) {
+        let s = lights_sample(render_rand4(rng));
+        let u = rng_next_f32(rng);
+        if s.pdf_area <= 0.0 {
+            continue;
+        }
+        let f = render_light_contribution(p, n, albedo, s);
+        let p_hat = render_luminance(f);
+        let w = p_hat / s.pdf_area;
+        if w <= 0.0 {
+            continue;
+        }
+        w_sum += w;
+        if u * w_sum < w {
+            chosen_f = f;
+            chosen_p_hat = p_hat;
+            chosen_pos = s.position;
+        }
+    }
+    if w_sum <= 0.0 || chosen_p_hat <= 0.0 {
+        return vec3<f32>(0.0);
+    }
+    if !render_visible(p, n, chosen_pos) {
+        return vec3<f32>(0.0);
+    }
+    let big_w = w_sum / (f32(candidates) * chosen_p_hat);
+    return chosen_f * big_w;
+}
+
+// Reflected direct light at a surface vertex with the render's method.
+fn render_nee(v: GVertex, rng: ptr<function, u32>) -> vec3<f32> {
+    if lights_info.count == 0u {
+        return vec3<f32>(0.0);
+    }
+    if render_params.method == RENDER_METHOD_RIS {
+        return render_nee_ris(v.position, v.normal, v.albedo, render_params.candidates, rng);
+    }
+    return render_nee_one(v.position, v.normal, v.albedo, rng);
+}

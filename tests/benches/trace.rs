@@ -1,0 +1,197 @@
+//! Rays per second of the WGSL CWBVH traversal on the GPU for coherent primary rays, incoherent
+//! GI rays and shadow rays (any hit), against obvhs's CPU traversal (same watertight test) on all
+//! host cores on the same rays. Also reports the BVH build time (CPU, obvhs medium preset).
+//!
+//! On lavapipe the "GPU" is the same CPU, so the CPU traversal is the honest peer: the ratio
+//! gpu_rays_per_s / cpu_rays_per_s is the number to read.
+
+use std::time::Instant;
+
+use criterion::{Criterion, Throughput, criterion_group, criterion_main};
+use glam::Vec3;
+use rand::{Rng, SeedableRng, rngs::StdRng};
+use restir_world::sampling::CameraGpu;
+use restir_world::scene::{BuiltinOptions, Scene, builtin};
+use restir_world::trace::{Bvh, Hit, Ray, TraceKernel};
+use tests::{bench, buffers, gpu};
+
+const SIDE: u32 = 256;
+
+fn scenes() -> Vec<(&'static str, Scene)> {
+    let opts = BuiltinOptions {
+        width: SIDE,
+        height: SIDE,
+        ..Default::default()
+    };
+    ["cornell", "many-lights"]
+        .into_iter()
+        .map(|name| (name, builtin(name, &opts).expect("built-in scene")))
+        .collect()
+}
+
+/// Pinhole rays through pixel centres.
+fn primary_rays(scene: &Scene) -> Vec<Ray> {
+    let cam = CameraGpu::new(&scene.camera_or_default(SIDE, SIDE));
+    let mut rays = Vec::new();
+    for y in 0..SIDE {
+        for x in 0..SIDE {
+            let d = cam.ray_dir([x, y], glam::Vec2::splat(0.5));
+            rays.push(Ray::new(Vec3::from(cam.eye), d, 0.0, f32::MAX));
+        }
+    }
+    rays
+}
+
+fn hit_frame(bvh: &Bvh, ray: &Ray, hit: &Hit) -> (Vec3, Vec3) {
+    let t = &bvh.triangles[hit.prim as usize];
+    let (v0, v1, v2) = (Vec3::from(t.v0), Vec3::from(t.v1), Vec3::from(t.v2));
+    let mut n = (v1 - v0).cross(v2 - v0).normalize();
+    if n.dot(Vec3::from(ray.dir)) > 0.0 {
+        n = -n;
+    }
+    let p = v0 + (v1 - v0) * hit.b1 + (v2 - v0) * hit.b2;
+    (p + n * 1e-4, n)
+}
+
+/// One cosine-weighted GI ray and one shadow ray (to a random point on a random emissive
+/// triangle, or a random direction when there is none) per primary hit.
+fn secondary_rays(scene: &Scene, bvh: &Bvh, primary: &[Ray], hits: &[Hit]) -> (Vec<Ray>, Vec<Ray>) {
+    let mut rng = StdRng::seed_from_u64(7);
+    let emissive: Vec<usize> = (0..scene.triangles.len())
+        .filter(|&i| {
+            scene
+                .materials
+                .get(scene.triangles[i].material as usize)
+                .is_some_and(|m| m.is_emissive())
+        })
+        .collect();
+    let (mut gi, mut shadow) = (Vec::new(), Vec::new());
+    for (ray, hit) in primary.iter().zip(hits) {
+        if !hit.is_hit() {
+            continue;
+        }
+        let (p, n) = hit_frame(bvh, ray, hit);
+        let (u1, u2): (f32, f32) = (rng.random(), rng.random());
+        let (b1, b2) = n.any_orthonormal_pair();
+        let r = u1.sqrt();
+        let phi = std::f32::consts::TAU * u2;
+        let d = b1 * (r * phi.cos()) + b2 * (r * phi.sin()) + n * (1.0 - u1).max(0.0).sqrt();
+        gi.push(Ray::new(p, d.normalize(), 0.0, f32::MAX));
+        if emissive.is_empty() {
+            shadow.push(Ray::new(p, d.normalize(), 0.0, 1.0));
+        } else {
+            let t = &scene.triangles[emissive[rng.random_range(0..emissive.len())]];
+            let (mut a, mut b): (f32, f32) = (rng.random(), rng.random());
+            if a + b > 1.0 {
+                a = 1.0 - a;
+                b = 1.0 - b;
+            }
+            let q = t.v[0] + (t.v[1] - t.v[0]) * a + (t.v[2] - t.v[0]) * b;
+            let to = q - p;
+            let dist = to.length();
+            shadow.push(Ray::new(p, to / dist, 0.0, dist * (1.0 - 1e-3)));
+        }
+    }
+    (gi, shadow)
+}
+
+/// obvhs CPU traversal on all host cores; returns rays per second (best of 3).
+fn cpu_rays_per_s(bvh: &Bvh, rays: &[Ray], any_hit: bool) -> f64 {
+    let threads = std::thread::available_parallelism().map_or(1, |n| n.get());
+    let chunk = rays.len().div_ceil(threads);
+    let mut best = f64::MAX;
+    for _ in 0..3 {
+        let t0 = Instant::now();
+        let hits: usize = std::thread::scope(|s| {
+            let handles: Vec<_> = rays
+                .chunks(chunk)
+                .map(|c| {
+                    s.spawn(move || {
+                        c.iter()
+                            .filter(|r| {
+                                if any_hit {
+                                    bvh.any_hit(r)
+                                } else {
+                                    bvh.closest_hit(r).is_hit()
+                                }
+                            })
+                            .count()
+                    })
+                })
+                .collect();
+            handles.into_iter().map(|h| h.join().unwrap_or(0)).sum()
+        });
+        std::hint::black_box(hits);
+        best = best.min(t0.elapsed().as_secs_f64());
+    }
+    rays.len() as f64 / best
+}
+
+fn trace(c: &mut Criterion) {
+    let ctx = gpu::context();
+    let kernel = TraceKernel::new(&ctx.device);
+    let mut lines = Vec::new();
+    for (name, scene) in scenes() {
+        let bvh = Bvh::build(&scene).expect("bvh build");
+        let build_ms = bvh.build_time.as_secs_f64() * 1e3;
+        let gpu_bvh = bvh.upload(ctx).expect("upload");
+        let primary = primary_rays(&scene);
+        let primary_hits: Vec<Hit> = primary.iter().map(|r| bvh.closest_hit(r)).collect();
+        let (gi, shadow) = secondary_rays(&scene, &bvh, &primary, &primary_hits);
+        let mut group = c.benchmark_group(format!("trace/{name}"));
+        group.sample_size(10);
+        for (kind, rays, any_hit) in [
+            ("primary", &primary, false),
+            ("gi", &gi, false),
+            ("shadow", &shadow, true),
+        ] {
+            let n = rays.len() as u32;
+            let rays_buf = buffers::storage_from(&ctx.device, "rays", rays);
+            let hits_buf = buffers::storage_zeroed(
+                &ctx.device,
+                "hits",
+                u64::from(n) * size_of::<Hit>() as u64,
+            );
+            let binding = kernel.bind(&ctx.device, &gpu_bvh, &rays_buf, &hits_buf, n, any_hit);
+            group.throughput(Throughput::Elements(u64::from(n)));
+            group.bench_function(kind, |b| {
+                b.iter_custom(|iters| {
+                    bench::gpu_time(ctx, iters, |enc| {
+                        kernel.encode_with(&ctx.device, enc, &binding)
+                    })
+                })
+            });
+            let gpu_ms =
+                bench::gpu_ms(ctx, 5, |enc| kernel.encode_with(&ctx.device, enc, &binding));
+            let gpu_rps = f64::from(n) / (gpu_ms * 1e-3);
+            let cpu_rps = cpu_rays_per_s(&bvh, rays, any_hit);
+            lines.push((
+                name,
+                kind,
+                vec![
+                    ("scene", name.to_string()),
+                    ("kind", kind.to_string()),
+                    ("rays", n.to_string()),
+                    ("triangles", scene.triangles.len().to_string()),
+                    ("gpu_rays_per_s", bench::sci(gpu_rps)),
+                    ("cpu_rays_per_s", bench::sci(cpu_rps)),
+                    ("ratio", format!("{:.3}", gpu_rps / cpu_rps)),
+                    ("bvh_build_ms", format!("{build_ms:.3}")),
+                    (
+                        "cpu_threads",
+                        std::thread::available_parallelism()
+                            .map_or(1, |n| n.get())
+                            .to_string(),
+                    ),
+                ],
+            ));
+        }
+        group.finish();
+    }
+    for (_, _, pairs) in &lines {
+        bench::print_result(ctx, "trace", pairs);
+    }
+}
+
+criterion_group!(benches, trace);
+criterion_main!(benches);

@@ -1,0 +1,369 @@
+//! GPU CWBVH traversal (restir-world `trace.wgsl`) against obvhs's CPU traversal with the same
+//! watertight triangle test, on 10^5 random rays per scene: same hit/miss, same triangle, t within
+//! 1e-4 relative. Rays that graze an edge (a barycentric within 1e-4 of 0) may resolve to the
+//! neighbouring triangle or miss on one side only; those are counted and must stay below 0.1%.
+
+use glam::Vec3;
+use rand::{Rng, SeedableRng, rngs::StdRng};
+use restir_world::scene::{Material, Scene, Triangle};
+use restir_world::trace::{self, Bvh, BvhTriangle, Hit, Ray, TraceKernel};
+use tests::{buffers, gpu};
+
+const RAYS: usize = 100_000;
+const T_REL: f32 = 1e-4;
+const EDGE: f32 = 1e-4;
+const MAX_GRAZING: f64 = 1e-3;
+
+fn material_scene(triangles: Vec<Triangle>) -> Scene {
+    Scene {
+        triangles,
+        materials: vec![Material::new([0.5; 3], [0.0; 3])],
+        camera: None,
+    }
+}
+
+fn random_unit(rng: &mut StdRng) -> Vec3 {
+    loop {
+        let v = Vec3::new(
+            rng.random_range(-1.0..1.0),
+            rng.random_range(-1.0..1.0),
+            rng.random_range(-1.0..1.0),
+        );
+        let l = v.length_squared();
+        if l > 1e-4 && l <= 1.0 {
+            return v / l.sqrt();
+        }
+    }
+}
+
+fn soup(n: usize, seed: u64) -> Scene {
+    let mut rng = StdRng::seed_from_u64(seed);
+    let tris = (0..n)
+        .map(|_| {
+            let c = Vec3::new(rng.random(), rng.random(), rng.random());
+            let s: f32 = rng.random_range(0.01..0.2);
+            let v = [0, 1, 2].map(|_| c + random_unit(&mut rng) * s);
+            Triangle {
+                v,
+                n: None,
+                material: 0,
+            }
+        })
+        .filter(|t| t.area() > 1e-7)
+        .collect();
+    material_scene(tris)
+}
+
+/// A grid of axis-aligned boxes (12 triangles each, sharing edges) with varied sizes.
+fn boxes(per_axis: usize, seed: u64) -> Scene {
+    let mut rng = StdRng::seed_from_u64(seed);
+    let mut tris = Vec::new();
+    for i in 0..per_axis {
+        for j in 0..per_axis {
+            for k in 0..per_axis {
+                let lo = Vec3::new(i as f32, j as f32, k as f32) / per_axis as f32;
+                let size = rng.random_range(0.3..0.9) / per_axis as f32;
+                push_box(&mut tris, lo, lo + Vec3::splat(size));
+            }
+        }
+    }
+    material_scene(tris)
+}
+
+fn push_box(tris: &mut Vec<Triangle>, lo: Vec3, hi: Vec3) {
+    let c = |x: bool, y: bool, z: bool| {
+        Vec3::new(
+            if x { hi.x } else { lo.x },
+            if y { hi.y } else { lo.y },
+            if z { hi.z } else { lo.z },
+        )
+    };
+    let faces = [
+        [
+            c(false, false, false),
+            c(false, true, false),
+            c(true, true, false),
+            c(true, false, false),
+        ],
+        [
+            c(false, false, true),
+            c(true, false, true),
+            c(true, true, true),
+            c(false, true, true),
+        ],
+        [
+            c(false, false, false),
+            c(true, false, false),
+            c(true, false, true),
+            c(false, false, true),
+        ],
+        [
+            c(false, true, false),
+            c(false, true, true),
+            c(true, true, true),
+            c(true, true, false),
+        ],
+        [
+            c(false, false, false),
+            c(false, false, true),
+            c(false, true, true),
+            c(false, true, false),
+        ],
+        [
+            c(true, false, false),
+            c(true, true, false),
+            c(true, true, true),
+            c(true, false, true),
+        ],
+    ];
+    for q in faces {
+        for v in [[q[0], q[1], q[2]], [q[0], q[2], q[3]]] {
+            tris.push(Triangle {
+                v,
+                n: None,
+                material: 0,
+            });
+        }
+    }
+}
+
+/// Random rays from a box around the scene: mostly random directions, some axis-aligned (zero
+/// direction components exercise the safe inverse), finite `tmax` on half of them.
+fn random_rays(scene: &Scene, n: usize, seed: u64) -> Vec<Ray> {
+    let mut rng = StdRng::seed_from_u64(seed);
+    let (mut lo, mut hi) = (Vec3::splat(f32::MAX), Vec3::splat(f32::MIN));
+    for t in &scene.triangles {
+        for v in t.v {
+            lo = lo.min(v);
+            hi = hi.max(v);
+        }
+    }
+    let ext = hi - lo;
+    let (olo, ohi) = (lo - ext * 0.25, hi + ext * 0.25);
+    (0..n)
+        .map(|i| {
+            let o = Vec3::new(
+                rng.random_range(olo.x..ohi.x),
+                rng.random_range(olo.y..ohi.y),
+                rng.random_range(olo.z..ohi.z),
+            );
+            let d = if i % 16 == 0 {
+                let mut d = Vec3::ZERO;
+                d[rng.random_range(0..3)] = if rng.random() { 1.0 } else { -1.0 };
+                d
+            } else {
+                random_unit(&mut rng)
+            };
+            let tmax = if i % 2 == 0 {
+                f32::MAX
+            } else {
+                rng.random_range(0.0..ext.length())
+            };
+            Ray::new(o, d, 0.0, tmax)
+        })
+        .collect()
+}
+
+fn gpu_trace(bvh: &Bvh, rays: &[Ray], any_hit: bool) -> Vec<Hit> {
+    let ctx = gpu::context();
+    let gpu_bvh = bvh.upload(ctx).expect("upload");
+    let kernel = TraceKernel::new(&ctx.device);
+    let rays_buf = buffers::storage_from(&ctx.device, "rays", rays);
+    let hits_buf =
+        buffers::storage_zeroed(&ctx.device, "hits", (rays.len() * size_of::<Hit>()) as u64);
+    gpu::run(ctx, |enc| {
+        kernel.encode(
+            &ctx.device,
+            enc,
+            &gpu_bvh,
+            &rays_buf,
+            &hits_buf,
+            rays.len() as u32,
+            any_hit,
+        )
+    });
+    let mut hits: Vec<Hit> = buffers::read(ctx, &hits_buf).expect("readback");
+    hits.truncate(rays.len());
+    hits
+}
+
+fn grazing(h: &Hit) -> bool {
+    h.is_hit() && (h.b1 < EDGE || h.b2 < EDGE || 1.0 - h.b1 - h.b2 < EDGE)
+}
+
+#[derive(Debug, Default)]
+struct Report {
+    hits: usize,
+    grazing: usize,
+    wrong: usize,
+    examples: Vec<String>,
+}
+
+/// Compares closest hits. A disagreement is tolerated (counted as grazing) only when one side
+/// grazes an edge and the t values agree or one side missed.
+fn compare_closest(tris: &[BvhTriangle], cpu: &[Hit], gpu: &[Hit]) -> Report {
+    let mut r = Report::default();
+    for (i, (c, g)) in cpu.iter().zip(gpu).enumerate() {
+        r.hits += usize::from(c.is_hit());
+        let t_ok = (c.t - g.t).abs() <= T_REL * c.t.abs().max(1e-3);
+        let same = c.is_hit() == g.is_hit() && (!c.is_hit() || (c.prim == g.prim && t_ok));
+        if same {
+            continue;
+        }
+        let edge = grazing(c) || grazing(g);
+        let both_hit_same_t = c.is_hit() && g.is_hit() && t_ok;
+        if edge && (both_hit_same_t || c.is_hit() != g.is_hit()) {
+            r.grazing += 1;
+        } else {
+            r.wrong += 1;
+            if r.examples.len() < 5 {
+                let name = |h: &Hit| {
+                    if h.is_hit() {
+                        format!("tri {} t {}", tris[h.prim as usize].index, h.t)
+                    } else {
+                        "miss".into()
+                    }
+                };
+                r.examples
+                    .push(format!("ray {i}: cpu {} / gpu {}", name(c), name(g)));
+            }
+        }
+    }
+    r
+}
+
+fn check_scene(name: &str, scene: &Scene, seed: u64) {
+    let bvh = Bvh::build(scene).expect("build");
+    let rays = random_rays(scene, RAYS, seed);
+    let cpu: Vec<Hit> = rays.iter().map(|r| bvh.closest_hit(r)).collect();
+    let gpu_hits = gpu_trace(&bvh, &rays, false);
+    let report = compare_closest(&bvh.triangles, &cpu, &gpu_hits);
+    eprintln!(
+        "{name}: {} triangles, {} nodes, {} of {} rays hit, {} grazing, {} wrong",
+        scene.triangles.len(),
+        bvh.cwbvh.nodes.len(),
+        report.hits,
+        rays.len(),
+        report.grazing,
+        report.wrong
+    );
+    assert!(
+        report.hits > rays.len() / 10,
+        "{name}: too few hits to test anything"
+    );
+    assert_eq!(report.wrong, 0, "{name}: {:?}", report.examples);
+    assert!(
+        (report.grazing as f64) < MAX_GRAZING * rays.len() as f64,
+        "{name}: {} grazing disagreements",
+        report.grazing
+    );
+
+    // Any hit (shadow rays): same occlusion answer, except where the closest hit grazes an edge.
+    let any_gpu = gpu_trace(&bvh, &rays, true);
+    let mut any_wrong = Vec::new();
+    for (i, ((ray, c), g)) in rays.iter().zip(&cpu).zip(&any_gpu).enumerate() {
+        let cpu_any = bvh.any_hit(ray);
+        assert_eq!(
+            cpu_any,
+            c.is_hit(),
+            "{name}: CPU any-hit disagrees with CPU closest hit"
+        );
+        if cpu_any != g.is_hit() && !grazing(c) && !grazing(g) {
+            any_wrong.push(i);
+        }
+        if g.is_hit() {
+            assert!(
+                g.t >= ray.tmin && g.t <= ray.tmax,
+                "{name}: any-hit t outside the ray"
+            );
+        }
+    }
+    assert!(
+        any_wrong.is_empty(),
+        "{name}: any-hit disagrees on {} rays, first {:?}",
+        any_wrong.len(),
+        &any_wrong[..any_wrong.len().min(5)]
+    );
+}
+
+#[test]
+fn random_triangle_soup_matches_obvhs() {
+    check_scene("soup", &soup(5_000, 1), 11);
+}
+
+#[test]
+fn boxes_with_shared_edges_match_obvhs() {
+    check_scene("boxes", &boxes(6, 2), 12);
+}
+
+#[test]
+fn comparison_catches_a_planted_geometry_error() {
+    // Negative control: trace on the GPU against triangles nudged by 1e-3 (well above the
+    // tolerance); the comparison must flag it.
+    let scene = soup(2_000, 3);
+    let bvh = Bvh::build(&scene).expect("build");
+    let rays = random_rays(&scene, 20_000, 13);
+    let cpu: Vec<Hit> = rays.iter().map(|r| bvh.closest_hit(r)).collect();
+    let mut nudged = bvh.clone();
+    for t in &mut nudged.triangles {
+        for v in [&mut t.v0, &mut t.v1, &mut t.v2] {
+            v[0] += 1e-3;
+            v[1] += 1e-3;
+        }
+    }
+    let gpu_hits = gpu_trace(&nudged, &rays, false);
+    let report = compare_closest(&bvh.triangles, &cpu, &gpu_hits);
+    assert!(
+        report.wrong > 100,
+        "planted error went unnoticed: {report:?}"
+    );
+}
+
+#[test]
+fn empty_scene_is_an_error() {
+    assert!(matches!(
+        Bvh::build(&material_scene(Vec::new())),
+        Err(trace::TraceError::Empty)
+    ));
+}
+
+#[test]
+fn gpu_structs_match_wgsl_layout() {
+    let src = trace::composed_library(1, 0);
+    tests::assert_wgsl_layout!(
+        trace::BvhNode,
+        src,
+        "BvhNode",
+        [
+            p,
+            e_imask,
+            child_base_idx,
+            primitive_base_idx,
+            child_meta,
+            child_min_x,
+            child_max_x,
+            child_min_y,
+            child_max_y,
+            child_min_z,
+            child_max_z
+        ]
+    );
+    tests::assert_wgsl_layout!(
+        BvhTriangle,
+        src,
+        "BvhTriangle",
+        [v0, material, v1, index, v2, flags]
+    );
+    tests::assert_wgsl_layout!(Ray, src, "Ray", [origin, tmin, dir, tmax]);
+    tests::assert_wgsl_layout!(Hit, src, "Hit", [t, prim, b1, b2]);
+}
+
+#[test]
+fn builtin_scenes_match_obvhs() {
+    use restir_world::scene::{BUILTIN_NAMES, BuiltinOptions, builtin};
+    let opts = BuiltinOptions::default();
+    for (i, name) in BUILTIN_NAMES.iter().enumerate() {
+        let scene = builtin(name, &opts).expect("built-in scene");
+        check_scene(name, &scene, 100 + i as u64);
+    }
+}
