@@ -10,8 +10,10 @@
 //! upload/readback helpers in [`gpu::buffers`].
 
 pub mod gpu;
+pub mod gpu_reference;
 pub mod image_io;
 pub mod lights;
+pub mod metrics;
 pub mod reference;
 pub mod render;
 pub mod sampling;

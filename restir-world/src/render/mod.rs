@@ -30,6 +30,10 @@ use crate::scene::{Camera, Material, Scene};
 use crate::trace::{self, Bvh, GpuBvh, dispatch_2d};
 use crate::{GpuContext, GpuError, GpuTimer};
 
+pub mod methods;
+
+pub use methods::{FrameMethod, MethodEntry, build_method, registry};
+
 /// The renderer's library (structs + functions).
 pub const WGSL: &str = include_str!("render.wgsl");
 /// The pass kernels.
@@ -298,6 +302,7 @@ pub struct Renderer {
     pub gpu_bvh: GpuBvh,
     pub gpu_lights: GpuLights,
     pub buffers: RenderBuffers,
+    params: RenderParams,
     render_group: wgpu::BindGroup,
     bvh_group: wgpu::BindGroup,
     lights_group: wgpu::BindGroup,
@@ -471,6 +476,7 @@ impl Renderer {
             gpu_bvh,
             gpu_lights,
             buffers,
+            params,
             render_group,
             bvh_group,
             lights_group,
@@ -492,6 +498,30 @@ impl Renderer {
             (&self.bvh_group, &self.layouts[1]),
             (&self.lights_group, &self.layouts[2]),
         ]
+    }
+
+    /// Moves the camera (same image size) for the next frames: the uniform is rewritten before
+    /// the next submission. Accumulated sums are kept (clear them for a moving camera).
+    pub fn set_camera(&mut self, ctx: &GpuContext, camera: &Camera) -> Result<(), RenderError> {
+        camera
+            .validate()
+            .map_err(|e| RenderError::Settings(e.to_string()))?;
+        if (camera.width, camera.height) != (self.camera.width, self.camera.height) {
+            return Err(RenderError::Settings(format!(
+                "set_camera cannot resize: {}x{} -> {}x{}",
+                self.camera.width, self.camera.height, camera.width, camera.height
+            )));
+        }
+        self.camera = *camera;
+        self.params.camera = CameraGpu::new(camera);
+        ctx.queue
+            .write_buffer(&self.buffers.params, 0, bytemuck::bytes_of(&self.params));
+        Ok(())
+    }
+
+    /// The seed the renderer was created with.
+    pub fn seed(&self) -> u32 {
+        self.params.seed
     }
 
     /// Pixels per frame.

@@ -1,0 +1,364 @@
+//! The GPU reference mode: the same estimator as the baselines (RIS by default) accumulated to
+//! convergence on the GPU, as two independent half renders (different seeds) whose average is
+//! the reference and whose difference estimates the reference's own relMSE
+//! ([`crate::metrics::rel_mse_of_average`]). Results can be cached on disk under a key of
+//! scene contents + camera + settings + crate version.
+
+use std::path::{Path, PathBuf};
+
+use crate::image_io::{self, Image, ImageIoError};
+use crate::metrics::{self, MetricsError};
+use crate::render::{Method, RenderError, Renderer};
+use crate::scene::{Camera, Scene};
+use crate::GpuContext;
+
+/// Frames recorded per submission while rendering a reference.
+const FRAMES_PER_SUBMIT: u32 = 8;
+
+/// How a reference is rendered.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ReferenceSettings {
+    /// Samples per pixel in total (split over the two halves; rounded up to even).
+    pub spp: u32,
+    /// The estimator accumulated.
+    pub method: Method,
+    /// Seed of the first half (the second uses a derived seed).
+    pub seed: u32,
+}
+
+impl Default for ReferenceSettings {
+    fn default() -> Self {
+        Self {
+            spp: 1024,
+            method: Method::ris(),
+            seed: 0x5eed_0001,
+        }
+    }
+}
+
+/// A converged (or supplied) reference.
+#[derive(Debug, Clone, PartialEq)]
+pub struct GpuReference {
+    pub width: u32,
+    pub height: u32,
+    /// Linear HDR, combined (direct + indirect).
+    pub combined: Vec<[f32; 3]>,
+    /// Linear HDR one-bounce indirect; `None` for an external reference given without one.
+    pub indirect: Option<Vec<[f32; 3]>>,
+    /// Samples per pixel (0 when unknown: external).
+    pub samples: u32,
+    /// Estimated relMSE of the reference itself (combined, indirect), from the two halves.
+    pub self_rel_mse: Option<(f64, f64)>,
+    /// The cache key (empty for an external reference).
+    pub key: String,
+    /// Whether it was read from the cache rather than rendered.
+    pub from_cache: bool,
+}
+
+/// What can go wrong making a reference.
+#[derive(Debug, thiserror::Error)]
+pub enum ReferenceError {
+    #[error(transparent)]
+    Render(#[from] RenderError),
+    #[error(transparent)]
+    Image(#[from] ImageIoError),
+    #[error(transparent)]
+    Metrics(#[from] MetricsError),
+    #[error("reference {path}: {msg}")]
+    Bad { path: PathBuf, msg: String },
+}
+
+/// 64-bit FNV-1a, a stable hash for cache keys (std's hasher may change between releases).
+#[derive(Debug, Clone, Copy)]
+pub struct Fnv64(u64);
+
+impl Default for Fnv64 {
+    fn default() -> Self {
+        Self(0xcbf2_9ce4_8422_2325)
+    }
+}
+
+impl Fnv64 {
+    pub fn bytes(&mut self, b: &[u8]) -> &mut Self {
+        for &x in b {
+            self.0 ^= u64::from(x);
+            self.0 = self.0.wrapping_mul(0x0000_0100_0000_01b3);
+        }
+        self
+    }
+    pub fn f32s(&mut self, v: &[f32]) -> &mut Self {
+        for x in v {
+            self.bytes(&x.to_le_bytes());
+        }
+        self
+    }
+    pub fn finish(&self) -> u64 {
+        self.0
+    }
+}
+
+/// The cache key of a reference: a hash of the scene's triangles and materials, the camera,
+/// the settings and this crate's version.
+pub fn cache_key(scene: &Scene, camera: &Camera, settings: &ReferenceSettings) -> String {
+    let mut h = Fnv64::default();
+    h.bytes(env!("CARGO_PKG_VERSION").as_bytes());
+    for t in &scene.triangles {
+        for v in t.v {
+            h.f32s(&v.to_array());
+        }
+        h.bytes(&t.material.to_le_bytes());
+    }
+    for m in &scene.materials {
+        h.f32s(&m.albedo).f32s(&m.emission);
+    }
+    h.f32s(&camera.eye.to_array())
+        .f32s(&camera.target.to_array())
+        .f32s(&camera.up.to_array())
+        .f32s(&[camera.vfov_deg])
+        .bytes(&camera.width.to_le_bytes())
+        .bytes(&camera.height.to_le_bytes());
+    let (m, k) = match settings.method {
+        Method::Nee => (0u32, 1u32),
+        Method::Ris { candidates } => (1, candidates),
+    };
+    for x in [settings.spp.div_ceil(2) * 2, m, k, settings.seed] {
+        h.bytes(&x.to_le_bytes());
+    }
+    format!("{:016x}", h.finish())
+}
+
+fn half(
+    ctx: &GpuContext,
+    scene: &Scene,
+    camera: &Camera,
+    method: Method,
+    seed: u32,
+    frames: u32,
+    progress: &mut dyn FnMut(u32),
+) -> Result<crate::render::Images, RenderError> {
+    let mut r = Renderer::new(ctx, scene, camera, method, seed)?;
+    let mut done = 0;
+    while done < frames {
+        let n = FRAMES_PER_SUBMIT.min(frames - done);
+        let mut enc = ctx.device.create_command_encoder(&Default::default());
+        for _ in 0..n {
+            r.encode_frame(&mut enc, None);
+        }
+        ctx.queue.submit([enc.finish()]);
+        ctx.wait()?;
+        done += n;
+        progress(n);
+    }
+    r.images(ctx)
+}
+
+/// Renders a reference (two halves of `spp / 2` samples each); `progress` gets the number of
+/// frames just finished (of `spp` in all).
+pub fn render(
+    ctx: &GpuContext,
+    scene: &Scene,
+    camera: &Camera,
+    settings: &ReferenceSettings,
+    mut progress: impl FnMut(u32),
+) -> Result<GpuReference, ReferenceError> {
+    let frames = settings.spp.div_ceil(2).max(1);
+    let seed_b = settings.seed ^ 0x9e37_79b9;
+    let a = half(
+        ctx,
+        scene,
+        camera,
+        settings.method,
+        settings.seed,
+        frames,
+        &mut progress,
+    )?;
+    let b = half(
+        ctx,
+        scene,
+        camera,
+        settings.method,
+        seed_b,
+        frames,
+        &mut progress,
+    )?;
+    let avg = |x: &[[f32; 3]], y: &[[f32; 3]]| -> Vec<[f32; 3]> {
+        x.iter()
+            .zip(y)
+            .map(|(p, q)| [0, 1, 2].map(|c| 0.5 * (p[c] + q[c])))
+            .collect()
+    };
+    let combined = avg(&a.combined, &b.combined);
+    let indirect = avg(&a.indirect, &b.indirect);
+    let self_rel_mse = (
+        metrics::rel_mse_of_average(&a.combined, &b.combined)?,
+        metrics::rel_mse_of_average(&a.indirect, &b.indirect)?,
+    );
+    Ok(GpuReference {
+        width: camera.width,
+        height: camera.height,
+        combined,
+        indirect: Some(indirect),
+        samples: frames * 2,
+        self_rel_mse: Some(self_rel_mse),
+        key: cache_key(scene, camera, settings),
+        from_cache: false,
+    })
+}
+
+fn cache_paths(dir: &Path, key: &str) -> [PathBuf; 3] {
+    [
+        dir.join(format!("ref-{key}.combined.exr")),
+        dir.join(format!("ref-{key}.indirect.exr")),
+        dir.join(format!("ref-{key}.txt")),
+    ]
+}
+
+fn read_cached(dir: &Path, key: &str) -> Option<GpuReference> {
+    let [c, i, t] = cache_paths(dir, key);
+    let text = std::fs::read_to_string(&t).ok()?;
+    let mut samples = None;
+    let (mut rc, mut ri) = (None, None);
+    for line in text.lines() {
+        let mut it = line.split_whitespace();
+        match (it.next(), it.next()) {
+            (Some("samples"), Some(v)) => samples = v.parse::<u32>().ok(),
+            (Some("rel_mse_combined"), Some(v)) => rc = v.parse::<f64>().ok(),
+            (Some("rel_mse_indirect"), Some(v)) => ri = v.parse::<f64>().ok(),
+            _ => {}
+        }
+    }
+    let combined = image_io::read_exr(&c).ok()?;
+    let indirect = image_io::read_exr(&i).ok()?;
+    if (combined.width, combined.height) != (indirect.width, indirect.height) {
+        return None;
+    }
+    Some(GpuReference {
+        width: combined.width,
+        height: combined.height,
+        combined: combined.pixels,
+        indirect: Some(indirect.pixels),
+        samples: samples?,
+        self_rel_mse: Some((rc?, ri?)),
+        key: key.to_owned(),
+        from_cache: true,
+    })
+}
+
+/// Writes a rendered reference into the cache directory `dir` (created if needed).
+pub fn write_cache(dir: &Path, r: &GpuReference) -> Result<(), ReferenceError> {
+    std::fs::create_dir_all(dir).map_err(|e| ReferenceError::Bad {
+        path: dir.to_owned(),
+        msg: e.to_string(),
+    })?;
+    let [c, i, t] = cache_paths(dir, &r.key);
+    image_io::write_exr(&c, &Image::from_pixels(r.width, r.height, r.combined.clone())?)?;
+    if let Some(ind) = &r.indirect {
+        image_io::write_exr(&i, &Image::from_pixels(r.width, r.height, ind.clone())?)?;
+    }
+    let (rc, ri) = r.self_rel_mse.unwrap_or((f64::NAN, f64::NAN));
+    let text = format!(
+        "samples {}\nrel_mse_combined {rc:e}\nrel_mse_indirect {ri:e}\nversion {}\n",
+        r.samples,
+        env!("CARGO_PKG_VERSION")
+    );
+    std::fs::write(&t, text).map_err(|e| ReferenceError::Bad {
+        path: t.clone(),
+        msg: e.to_string(),
+    })?;
+    Ok(())
+}
+
+/// The reference of `scene` seen by `camera`: from the cache directory when it holds one under
+/// the same key, else rendered (and then cached when `cache_dir` is given).
+pub fn load_or_render(
+    ctx: &GpuContext,
+    scene: &Scene,
+    camera: &Camera,
+    settings: &ReferenceSettings,
+    cache_dir: Option<&Path>,
+    progress: impl FnMut(u32),
+) -> Result<GpuReference, ReferenceError> {
+    let key = cache_key(scene, camera, settings);
+    if let Some(dir) = cache_dir
+        && let Some(r) = read_cached(dir, &key)
+        && (r.width, r.height) == (camera.width, camera.height)
+    {
+        return Ok(r);
+    }
+    let r = render(ctx, scene, camera, settings, progress)?;
+    if let Some(dir) = cache_dir {
+        write_cache(dir, &r)?;
+    }
+    Ok(r)
+}
+
+/// An external reference: `combined` from an EXR file, and the indirect image from a second
+/// one when given. Its convergence is unknown.
+pub fn external(
+    combined: &Path,
+    indirect: Option<&Path>,
+    camera: &Camera,
+) -> Result<GpuReference, ReferenceError> {
+    let c = image_io::read_exr(combined)?;
+    let check = |img: &Image, path: &Path| {
+        if (img.width, img.height) == (camera.width, camera.height) {
+            Ok(())
+        } else {
+            Err(ReferenceError::Bad {
+                path: path.to_owned(),
+                msg: format!(
+                    "is {}x{}, the render is {}x{}",
+                    img.width, img.height, camera.width, camera.height
+                ),
+            })
+        }
+    };
+    check(&c, combined)?;
+    let ind = match indirect {
+        Some(p) => {
+            let i = image_io::read_exr(p)?;
+            check(&i, p)?;
+            Some(i.pixels)
+        }
+        None => None,
+    };
+    Ok(GpuReference {
+        width: c.width,
+        height: c.height,
+        combined: c.pixels,
+        indirect: ind,
+        samples: 0,
+        self_rel_mse: None,
+        key: String::new(),
+        from_cache: false,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scene::builtin;
+
+    #[test]
+    fn key_changes_with_scene_camera_and_settings() {
+        let scene = builtin("cornell", &Default::default()).unwrap();
+        let cam = scene.camera_or_default(32, 32);
+        let s = ReferenceSettings::default();
+        let k = cache_key(&scene, &cam, &s);
+        assert_eq!(k, cache_key(&scene, &cam, &s));
+        let mut cam2 = cam;
+        cam2.eye.x += 0.01;
+        assert_ne!(k, cache_key(&scene, &cam2, &s));
+        let s2 = ReferenceSettings { spp: 2048, ..s };
+        assert_ne!(k, cache_key(&scene, &cam, &s2));
+        let mut scene2 = scene.clone();
+        scene2.materials[0].albedo[0] += 0.1;
+        assert_ne!(k, cache_key(&scene2, &cam, &s));
+    }
+
+    #[test]
+    fn fnv_matches_published_vector() {
+        // FNV-1a 64 of "a" is 0xaf63dc4c8601ec8c (Fowler/Noll/Vo test vectors).
+        assert_eq!(Fnv64::default().bytes(b"a").finish(), 0xaf63_dc4c_8601_ec8c);
+    }
+}
