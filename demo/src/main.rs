@@ -1,5 +1,7 @@
 //! `restir-demo`: render, compare and inspect world-space ReSTIR GI.
 
+mod compare;
+
 use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result};
@@ -27,6 +29,84 @@ enum Command {
         #[arg(long, default_value = "256x256", value_parser = parse_size)]
         size: (u32, u32),
     },
+    /// Speed against error: run methods over the same frames and camera, measure per-stage
+    /// GPU time and the error against a converged reference, compare at equal time, and write
+    /// report.md, report.json, error_vs_time.svg and strip.png into --out.
+    Compare(CompareArgs),
+}
+
+#[derive(clap::Args, Debug)]
+struct CompareArgs {
+    /// Scenes, comma-separated: built-in names (cornell, many-lights, furnace, furnace-sphere)
+    /// or scene files (.gltf, .glb, .obj).
+    #[arg(long, default_value = "many-lights", value_delimiter = ',')]
+    scene: Vec<String>,
+    /// Methods of the registry, comma-separated, each `name` or `name:variant`; default: every
+    /// registered method.
+    #[arg(long, value_delimiter = ',')]
+    methods: Vec<String>,
+    /// Frames per method.
+    #[arg(long, default_value_t = 16)]
+    frames: u32,
+    /// Image size, WxH.
+    #[arg(long, default_value = "128x128", value_parser = parse_size)]
+    size: (u32, u32),
+    /// Output directory.
+    #[arg(long, default_value = "out/compare")]
+    out: PathBuf,
+    /// Camera motion over the frames.
+    #[arg(long, value_enum, default_value_t = compare::CameraMode::Static)]
+    camera: compare::CameraMode,
+    /// An external reference (combined image, linear EXR) instead of the GPU reference mode.
+    #[arg(long)]
+    reference: Option<PathBuf>,
+    /// The external reference's indirect image (linear EXR); without it indirect errors are
+    /// not reported.
+    #[arg(long, requires = "reference")]
+    reference_indirect: Option<PathBuf>,
+    /// Samples per pixel of the GPU reference.
+    #[arg(long, default_value_t = 1024)]
+    reference_spp: u32,
+    /// Reference cache directory.
+    #[arg(long, default_value = "out/cache")]
+    cache: PathBuf,
+    /// Do not read or write the reference cache.
+    #[arg(long)]
+    no_cache: bool,
+    /// many-lights: number of lights.
+    #[arg(long, default_value_t = 10_000)]
+    lights: u32,
+    /// Seed of the methods' random numbers.
+    #[arg(long, default_value_t = 1)]
+    seed: u32,
+    /// Frames of each equal-time run (capped at --frames).
+    #[arg(long, default_value_t = 8)]
+    equal_time_frames: u32,
+    /// The method others are compared against at equal time (default: world-restir when
+    /// listed, else the slowest method).
+    #[arg(long)]
+    equal_time_to: Option<String>,
+    /// Moving camera: evaluate the error every N frames (and at the last), each against its
+    /// own reference.
+    #[arg(long, default_value_t = 8)]
+    eval_every: u32,
+    /// Negative control for tests: METHOD=FACTOR multiplies that method's indirect image.
+    #[arg(long, hide = true, value_parser = parse_bias)]
+    plant_bias: Vec<(String, f32)>,
+    /// Do not write the reference EXRs into --out.
+    #[arg(long)]
+    no_exr: bool,
+    /// No progress bar.
+    #[arg(long)]
+    quiet: bool,
+}
+
+fn parse_bias(s: &str) -> Result<(String, f32), String> {
+    let (m, f) = s
+        .split_once('=')
+        .ok_or_else(|| format!("expected METHOD=FACTOR, got {s:?}"))?;
+    let f: f32 = f.parse().map_err(|_| format!("bad factor in {s:?}"))?;
+    Ok((m.to_owned(), f))
 }
 
 fn parse_size(s: &str) -> Result<(u32, u32), String> {
@@ -49,7 +129,57 @@ fn main() -> Result<()> {
     }) {
         Command::Info => info(),
         Command::Smoke { out, size } => smoke(&out, size),
+        Command::Compare(args) => compare_cmd(args),
     }
+}
+
+fn compare_cmd(a: CompareArgs) -> Result<()> {
+    let ctx = GpuContext::new()?;
+    eprintln!("{}", ctx.describe());
+    let methods = if a.methods.is_empty() {
+        restir_world::render::registry()
+            .iter()
+            .map(|e| e.name.to_owned())
+            .collect()
+    } else {
+        a.methods
+    };
+    let opts = compare::CompareOptions {
+        scenes: a.scene,
+        methods,
+        frames: a.frames,
+        size: a.size,
+        out: a.out,
+        camera: a.camera,
+        reference: a.reference,
+        reference_indirect: a.reference_indirect,
+        reference_spp: a.reference_spp,
+        cache: (!a.no_cache).then_some(a.cache),
+        lights: a.lights,
+        seed: a.seed,
+        equal_time_frames: a.equal_time_frames,
+        equal_time_to: a.equal_time_to,
+        eval_every: a.eval_every,
+        plant_bias: a.plant_bias,
+        write_exr: !a.no_exr,
+        progress: !a.quiet,
+    };
+    let command = std::env::args().collect::<Vec<_>>().join(" ");
+    let report = compare::run(&ctx, &opts, command)?;
+    for sc in &report.scenes {
+        for m in &sc.methods {
+            println!(
+                "{:>12} {:>14}: {} ms/frame, frame relMSE indirect {} combined {}",
+                sc.scene,
+                m.method,
+                m.ms_per_frame.map_or("-".into(), |v| format!("{v:.3}")),
+                m.frame_indirect.map_or("-".into(), |e| format!("{:.4e}", e.rel_mse)),
+                m.frame_combined.map_or("-".into(), |e| format!("{:.4e}", e.rel_mse)),
+            );
+        }
+    }
+    println!("report: {}", opts.out.join("report.md").display());
+    Ok(())
 }
 
 fn info() -> Result<()> {

@@ -1,0 +1,784 @@
+//! `restir-demo compare`: speed against error. Runs each method of the registry over the same
+//! frames and camera, records per-stage GPU time and the error of every frame against a
+//! converged reference, runs the equal-time comparison, and writes report.md, report.json,
+//! error_vs_time.svg and strip.png.
+
+mod output;
+mod plot;
+
+use std::path::{Path, PathBuf};
+
+use anyhow::{Context, Result, bail};
+use glam::{Quat, Vec3};
+use indicatif::{ProgressBar, ProgressStyle};
+use restir_world::gpu::buffers;
+use restir_world::gpu_reference::{self, GpuReference, ReferenceSettings};
+use restir_world::metrics;
+use restir_world::render::{self, FrameMethod};
+use restir_world::scene::{self, BuiltinOptions, Camera, Scene};
+use restir_world::{GpuContext, GpuTimer};
+use serde::Serialize;
+
+/// Options of one compare run (the CLI fills it; tests may too).
+#[derive(Debug, Clone)]
+pub struct CompareOptions {
+    pub scenes: Vec<String>,
+    pub methods: Vec<String>,
+    pub frames: u32,
+    pub size: (u32, u32),
+    pub out: PathBuf,
+    pub camera: CameraMode,
+    pub reference: Option<PathBuf>,
+    pub reference_indirect: Option<PathBuf>,
+    pub reference_spp: u32,
+    pub cache: Option<PathBuf>,
+    pub lights: u32,
+    pub seed: u32,
+    pub equal_time_frames: u32,
+    pub equal_time_to: Option<String>,
+    pub eval_every: u32,
+    pub plant_bias: Vec<(String, f32)>,
+    pub write_exr: bool,
+    pub progress: bool,
+}
+
+/// How the camera moves over the frames.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum, Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum CameraMode {
+    /// The scene's camera, every frame.
+    Static,
+    /// Orbits the target about the up axis, 1 degree per frame.
+    Orbit,
+}
+
+/// Degrees per frame of the orbit camera.
+const ORBIT_DEG_PER_FRAME: f32 = 1.0;
+
+fn camera_at(base: &Camera, mode: CameraMode, frame: u32) -> Camera {
+    match mode {
+        CameraMode::Static => *base,
+        CameraMode::Orbit => {
+            let axis = base.up.normalize_or(Vec3::Y);
+            let rot = Quat::from_axis_angle(axis, (ORBIT_DEG_PER_FRAME * frame as f32).to_radians());
+            Camera {
+                eye: base.target + rot * (base.eye - base.target),
+                ..*base
+            }
+        }
+    }
+}
+
+// ---------------------------------------------------------------- report data (report.json)
+
+/// MSE and relMSE of one image.
+#[derive(Debug, Clone, Copy, Serialize, Default)]
+pub struct Err2 {
+    pub mse: f64,
+    pub rel_mse: f64,
+}
+
+impl From<metrics::Errors> for Err2 {
+    fn from(e: metrics::Errors) -> Self {
+        Self {
+            mse: e.mse,
+            rel_mse: e.rel_mse,
+        }
+    }
+}
+
+#[derive(Debug, Clone, Serialize)]
+pub struct Stage {
+    pub name: String,
+    pub ms: f64,
+}
+
+#[derive(Debug, Clone, Serialize)]
+pub struct FrameRecord {
+    pub frame: u32,
+    /// GPU milliseconds of this frame (sum of its stages); null without timestamps.
+    pub gpu_ms: Option<f64>,
+    pub cumulative_gpu_ms: Option<f64>,
+    pub stages: Vec<Stage>,
+    /// Error of this frame's image (null when the frame has no reference: animated camera
+    /// between evaluation frames, or no indirect reference).
+    pub indirect: Option<Err2>,
+    pub combined: Option<Err2>,
+    /// relMSE of the running average of frames 0..=frame (static camera only).
+    pub accumulated_rel_mse_indirect: Option<f64>,
+    pub accumulated_rel_mse_combined: Option<f64>,
+}
+
+#[derive(Debug, Clone, Serialize)]
+pub struct MethodRun {
+    pub method: String,
+    pub about: String,
+    pub spp_per_frame: u32,
+    /// A planted multiplicative bias on the indirect image (negative control), if any.
+    pub planted_bias: Option<f32>,
+    pub frames: u32,
+    /// Mean GPU milliseconds per frame, total and by stage (null without timestamps).
+    pub ms_per_frame: Option<f64>,
+    pub ms_per_frame_by_stage: Vec<Stage>,
+    /// Mean per-frame error over the evaluated frames of the second half of the run
+    /// (after warm-up for methods with temporal reuse).
+    pub frame_indirect: Option<Err2>,
+    pub frame_combined: Option<Err2>,
+    /// FLIP (mean) of the last evaluated frame, tone-mapped.
+    pub frame_flip_combined: Option<f64>,
+    pub frame_flip_indirect: Option<f64>,
+    /// Error of the average of all frames (static camera only).
+    pub accumulated_indirect: Option<Err2>,
+    pub accumulated_combined: Option<Err2>,
+    pub accumulated_flip_combined: Option<f64>,
+    pub per_frame: Vec<FrameRecord>,
+}
+
+#[derive(Debug, Clone, Serialize)]
+pub struct EqualTimeEntry {
+    pub method: String,
+    /// Samples per pixel per frame that fit the target's GPU time per frame.
+    pub spp_per_frame: u32,
+    pub ms_per_frame: Option<f64>,
+    pub frame_indirect: Option<Err2>,
+    pub frame_combined: Option<Err2>,
+    /// relMSE of this method at equal time divided by the target's (>1: the target is better).
+    pub rel_mse_ratio_indirect: Option<f64>,
+    pub rel_mse_ratio_combined: Option<f64>,
+    /// GPU time this method needs to reach the target's per-frame relMSE (1/N variance law
+    /// from its equal-time error) divided by the target's time per frame.
+    pub equal_error_speedup_indirect: Option<f64>,
+    pub equal_error_speedup_combined: Option<f64>,
+}
+
+#[derive(Debug, Clone, Serialize)]
+pub struct EqualTime {
+    pub target: String,
+    pub target_ms_per_frame: f64,
+    pub target_frame_indirect: Option<Err2>,
+    pub target_frame_combined: Option<Err2>,
+    pub entries: Vec<EqualTimeEntry>,
+}
+
+#[derive(Debug, Clone, Serialize)]
+pub struct ReferenceInfo {
+    /// "gpu" (rendered now), "cache" or "external".
+    pub source: String,
+    pub estimator: String,
+    pub samples: u32,
+    /// Estimated relMSE of the reference itself (from two independent halves).
+    pub self_rel_mse_combined: Option<f64>,
+    pub self_rel_mse_indirect: Option<f64>,
+    /// Error of the reference against itself (must be 0).
+    pub against_itself: Err2,
+    pub key: String,
+    /// References rendered for an animated camera (one per evaluated frame).
+    pub count: u32,
+}
+
+#[derive(Debug, Clone, Serialize)]
+pub struct SceneReport {
+    pub scene: String,
+    pub width: u32,
+    pub height: u32,
+    pub camera: CameraMode,
+    pub frames: u32,
+    pub triangles: usize,
+    pub emissive_triangles: usize,
+    pub reference: ReferenceInfo,
+    pub methods: Vec<MethodRun>,
+    pub equal_time: Option<EqualTime>,
+    /// Exposure used to tone-map images for FLIP and PNGs.
+    pub exposure: f32,
+}
+
+#[derive(Debug, Clone, Serialize)]
+pub struct Report {
+    pub device: String,
+    pub backend: String,
+    pub device_type: String,
+    pub driver: String,
+    pub timestamps: bool,
+    pub version: String,
+    pub command: String,
+    pub rel_mse_eps: f64,
+    pub scenes: Vec<SceneReport>,
+}
+
+// ---------------------------------------------------------------- running
+
+fn load_scene(name: &str, size: (u32, u32), lights: u32) -> Result<(String, Scene)> {
+    if scene::BUILTIN_NAMES.contains(&name) {
+        let opts = BuiltinOptions {
+            width: size.0,
+            height: size.1,
+            lights,
+            ..Default::default()
+        };
+        let mut s = scene::builtin(name, &opts)?;
+        s.sanitize(name)?;
+        return Ok((name.to_owned(), s));
+    }
+    let path = Path::new(name);
+    if !path.exists() {
+        bail!(
+            "scene {name:?} is neither a built-in ({}) nor an existing file",
+            scene::BUILTIN_NAMES.join(", ")
+        );
+    }
+    let loaded = scene::load(path).with_context(|| format!("loading {name}"))?;
+    for w in &loaded.warnings {
+        eprintln!("warning: {name}: {w}");
+    }
+    if !loaded.report.is_clean() {
+        eprintln!("warning: {name}: {}", loaded.report);
+    }
+    let stem = path
+        .file_stem()
+        .and_then(|s| s.to_str())
+        .unwrap_or("scene")
+        .to_owned();
+    Ok((stem, loaded.scene))
+}
+
+/// Everything a method run needs to evaluate frames.
+struct Refs {
+    /// Frame index -> reference (static: one reference for every frame, key 0).
+    by_frame: Vec<(u32, GpuReference)>,
+    static_camera: bool,
+}
+
+impl Refs {
+    fn get(&self, frame: u32) -> Option<&GpuReference> {
+        if self.static_camera {
+            self.by_frame.first().map(|(_, r)| r)
+        } else {
+            self.by_frame.iter().find(|(f, _)| *f == frame).map(|(_, r)| r)
+        }
+    }
+}
+
+fn style(bar: &ProgressBar) {
+    if let Ok(s) = ProgressStyle::with_template(
+        "{prefix:>12} [{elapsed_precise}] {wide_bar} {pos}/{len} {msg}",
+    ) {
+        bar.set_style(s);
+    }
+}
+
+/// Runs one method over the frames with `spp` samples per pixel per frame.
+#[allow(clippy::too_many_arguments)]
+fn run_method(
+    ctx: &GpuContext,
+    scene: &Scene,
+    base: &Camera,
+    opts: &CompareOptions,
+    spec: &str,
+    spp: u32,
+    frames: u32,
+    refs: &Refs,
+    bias: Option<f32>,
+    bar: &ProgressBar,
+    keep_last: &mut Option<Vec<[f32; 3]>>,
+) -> Result<MethodRun> {
+    let entry = render::methods::entry(spec)?;
+    let mut m: Box<dyn FrameMethod> = render::build_method(spec, ctx, scene, base, opts.seed)?;
+    let pixels = m.renderer().pixels() as usize;
+    let mut timer = GpuTimer::new(ctx, m.spans_per_frame() * spp);
+    let static_camera = opts.camera == CameraMode::Static;
+    let mut acc_ind = vec![[0f64; 3]; pixels];
+    let mut acc_dir = vec![[0f64; 3]; pixels];
+    let mut cumulative = 0.0f64;
+    let mut records = Vec::with_capacity(frames as usize);
+    let mut stage_totals: Vec<Stage> = Vec::new();
+    let mut last_eval: Option<(Vec<[f32; 3]>, Vec<[f32; 3]>, u32)> = None;
+    for f in 0..frames {
+        if !static_camera {
+            m.set_camera(ctx, &camera_at(base, opts.camera, f))?;
+        }
+        timer.reset();
+        let mut enc = ctx.device.create_command_encoder(&Default::default());
+        enc.clear_buffer(&m.renderer().buffers.accum_direct, 0, None);
+        enc.clear_buffer(&m.renderer().buffers.accum_indirect, 0, None);
+        for _ in 0..spp {
+            m.encode_frame(&mut enc, Some(&mut timer));
+        }
+        timer.resolve(&mut enc);
+        ctx.queue.submit([enc.finish()]);
+        let (gpu_ms, stages) = match timer.read(ctx) {
+            Ok(t) => {
+                let mut stages: Vec<Stage> = Vec::new();
+                for (name, ms) in &t.0 {
+                    match stages.iter_mut().find(|s| &s.name == name) {
+                        Some(s) => s.ms += ms,
+                        None => stages.push(Stage {
+                            name: name.clone(),
+                            ms: *ms,
+                        }),
+                    }
+                }
+                for s in &stages {
+                    match stage_totals.iter_mut().find(|t| t.name == s.name) {
+                        Some(t) => t.ms += s.ms,
+                        None => stage_totals.push(s.clone()),
+                    }
+                }
+                (Some(t.total()), stages)
+            }
+            Err(_) => {
+                ctx.wait()?;
+                (None, Vec::new())
+            }
+        };
+        if let Some(ms) = gpu_ms {
+            cumulative += ms;
+        }
+        let read = |b: &wgpu::Buffer| -> Result<Vec<[f32; 3]>> {
+            let v: Vec<[f32; 4]> = buffers::read(ctx, b)?;
+            let s = 1.0 / spp as f32;
+            Ok(v[..pixels]
+                .iter()
+                .map(|p| [p[0] * s, p[1] * s, p[2] * s])
+                .collect())
+        };
+        let direct = read(&m.renderer().buffers.accum_direct)?;
+        let mut indirect = read(&m.renderer().buffers.accum_indirect)?;
+        if let Some(b) = bias {
+            for p in &mut indirect {
+                *p = p.map(|v| v * b);
+            }
+        }
+        let combined: Vec<[f32; 3]> = direct
+            .iter()
+            .zip(&indirect)
+            .map(|(d, i)| [d[0] + i[0], d[1] + i[1], d[2] + i[2]])
+            .collect();
+        let mut rec = FrameRecord {
+            frame: f,
+            gpu_ms,
+            cumulative_gpu_ms: gpu_ms.map(|_| cumulative),
+            stages,
+            indirect: None,
+            combined: None,
+            accumulated_rel_mse_indirect: None,
+            accumulated_rel_mse_combined: None,
+        };
+        if let Some(r) = refs.get(f) {
+            rec.combined = Some(metrics::errors(&combined, &r.combined)?.into());
+            if let Some(ri) = &r.indirect {
+                rec.indirect = Some(metrics::errors(&indirect, ri)?.into());
+            }
+            if static_camera {
+                let n = f64::from(f + 1);
+                for (a, p) in acc_ind.iter_mut().zip(&indirect) {
+                    for c in 0..3 {
+                        a[c] += f64::from(p[c]);
+                    }
+                }
+                for (a, p) in acc_dir.iter_mut().zip(&direct) {
+                    for c in 0..3 {
+                        a[c] += f64::from(p[c]);
+                    }
+                }
+                let avg_ind: Vec<[f32; 3]> =
+                    acc_ind.iter().map(|a| a.map(|v| (v / n) as f32)).collect();
+                let avg_comb: Vec<[f32; 3]> = acc_ind
+                    .iter()
+                    .zip(&acc_dir)
+                    .map(|(i, d)| [0, 1, 2].map(|c| ((i[c] + d[c]) / n) as f32))
+                    .collect();
+                rec.accumulated_rel_mse_combined =
+                    Some(metrics::rel_mse(&avg_comb, &r.combined)?);
+                if let Some(ri) = &r.indirect {
+                    rec.accumulated_rel_mse_indirect = Some(metrics::rel_mse(&avg_ind, ri)?);
+                }
+            }
+            last_eval = Some((indirect, combined, f));
+        }
+        records.push(rec);
+        bar.inc(1);
+    }
+
+    let half = frames / 2;
+    let mean_err = |pick: fn(&FrameRecord) -> Option<Err2>| -> Option<Err2> {
+        let v: Vec<Err2> = records
+            .iter()
+            .filter(|r| r.frame >= half || frames == 1)
+            .filter_map(pick)
+            .collect();
+        (!v.is_empty()).then(|| Err2 {
+            mse: v.iter().map(|e| e.mse).sum::<f64>() / v.len() as f64,
+            rel_mse: v.iter().map(|e| e.rel_mse).sum::<f64>() / v.len() as f64,
+        })
+    };
+    let frame_indirect = mean_err(|r| r.indirect);
+    let frame_combined = mean_err(|r| r.combined);
+    let mut run = MethodRun {
+        method: spec.to_owned(),
+        about: entry.about.to_owned(),
+        spp_per_frame: spp,
+        planted_bias: bias,
+        frames,
+        ms_per_frame: timer
+            .is_available()
+            .then(|| stage_totals.iter().map(|s| s.ms).sum::<f64>() / f64::from(frames)),
+        ms_per_frame_by_stage: stage_totals
+            .into_iter()
+            .map(|s| Stage {
+                name: s.name,
+                ms: s.ms / f64::from(frames),
+            })
+            .collect(),
+        frame_indirect,
+        frame_combined,
+        frame_flip_combined: None,
+        frame_flip_indirect: None,
+        accumulated_indirect: None,
+        accumulated_combined: None,
+        accumulated_flip_combined: None,
+        per_frame: records,
+    };
+    if let Some((ind, comb, f)) = last_eval
+        && let Some(r) = refs.get(f)
+    {
+        let (w, h) = (r.width, r.height);
+        let exposure = metrics::auto_exposure(&r.combined);
+        run.frame_flip_combined = Some(metrics::flip(&comb, &r.combined, w, h, exposure)?.0);
+        if let Some(ri) = &r.indirect {
+            let e = metrics::auto_exposure(ri);
+            run.frame_flip_indirect = Some(metrics::flip(&ind, ri, w, h, e)?.0);
+        }
+        if static_camera {
+            let n = f64::from(frames);
+            let avg_ind: Vec<[f32; 3]> =
+                acc_ind.iter().map(|a| a.map(|v| (v / n) as f32)).collect();
+            let avg_comb: Vec<[f32; 3]> = acc_ind
+                .iter()
+                .zip(&acc_dir)
+                .map(|(i, d)| [0, 1, 2].map(|c| ((i[c] + d[c]) / n) as f32))
+                .collect();
+            run.accumulated_combined = Some(metrics::errors(&avg_comb, &r.combined)?.into());
+            run.accumulated_flip_combined =
+                Some(metrics::flip(&avg_comb, &r.combined, w, h, exposure)?.0);
+            if let Some(ri) = &r.indirect {
+                run.accumulated_indirect = Some(metrics::errors(&avg_ind, ri)?.into());
+            }
+        }
+        *keep_last = Some(comb);
+    }
+    Ok(run)
+}
+
+fn make_references(
+    ctx: &GpuContext,
+    scene: &Scene,
+    base: &Camera,
+    opts: &CompareOptions,
+    bar: &ProgressBar,
+) -> Result<(Refs, ReferenceInfo)> {
+    let settings = ReferenceSettings {
+        spp: opts.reference_spp,
+        ..Default::default()
+    };
+    let estimator = format!("{:?}", settings.method);
+    if let Some(path) = &opts.reference {
+        if opts.camera != CameraMode::Static {
+            bail!("--reference needs --camera static (one image for every frame)");
+        }
+        let r = gpu_reference::external(path, opts.reference_indirect.as_deref(), base)?;
+        let info = ReferenceInfo {
+            source: "external".into(),
+            estimator: format!("external file {}", path.display()),
+            samples: 0,
+            self_rel_mse_combined: None,
+            self_rel_mse_indirect: None,
+            against_itself: metrics::errors(&r.combined, &r.combined)?.into(),
+            key: String::new(),
+            count: 1,
+        };
+        return Ok((
+            Refs {
+                by_frame: vec![(0, r)],
+                static_camera: true,
+            },
+            info,
+        ));
+    }
+    let eval: Vec<u32> = match opts.camera {
+        CameraMode::Static => vec![0],
+        CameraMode::Orbit => {
+            let every = opts.eval_every.max(1);
+            let mut v: Vec<u32> = (0..opts.frames)
+                .filter(|f| (f + 1) % every == 0)
+                .collect();
+            if v.last() != Some(&(opts.frames - 1)) {
+                v.push(opts.frames - 1);
+            }
+            v
+        }
+    };
+    let mut by_frame = Vec::new();
+    let mut sources = Vec::new();
+    for &f in &eval {
+        let cam = camera_at(base, opts.camera, f);
+        let r = gpu_reference::load_or_render(
+            ctx,
+            scene,
+            &cam,
+            &settings,
+            opts.cache.as_deref(),
+            |n| bar.inc(u64::from(n)),
+        )?;
+        sources.push(r.from_cache);
+        by_frame.push((f, r));
+    }
+    let first = &by_frame[0].1;
+    let mean = |pick: fn(&GpuReference) -> Option<f64>| -> Option<f64> {
+        let v: Vec<f64> = by_frame.iter().filter_map(|(_, r)| pick(r)).collect();
+        (!v.is_empty()).then(|| v.iter().sum::<f64>() / v.len() as f64)
+    };
+    let info = ReferenceInfo {
+        source: if sources.iter().all(|&c| c) {
+            "cache".into()
+        } else {
+            "gpu".into()
+        },
+        estimator,
+        samples: first.samples,
+        self_rel_mse_combined: mean(|r| r.self_rel_mse.map(|x| x.0)),
+        self_rel_mse_indirect: mean(|r| r.self_rel_mse.map(|x| x.1)),
+        against_itself: metrics::errors(&first.combined, &first.combined)?.into(),
+        key: first.key.clone(),
+        count: by_frame.len() as u32,
+    };
+    Ok((
+        Refs {
+            by_frame,
+            static_camera: opts.camera == CameraMode::Static,
+        },
+        info,
+    ))
+}
+
+/// The method equal-time comparisons are measured against: `--equal-time-to`, else the first
+/// listed method the registry marks as the target (world-space ReSTIR), else the slowest.
+fn equal_time_target(opts: &CompareOptions, runs: &[MethodRun]) -> Option<usize> {
+    if let Some(t) = &opts.equal_time_to {
+        return runs.iter().position(|r| &r.method == t);
+    }
+    if let Some(i) = runs.iter().position(|r| {
+        render::methods::entry(&r.method).is_ok_and(|e| e.equal_time_target)
+            && r.planted_bias.is_none()
+    }) {
+        return Some(i);
+    }
+    runs.iter()
+        .enumerate()
+        .filter(|(_, r)| r.planted_bias.is_none())
+        .filter_map(|(i, r)| r.ms_per_frame.map(|ms| (i, ms)))
+        .max_by(|a, b| a.1.total_cmp(&b.1))
+        .map(|(i, _)| i)
+}
+
+fn ratio(a: Option<Err2>, b: Option<Err2>) -> Option<f64> {
+    match (a, b) {
+        (Some(a), Some(b)) if b.rel_mse > 0.0 => Some(a.rel_mse / b.rel_mse),
+        _ => None,
+    }
+}
+
+fn compare_scene(
+    ctx: &GpuContext,
+    name: &str,
+    opts: &CompareOptions,
+    strip: &mut Vec<output::StripRow>,
+) -> Result<SceneReport> {
+    let (label, scene) = load_scene(name, opts.size, opts.lights)?;
+    let base = scene.camera_or_default(opts.size.0, opts.size.1);
+    let bar = if opts.progress {
+        ProgressBar::new(0)
+    } else {
+        ProgressBar::hidden()
+    };
+    style(&bar);
+    bar.set_prefix(label.clone());
+    let ref_frames = if opts.reference.is_some() {
+        0
+    } else {
+        u64::from(opts.reference_spp.div_ceil(2) * 2)
+    };
+    bar.set_length(ref_frames + opts.methods.len() as u64 * u64::from(opts.frames));
+    bar.set_message("reference");
+    let (refs, ref_info) = make_references(ctx, &scene, &base, opts, &bar)?;
+    if ref_info.source == "cache" {
+        bar.set_length(opts.methods.len() as u64 * u64::from(opts.frames));
+        bar.set_position(0);
+    }
+
+    let mut runs = Vec::new();
+    let mut lasts = Vec::new();
+    for spec in &opts.methods {
+        bar.set_message(spec.clone());
+        let bias = opts
+            .plant_bias
+            .iter()
+            .find(|(m, _)| m == spec)
+            .map(|(_, b)| *b);
+        let mut last = None;
+        let run = run_method(
+            ctx,
+            &scene,
+            &base,
+            opts,
+            spec,
+            1,
+            opts.frames,
+            &refs,
+            bias,
+            &bar,
+            &mut last,
+        )
+        .with_context(|| format!("{label}: method {spec}"))?;
+        lasts.push((spec.clone(), last));
+        runs.push(run);
+    }
+
+    // Equal time: each other method at the spp that fits the target's GPU time per frame.
+    let mut equal_time = None;
+    if let Some(t) = equal_time_target(opts, &runs)
+        && let Some(t_ms) = runs[t].ms_per_frame
+    {
+        let target = runs[t].clone();
+        let mut entries = Vec::new();
+        for (i, run) in runs.iter().enumerate() {
+            if i == t || run.planted_bias.is_some() {
+                continue;
+            }
+            let Some(ms1) = run.ms_per_frame else { continue };
+            let k = ((t_ms / ms1.max(1e-9)).floor() as u32).clamp(1, 4096);
+            let eq = if k == 1 {
+                run.clone()
+            } else {
+                let frames = opts.equal_time_frames.clamp(1, opts.frames);
+                bar.inc_length(u64::from(frames));
+                bar.set_message(format!("{} x{k} spp", run.method));
+                run_method(
+                    ctx,
+                    &scene,
+                    &base,
+                    opts,
+                    &run.method,
+                    k,
+                    frames,
+                    &refs,
+                    None,
+                    &bar,
+                    &mut None,
+                )?
+            };
+            let speedup = |e: Option<Err2>, te: Option<Err2>| -> Option<f64> {
+                let (e, te, ms) = (e?, te?, eq.ms_per_frame?);
+                (te.rel_mse > 0.0).then(|| ms * (e.rel_mse / te.rel_mse) / t_ms)
+            };
+            entries.push(EqualTimeEntry {
+                method: run.method.clone(),
+                spp_per_frame: k,
+                ms_per_frame: eq.ms_per_frame,
+                frame_indirect: eq.frame_indirect,
+                frame_combined: eq.frame_combined,
+                rel_mse_ratio_indirect: ratio(eq.frame_indirect, target.frame_indirect),
+                rel_mse_ratio_combined: ratio(eq.frame_combined, target.frame_combined),
+                equal_error_speedup_indirect: speedup(eq.frame_indirect, target.frame_indirect),
+                equal_error_speedup_combined: speedup(eq.frame_combined, target.frame_combined),
+            });
+        }
+        equal_time = Some(EqualTime {
+            target: target.method.clone(),
+            target_ms_per_frame: t_ms,
+            target_frame_indirect: target.frame_indirect,
+            target_frame_combined: target.frame_combined,
+            entries,
+        });
+    }
+    bar.finish_and_clear();
+
+    let last_ref = &refs.by_frame.last().context("no reference")?.1;
+    let exposure = metrics::auto_exposure(&last_ref.combined);
+    strip.push(output::StripRow {
+        width: last_ref.width,
+        height: last_ref.height,
+        reference: last_ref.combined.clone(),
+        methods: lasts,
+        exposure,
+    });
+    if opts.write_exr {
+        let img = restir_world::image_io::Image::from_pixels(
+            last_ref.width,
+            last_ref.height,
+            last_ref.combined.clone(),
+        )?;
+        restir_world::image_io::write_exr(&opts.out.join(format!("reference_{label}.exr")), &img)?;
+        if let Some(ind) = &last_ref.indirect {
+            let img = restir_world::image_io::Image::from_pixels(
+                last_ref.width,
+                last_ref.height,
+                ind.clone(),
+            )?;
+            restir_world::image_io::write_exr(
+                &opts.out.join(format!("reference_{label}.indirect.exr")),
+                &img,
+            )?;
+        }
+    }
+    Ok(SceneReport {
+        scene: label,
+        width: opts.size.0,
+        height: opts.size.1,
+        camera: opts.camera,
+        frames: opts.frames,
+        triangles: scene.triangles.len(),
+        emissive_triangles: scene.emissive_triangles(),
+        reference: ref_info,
+        methods: runs,
+        equal_time,
+        exposure,
+    })
+}
+
+/// Runs the whole comparison and writes every output into `opts.out`; returns the report.
+pub fn run(ctx: &GpuContext, opts: &CompareOptions, command: String) -> Result<Report> {
+    if opts.frames == 0 {
+        bail!("--frames must be at least 1");
+    }
+    if opts.methods.is_empty() {
+        bail!("--methods is empty");
+    }
+    for m in &opts.methods {
+        render::methods::entry(m)?;
+    }
+    for (m, _) in &opts.plant_bias {
+        if !opts.methods.contains(m) {
+            bail!("--plant-bias names {m:?}, which is not in --methods");
+        }
+    }
+    std::fs::create_dir_all(&opts.out)
+        .with_context(|| format!("creating {}", opts.out.display()))?;
+    let mut scenes = Vec::new();
+    let mut strip = Vec::new();
+    for name in &opts.scenes {
+        scenes.push(compare_scene(ctx, name, opts, &mut strip)?);
+    }
+    let report = Report {
+        device: ctx.info.name.clone(),
+        backend: format!("{:?}", ctx.info.backend),
+        device_type: format!("{:?}", ctx.info.device_type),
+        driver: format!("{} {}", ctx.info.driver, ctx.info.driver_info),
+        timestamps: ctx.features.timestamps,
+        version: env!("CARGO_PKG_VERSION").into(),
+        command,
+        rel_mse_eps: metrics::REL_MSE_EPS,
+        scenes,
+    };
+    output::write_all(&opts.out, &report, &strip)?;
+    Ok(report)
+}
