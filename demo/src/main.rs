@@ -8,6 +8,8 @@ use anyhow::{Context, Result};
 use clap::{Parser, Subcommand};
 use restir_world::{GpuContext, GpuTimer, gpu::buffers};
 
+mod render_cmd;
+
 #[derive(Parser, Debug)]
 #[command(name = "restir-demo", version, about)]
 struct Cli {
@@ -19,6 +21,9 @@ struct Cli {
 enum Command {
     /// Print the adapter, its optional features and its limits.
     Info,
+    /// Render a built-in scene with nee, ris or world-restir (every knob a flag), static or
+    /// with a camera animation; writes PNG + EXR images and prints per-pass GPU times.
+    Render(render_cmd::RenderArgs),
     /// The default job: prove the device works by running a compute shader and writing its
     /// image as a PNG.
     Smoke {
@@ -128,6 +133,7 @@ fn main() -> Result<()> {
         size: (256, 256),
     }) {
         Command::Info => info(),
+        Command::Render(args) => render_cmd::render(&args),
         Command::Smoke { out, size } => smoke(&out, size),
         Command::Compare(args) => compare_cmd(args),
     }

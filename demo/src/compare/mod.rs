@@ -9,13 +9,13 @@ mod plot;
 use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result, bail};
-use glam::{Quat, Vec3};
 use indicatif::{ProgressBar, ProgressStyle};
 use restir_world::gpu::buffers;
 use restir_world::gpu_reference::{self, GpuReference, ReferenceSettings};
 use restir_world::metrics;
 use restir_world::render::{self, FrameMethod};
 use restir_world::scene::{self, BuiltinOptions, Camera, Scene};
+use restir_world::world_restir::CameraPath;
 use restir_world::{GpuContext, GpuTimer};
 use serde::Serialize;
 
@@ -42,7 +42,7 @@ pub struct CompareOptions {
     pub progress: bool,
 }
 
-/// How the camera moves over the frames.
+/// How the camera moves over the frames (restir-world's camera paths).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum, Serialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum CameraMode {
@@ -50,23 +50,24 @@ pub enum CameraMode {
     Static,
     /// Orbits the target about the up axis, 1 degree per frame.
     Orbit,
+    /// Moves towards the target, 1% of the distance per frame.
+    Dolly,
 }
 
-/// Degrees per frame of the orbit camera.
-const ORBIT_DEG_PER_FRAME: f32 = 1.0;
-
-fn camera_at(base: &Camera, mode: CameraMode, frame: u32) -> Camera {
-    match mode {
-        CameraMode::Static => *base,
-        CameraMode::Orbit => {
-            let axis = base.up.normalize_or(Vec3::Y);
-            let rot = Quat::from_axis_angle(axis, (ORBIT_DEG_PER_FRAME * frame as f32).to_radians());
-            Camera {
-                eye: base.target + rot * (base.eye - base.target),
-                ..*base
-            }
-        }
-    }
+fn camera_at(base: &Camera, mode: CameraMode, frames: u32, frame: u32) -> Camera {
+    let frames = frames.max(1);
+    let path = match mode {
+        CameraMode::Static => CameraPath::Static,
+        CameraMode::Orbit => CameraPath::Orbit {
+            frames,
+            degrees: frames as f32,
+        },
+        CameraMode::Dolly => CameraPath::Dolly {
+            frames,
+            fraction: 0.01 * frames as f32,
+        },
+    };
+    path.camera(base, frame)
 }
 
 // ---------------------------------------------------------------- report data (report.json)
@@ -284,7 +285,7 @@ fn run_method(
     let entry = render::methods::entry(spec)?;
     let mut m: Box<dyn FrameMethod> = render::build_method(spec, ctx, scene, base, opts.seed)?;
     let pixels = m.renderer().pixels() as usize;
-    let mut timer = GpuTimer::new(ctx, m.spans_per_frame() * spp);
+    let mut timer = GpuTimer::new(ctx, m.spans_per_frame());
     let static_camera = opts.camera == CameraMode::Static;
     let mut acc_ind = vec![[0f64; 3]; pixels];
     let mut acc_dir = vec![[0f64; 3]; pixels];
@@ -294,42 +295,48 @@ fn run_method(
     let mut last_eval: Option<(Vec<[f32; 3]>, Vec<[f32; 3]>, u32)> = None;
     for f in 0..frames {
         if !static_camera {
-            m.set_camera(ctx, &camera_at(base, opts.camera, f))?;
+            m.set_camera(ctx, &camera_at(base, opts.camera, opts.frames, f))?;
         }
-        timer.reset();
-        let mut enc = ctx.device.create_command_encoder(&Default::default());
-        enc.clear_buffer(&m.renderer().buffers.accum_direct, 0, None);
-        enc.clear_buffer(&m.renderer().buffers.accum_indirect, 0, None);
-        for _ in 0..spp {
-            m.encode_frame(&mut enc, Some(&mut timer));
+        // One submission per sample (methods may write uniforms through the queue between
+        // frames); the accumulation buffers are cleared first so they hold this frame only.
+        let mut frame_ms: Option<f64> = timer.is_available().then_some(0.0);
+        let mut stages: Vec<Stage> = Vec::new();
+        for sub in 0..spp {
+            timer.reset();
+            let mut enc = ctx.device.create_command_encoder(&Default::default());
+            if sub == 0 {
+                enc.clear_buffer(&m.renderer().buffers.accum_direct, 0, None);
+                enc.clear_buffer(&m.renderer().buffers.accum_indirect, 0, None);
+            }
+            m.encode_frame(ctx, &mut enc, Some(&mut timer))?;
+            timer.resolve(&mut enc);
+            ctx.queue.submit([enc.finish()]);
+            match timer.read(ctx) {
+                Ok(t) => {
+                    for (name, ms) in &t.0 {
+                        match stages.iter_mut().find(|s| &s.name == name) {
+                            Some(s) => s.ms += ms,
+                            None => stages.push(Stage {
+                                name: name.clone(),
+                                ms: *ms,
+                            }),
+                        }
+                    }
+                    frame_ms = frame_ms.map(|f| f + t.total());
+                }
+                Err(_) => {
+                    ctx.wait()?;
+                    frame_ms = None;
+                }
+            }
         }
-        timer.resolve(&mut enc);
-        ctx.queue.submit([enc.finish()]);
-        let (gpu_ms, stages) = match timer.read(ctx) {
-            Ok(t) => {
-                let mut stages: Vec<Stage> = Vec::new();
-                for (name, ms) in &t.0 {
-                    match stages.iter_mut().find(|s| &s.name == name) {
-                        Some(s) => s.ms += ms,
-                        None => stages.push(Stage {
-                            name: name.clone(),
-                            ms: *ms,
-                        }),
-                    }
-                }
-                for s in &stages {
-                    match stage_totals.iter_mut().find(|t| t.name == s.name) {
-                        Some(t) => t.ms += s.ms,
-                        None => stage_totals.push(s.clone()),
-                    }
-                }
-                (Some(t.total()), stages)
+        for s in &stages {
+            match stage_totals.iter_mut().find(|t| t.name == s.name) {
+                Some(t) => t.ms += s.ms,
+                None => stage_totals.push(s.clone()),
             }
-            Err(_) => {
-                ctx.wait()?;
-                (None, Vec::new())
-            }
-        };
+        }
+        let gpu_ms = frame_ms;
         if let Some(ms) = gpu_ms {
             cumulative += ms;
         }
@@ -506,7 +513,7 @@ fn make_references(
     }
     let eval: Vec<u32> = match opts.camera {
         CameraMode::Static => vec![0],
-        CameraMode::Orbit => {
+        CameraMode::Orbit | CameraMode::Dolly => {
             let every = opts.eval_every.max(1);
             let mut v: Vec<u32> = (0..opts.frames)
                 .filter(|f| (f + 1) % every == 0)
@@ -520,7 +527,7 @@ fn make_references(
     let mut by_frame = Vec::new();
     let mut sources = Vec::new();
     for &f in &eval {
-        let cam = camera_at(base, opts.camera, f);
+        let cam = camera_at(base, opts.camera, opts.frames, f);
         let r = gpu_reference::load_or_render(
             ctx,
             scene,

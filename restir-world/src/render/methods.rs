@@ -8,7 +8,21 @@ use std::fmt;
 
 use super::{Method, RenderError, Renderer};
 use crate::scene::{Camera, Scene};
+use crate::world_restir::{WorldRestir, WorldRestirConfig, WorldRestirError};
 use crate::{GpuContext, GpuTimer};
+
+/// What can go wrong building or running a method.
+#[derive(Debug, thiserror::Error)]
+pub enum MethodError {
+    #[error(transparent)]
+    Render(#[from] RenderError),
+    #[error(transparent)]
+    WorldRestir(#[from] WorldRestirError),
+    #[error("unknown method {name:?}; known: {known}")]
+    Unknown { name: String, known: String },
+    #[error("method {method}: {msg}")]
+    Variant { method: String, msg: String },
+}
 
 /// One rendering method as the tools drive it: one frame (one sample per pixel of this
 /// method) at a time, recorded into the caller's encoder. Each frame leaves its image in the
@@ -19,12 +33,23 @@ pub trait FrameMethod: fmt::Debug {
     fn spec(&self) -> &str;
     /// The renderer whose buffers hold the images.
     fn renderer(&self) -> &Renderer;
-    /// Records one frame into `encoder`, one named timestamp span per stage.
-    fn encode_frame(&mut self, encoder: &mut wgpu::CommandEncoder, timer: Option<&mut GpuTimer>);
+    /// Records one frame into `encoder`, one named timestamp span per stage. A method may
+    /// write small uniforms through `ctx.queue` (world-space ReSTIR does): callers that record
+    /// several frames of such a method submit after each (see [`FrameMethod::one_frame_per_submit`]).
+    fn encode_frame(
+        &mut self,
+        ctx: &GpuContext,
+        encoder: &mut wgpu::CommandEncoder,
+        timer: Option<&mut GpuTimer>,
+    ) -> Result<(), MethodError>;
     /// The most timestamp spans one frame records (the timer's capacity per frame).
     fn spans_per_frame(&self) -> u32;
+    /// Whether each frame must be submitted before the next is recorded.
+    fn one_frame_per_submit(&self) -> bool {
+        false
+    }
     /// Moves the camera for the next frames (same image size).
-    fn set_camera(&mut self, ctx: &GpuContext, camera: &Camera) -> Result<(), RenderError>;
+    fn set_camera(&mut self, ctx: &GpuContext, camera: &Camera) -> Result<(), MethodError>;
 }
 
 /// A baseline (`nee`, `ris`): the renderer itself.
@@ -41,15 +66,114 @@ impl FrameMethod for Baseline {
     fn renderer(&self) -> &Renderer {
         &self.renderer
     }
-    fn encode_frame(&mut self, encoder: &mut wgpu::CommandEncoder, timer: Option<&mut GpuTimer>) {
+    fn encode_frame(
+        &mut self,
+        _ctx: &GpuContext,
+        encoder: &mut wgpu::CommandEncoder,
+        timer: Option<&mut GpuTimer>,
+    ) -> Result<(), MethodError> {
         self.renderer.encode_frame(encoder, timer);
+        Ok(())
     }
     fn spans_per_frame(&self) -> u32 {
         5
     }
-    fn set_camera(&mut self, ctx: &GpuContext, camera: &Camera) -> Result<(), RenderError> {
-        self.renderer.set_camera(ctx, camera)
+    fn set_camera(&mut self, ctx: &GpuContext, camera: &Camera) -> Result<(), MethodError> {
+        Ok(self.renderer.set_camera(&ctx.queue, camera)?)
     }
+}
+
+/// World-space ReSTIR GI (and its variants).
+#[derive(Debug)]
+pub struct WorldRestirMethod {
+    spec: String,
+    pub inner: WorldRestir,
+}
+
+impl FrameMethod for WorldRestirMethod {
+    fn spec(&self) -> &str {
+        &self.spec
+    }
+    fn renderer(&self) -> &Renderer {
+        &self.inner.renderer
+    }
+    fn encode_frame(
+        &mut self,
+        ctx: &GpuContext,
+        encoder: &mut wgpu::CommandEncoder,
+        timer: Option<&mut GpuTimer>,
+    ) -> Result<(), MethodError> {
+        Ok(self.inner.encode_frame(&ctx.queue, encoder, timer)?)
+    }
+    fn spans_per_frame(&self) -> u32 {
+        // primary, gi, generate, build, temporal, spatial, shade, shade_direct, persist,
+        // accumulate.
+        10
+    }
+    fn one_frame_per_submit(&self) -> bool {
+        true
+    }
+    fn set_camera(&mut self, ctx: &GpuContext, camera: &Camera) -> Result<(), MethodError> {
+        Ok(self.inner.set_camera(&ctx.queue, camera)?)
+    }
+}
+
+/// The variants of `world-restir`, each isolating what one part buys.
+pub const WORLD_RESTIR_VARIANTS: [(&str, &str); 7] = [
+    ("both", "temporal + spatial reuse (the default)"),
+    ("no-reuse", "no temporal, no spatial reuse"),
+    ("temporal", "temporal reuse only"),
+    ("spatial", "spatial reuse only"),
+    ("no-adaptive", "fixed cell size (adaptive cell size off)"),
+    ("no-jitter", "no tangent jitter of the lookups"),
+    ("visibility", "shadow-tested target in reuse"),
+];
+
+/// The configuration of a `world-restir` variant.
+pub fn world_restir_config(variant: Option<&str>) -> Result<WorldRestirConfig, MethodError> {
+    let d = WorldRestirConfig::default();
+    Ok(match variant.unwrap_or("both") {
+        "both" => d,
+        "no-reuse" => WorldRestirConfig::no_reuse(),
+        "temporal" => WorldRestirConfig {
+            spatial_passes: 0,
+            ..d
+        },
+        "spatial" => WorldRestirConfig {
+            temporal: false,
+            ..d
+        },
+        "no-adaptive" => WorldRestirConfig {
+            adaptive_cell_size: false,
+            ..d
+        },
+        "no-jitter" => WorldRestirConfig { jitter: false, ..d },
+        "visibility" => WorldRestirConfig {
+            visibility: true,
+            ..d
+        },
+        other => {
+            let names: Vec<&str> = WORLD_RESTIR_VARIANTS.iter().map(|v| v.0).collect();
+            return Err(MethodError::Variant {
+                method: "world-restir".into(),
+                msg: format!("unknown variant {other:?}; known: {}", names.join(", ")),
+            });
+        }
+    })
+}
+
+fn build_world_restir(
+    ctx: &GpuContext,
+    scene: &Scene,
+    camera: &Camera,
+    seed: u32,
+    variant: Option<&str>,
+) -> Result<Box<dyn FrameMethod>, MethodError> {
+    let config = world_restir_config(variant)?;
+    Ok(Box::new(WorldRestirMethod {
+        spec: spec_of("world-restir", variant),
+        inner: WorldRestir::new(ctx, scene, camera, config, seed)?,
+    }))
 }
 
 /// Builds a method of the registry from its variant (`None` = the default).
@@ -59,7 +183,7 @@ pub type BuildFn = fn(
     camera: &Camera,
     seed: u32,
     variant: Option<&str>,
-) -> Result<Box<dyn FrameMethod>, RenderError>;
+) -> Result<Box<dyn FrameMethod>, MethodError>;
 
 /// One registered method.
 #[derive(Clone, Copy)]
@@ -97,11 +221,12 @@ fn build_nee(
     camera: &Camera,
     seed: u32,
     variant: Option<&str>,
-) -> Result<Box<dyn FrameMethod>, RenderError> {
+) -> Result<Box<dyn FrameMethod>, MethodError> {
     if let Some(v) = variant {
-        return Err(RenderError::Settings(format!(
-            "nee has no variants (got {v:?})"
-        )));
+        return Err(MethodError::Variant {
+            method: "nee".into(),
+            msg: format!("has no variants (got {v:?})"),
+        });
     }
     Ok(Box::new(Baseline {
         spec: spec_of("nee", variant),
@@ -115,12 +240,13 @@ fn build_ris(
     camera: &Camera,
     seed: u32,
     variant: Option<&str>,
-) -> Result<Box<dyn FrameMethod>, RenderError> {
+) -> Result<Box<dyn FrameMethod>, MethodError> {
     let method = match variant {
         None => Method::ris(),
         Some(v) => Method::Ris {
-            candidates: v.parse().map_err(|_| {
-                RenderError::Settings(format!("ris:<candidates> wants a number, got {v:?}"))
+            candidates: v.parse().map_err(|_| MethodError::Variant {
+                method: "ris".into(),
+                msg: format!("ris:<candidates> wants a number, got {v:?}"),
             })?,
         },
     };
@@ -147,19 +273,26 @@ pub fn registry() -> &'static [MethodEntry] {
             equal_time_target: false,
             build: build_ris,
         },
+        MethodEntry {
+            name: "world-restir",
+            about: "world-space ReSTIR GI: RIS + hash-grid temporal and spatial reuse",
+            variants: "both, no-reuse, temporal, spatial, no-adaptive, no-jitter, visibility",
+            equal_time_target: true,
+            build: build_world_restir,
+        },
     ];
     REGISTRY
 }
 
 /// The registry entry of `spec` (`name` or `name:variant`).
-pub fn entry(spec: &str) -> Result<&'static MethodEntry, RenderError> {
+pub fn entry(spec: &str) -> Result<&'static MethodEntry, MethodError> {
     let name = spec.split_once(':').map_or(spec, |(n, _)| n);
     registry().iter().find(|e| e.name == name).ok_or_else(|| {
         let names: Vec<&str> = registry().iter().map(|e| e.name).collect();
-        RenderError::Settings(format!(
-            "unknown method {name:?}; known: {}",
-            names.join(", ")
-        ))
+        MethodError::Unknown {
+            name: name.into(),
+            known: names.join(", "),
+        }
     })
 }
 
@@ -170,7 +303,7 @@ pub fn build_method(
     scene: &Scene,
     camera: &Camera,
     seed: u32,
-) -> Result<Box<dyn FrameMethod>, RenderError> {
+) -> Result<Box<dyn FrameMethod>, MethodError> {
     let e = entry(spec)?;
     let variant = spec.split_once(':').map(|(_, v)| v);
     (e.build)(ctx, scene, camera, seed, variant)
@@ -189,5 +322,19 @@ mod tests {
         }
         assert_eq!(entry("ris:4").unwrap().name, "ris");
         assert!(entry("nope").is_err());
+    }
+
+    #[test]
+    fn world_restir_variants_parse() {
+        for (v, _) in WORLD_RESTIR_VARIANTS {
+            world_restir_config(Some(v)).unwrap().validate().unwrap();
+        }
+        let t = world_restir_config(Some("temporal")).unwrap();
+        assert!(t.temporal && t.spatial_passes == 0);
+        let s = world_restir_config(Some("spatial")).unwrap();
+        assert!(!s.temporal && s.spatial_passes > 0);
+        assert!(!world_restir_config(Some("no-jitter")).unwrap().jitter);
+        assert!(!world_restir_config(Some("no-adaptive")).unwrap().adaptive_cell_size);
+        assert!(world_restir_config(Some("bogus")).is_err());
     }
 }

@@ -32,7 +32,7 @@ use crate::{GpuContext, GpuError, GpuTimer};
 
 pub mod methods;
 
-pub use methods::{FrameMethod, MethodEntry, build_method, registry};
+pub use methods::{FrameMethod, MethodEntry, MethodError, build_method, registry};
 
 /// The renderer's library (structs + functions).
 pub const WGSL: &str = include_str!("render.wgsl");
@@ -302,7 +302,6 @@ pub struct Renderer {
     pub gpu_bvh: GpuBvh,
     pub gpu_lights: GpuLights,
     pub buffers: RenderBuffers,
-    params: RenderParams,
     render_group: wgpu::BindGroup,
     bvh_group: wgpu::BindGroup,
     lights_group: wgpu::BindGroup,
@@ -381,7 +380,7 @@ impl Renderer {
                 device,
                 "render_params",
                 &[params],
-                wgpu::BufferUsages::UNIFORM,
+                wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
             ),
             state: buffers::storage_zeroed(device, "render_state", size_of::<RenderState>() as u64),
             gbuffer: buffers::storage_zeroed(device, "render_gbuffer", gbytes),
@@ -476,7 +475,6 @@ impl Renderer {
             gpu_bvh,
             gpu_lights,
             buffers,
-            params,
             render_group,
             bvh_group,
             lights_group,
@@ -500,28 +498,25 @@ impl Renderer {
         ]
     }
 
-    /// Moves the camera (same image size) for the next frames: the uniform is rewritten before
-    /// the next submission. Accumulated sums are kept (clear them for a moving camera).
-    pub fn set_camera(&mut self, ctx: &GpuContext, camera: &Camera) -> Result<(), RenderError> {
+    /// Moves the camera for the next submitted frame (same image size; the accumulation is not
+    /// reset). Used by camera animations.
+    pub fn set_camera(&mut self, queue: &wgpu::Queue, camera: &Camera) -> Result<(), RenderError> {
         camera
             .validate()
             .map_err(|e| RenderError::Settings(e.to_string()))?;
         if (camera.width, camera.height) != (self.camera.width, self.camera.height) {
-            return Err(RenderError::Settings(format!(
-                "set_camera cannot resize: {}x{} -> {}x{}",
-                self.camera.width, self.camera.height, camera.width, camera.height
-            )));
+            return Err(RenderError::Settings(
+                "set_camera cannot change the image size".into(),
+            ));
         }
+        // The camera is the first field of RenderParams.
+        queue.write_buffer(
+            &self.buffers.params,
+            0,
+            bytemuck::bytes_of(&CameraGpu::new(camera)),
+        );
         self.camera = *camera;
-        self.params.camera = CameraGpu::new(camera);
-        ctx.queue
-            .write_buffer(&self.buffers.params, 0, bytemuck::bytes_of(&self.params));
         Ok(())
-    }
-
-    /// The seed the renderer was created with.
-    pub fn seed(&self) -> u32 {
-        self.params.seed
     }
 
     /// Pixels per frame.
