@@ -8,7 +8,7 @@ use std::process::Command;
 
 use serde_json::Value;
 
-fn run(out: &Path, extra: &[&str]) {
+fn run(out: &Path, methods: &str, extra: &[&str]) {
     let exe = env!("CARGO_BIN_EXE_restir-demo");
     let mut args: Vec<String> = [
         "compare",
@@ -21,9 +21,7 @@ fn run(out: &Path, extra: &[&str]) {
         "--reference-spp",
         "64",
         "--methods",
-        "nee,ris,ris:16",
-        "--plant-bias",
-        "ris:16=1.5",
+        methods,
         "--no-cache",
         "--quiet",
         "--out",
@@ -82,7 +80,11 @@ fn f(v: &Value) -> f64 {
 #[test]
 fn compare_end_to_end() {
     let out = out_dir("compare_e2e");
-    run(&out, &[]);
+    run(
+        &out,
+        "nee,ris,ris:16,world-restir",
+        &["--plant-bias", "ris:16=1.5"],
+    );
     for file in [
         "report.md",
         "report.json",
@@ -117,6 +119,18 @@ fn compare_end_to_end() {
     let nee = method(scene, "nee");
     let ris = method(scene, "ris");
     let biased = method(scene, "ris:16");
+    let wr = method(scene, "world-restir");
+    assert!(f(&wr["frame_indirect"]["rel_mse"]) > 0.0);
+    // world-restir is the equal-time target; nee and ris are measured against it.
+    let eq = &scene["equal_time"];
+    assert_eq!(eq["target"], "world-restir");
+    let entries = eq["entries"].as_array().expect("equal-time entries");
+    assert_eq!(entries.len(), 2, "nee and ris (the biased copy is left out)");
+    for e in entries {
+        assert!(e["spp_per_frame"].as_u64().unwrap() >= 1);
+        assert!(f(&e["rel_mse_ratio_indirect"]) > 0.0);
+        assert!(f(&e["equal_error_speedup_indirect"]) > 0.0);
+    }
     assert_eq!(nee["per_frame"].as_array().unwrap().len(), 4);
     for m in [nee, ris, biased] {
         assert!(f(&m["ms_per_frame"]) > 0.0 || json["timestamps"] == false);
@@ -141,6 +155,7 @@ fn compare_end_to_end() {
     let ri = out.join("reference_cornell.indirect.exr");
     run(
         &out2,
+        "nee",
         &[
             "--reference",
             r.to_str().unwrap(),
@@ -158,4 +173,32 @@ fn compare_end_to_end() {
         nee["accumulated_indirect"],
         "external reference gives other numbers"
     );
+}
+
+#[test]
+fn compare_moving_camera() {
+    let out = out_dir("compare_orbit");
+    run(
+        &out,
+        "nee,world-restir",
+        &["--camera", "orbit", "--eval-every", "2"],
+    );
+    let json: Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("report.json")).unwrap())
+            .unwrap();
+    all_numbers_finite(&json, "report");
+    let scene = &json["scenes"][0];
+    assert_eq!(scene["camera"], "orbit");
+    assert_eq!(f(&scene["reference"]["count"]), 2.0, "frames 1 and 3 evaluated");
+    for name in ["nee", "world-restir"] {
+        let m = method(scene, name);
+        let frames = m["per_frame"].as_array().unwrap();
+        let evaluated: Vec<u64> = frames
+            .iter()
+            .filter(|fr| !fr["indirect"].is_null())
+            .map(|fr| fr["frame"].as_u64().unwrap())
+            .collect();
+        assert_eq!(evaluated, [1, 3], "{name}");
+        assert!(m["accumulated_indirect"].is_null(), "no accumulation for a moving camera");
+    }
 }
