@@ -179,8 +179,10 @@ fn compare_cmd(a: CompareArgs) -> Result<()> {
                 sc.scene,
                 m.method,
                 m.ms_per_frame.map_or("-".into(), |v| format!("{v:.3}")),
-                m.frame_indirect.map_or("-".into(), |e| format!("{:.4e}", e.rel_mse)),
-                m.frame_combined.map_or("-".into(), |e| format!("{:.4e}", e.rel_mse)),
+                m.frame_indirect
+                    .map_or("-".into(), |e| format!("{:.4e}", e.rel_mse)),
+                m.frame_combined
+                    .map_or("-".into(), |e| format!("{:.4e}", e.rel_mse)),
             );
         }
     }

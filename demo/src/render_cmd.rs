@@ -242,9 +242,24 @@ pub fn render(args: &RenderArgs) -> Result<()> {
         }
     };
     let combined = images.combined();
-    write(&args.out, "direct", &image(w, h, images.direct)?, args.exposure)?;
-    write(&args.out, "indirect", &image(w, h, images.indirect)?, args.exposure)?;
-    write(&args.out, "combined", &image(w, h, combined)?, args.exposure)?;
+    write(
+        &args.out,
+        "direct",
+        &image(w, h, images.direct)?,
+        args.exposure,
+    )?;
+    write(
+        &args.out,
+        "indirect",
+        &image(w, h, images.indirect)?,
+        args.exposure,
+    )?;
+    write(
+        &args.out,
+        "combined",
+        &image(w, h, combined)?,
+        args.exposure,
+    )?;
     println!(
         "wrote direct, indirect, combined (.png, .exr) to {}",
         args.out.display()

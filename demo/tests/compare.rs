@@ -31,7 +31,10 @@ fn run(out: &Path, methods: &str, extra: &[&str]) {
     .collect();
     args.push(out.display().to_string());
     args.extend(extra.iter().map(|s| s.to_string()));
-    let o = Command::new(exe).args(&args).output().expect("run restir-demo");
+    let o = Command::new(exe)
+        .args(&args)
+        .output()
+        .expect("run restir-demo");
     assert!(
         o.status.success(),
         "restir-demo {args:?} failed:\n{}\n{}",
@@ -114,7 +117,10 @@ fn compare_end_to_end() {
     assert_eq!(f(&reference["against_itself"]["rel_mse"]), 0.0);
     assert_eq!(f(&reference["against_itself"]["mse"]), 0.0);
     let self_err = f(&reference["self_rel_mse_indirect"]);
-    assert!(self_err > 0.0 && self_err < 1.0, "reference relMSE {self_err}");
+    assert!(
+        self_err > 0.0 && self_err < 1.0,
+        "reference relMSE {self_err}"
+    );
 
     let nee = method(scene, "nee");
     let ris = method(scene, "ris");
@@ -125,7 +131,11 @@ fn compare_end_to_end() {
     let eq = &scene["equal_time"];
     assert_eq!(eq["target"], "world-restir");
     let entries = eq["entries"].as_array().expect("equal-time entries");
-    assert_eq!(entries.len(), 2, "nee and ris (the biased copy is left out)");
+    assert_eq!(
+        entries.len(),
+        2,
+        "nee and ris (the biased copy is left out)"
+    );
     for e in entries {
         assert!(e["spp_per_frame"].as_u64().unwrap() >= 1);
         assert!(f(&e["rel_mse_ratio_indirect"]) > 0.0);
@@ -164,8 +174,7 @@ fn compare_end_to_end() {
         ],
     );
     let json2: Value =
-        serde_json::from_str(&std::fs::read_to_string(out2.join("report.json")).unwrap())
-            .unwrap();
+        serde_json::from_str(&std::fs::read_to_string(out2.join("report.json")).unwrap()).unwrap();
     let scene2 = &json2["scenes"][0];
     assert_eq!(scene2["reference"]["source"], "external");
     assert_eq!(
@@ -184,12 +193,15 @@ fn compare_moving_camera() {
         &["--camera", "orbit", "--eval-every", "2"],
     );
     let json: Value =
-        serde_json::from_str(&std::fs::read_to_string(out.join("report.json")).unwrap())
-            .unwrap();
+        serde_json::from_str(&std::fs::read_to_string(out.join("report.json")).unwrap()).unwrap();
     all_numbers_finite(&json, "report");
     let scene = &json["scenes"][0];
     assert_eq!(scene["camera"], "orbit");
-    assert_eq!(f(&scene["reference"]["count"]), 2.0, "frames 1 and 3 evaluated");
+    assert_eq!(
+        f(&scene["reference"]["count"]),
+        2.0,
+        "frames 1 and 3 evaluated"
+    );
     for name in ["nee", "world-restir"] {
         let m = method(scene, name);
         let frames = m["per_frame"].as_array().unwrap();
@@ -199,6 +211,9 @@ fn compare_moving_camera() {
             .map(|fr| fr["frame"].as_u64().unwrap())
             .collect();
         assert_eq!(evaluated, [1, 3], "{name}");
-        assert!(m["accumulated_indirect"].is_null(), "no accumulation for a moving camera");
+        assert!(
+            m["accumulated_indirect"].is_null(),
+            "no accumulation for a moving camera"
+        );
     }
 }

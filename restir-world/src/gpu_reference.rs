@@ -6,11 +6,11 @@
 
 use std::path::{Path, PathBuf};
 
+use crate::GpuContext;
 use crate::image_io::{self, Image, ImageIoError};
 use crate::metrics::{self, MetricsError};
 use crate::render::{Method, RenderError, Renderer};
 use crate::scene::{Camera, Scene};
-use crate::GpuContext;
 
 /// Frames recorded per submission while rendering a reference.
 const FRAMES_PER_SUBMIT: u32 = 8;
@@ -253,7 +253,10 @@ pub fn write_cache(dir: &Path, r: &GpuReference) -> Result<(), ReferenceError> {
         msg: e.to_string(),
     })?;
     let [c, i, t] = cache_paths(dir, &r.key);
-    image_io::write_exr(&c, &Image::from_pixels(r.width, r.height, r.combined.clone())?)?;
+    image_io::write_exr(
+        &c,
+        &Image::from_pixels(r.width, r.height, r.combined.clone())?,
+    )?;
     if let Some(ind) = &r.indirect {
         image_io::write_exr(&i, &Image::from_pixels(r.width, r.height, ind.clone())?)?;
     }

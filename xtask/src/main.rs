@@ -64,10 +64,13 @@ const DEMO_COMPARE: [&str; 12] = [
 ];
 
 /// The reference configuration of docs/results.md.
-const RESULTS_COMPARE: [&str; 14] = [
+const RESULTS_COMPARE: [&str; 16] = [
     "compare",
     "--scene",
     "many-lights,cornell",
+    "--methods",
+    "nee,ris,world-restir,world-restir:no-reuse,world-restir:temporal,world-restir:spatial,\
+     world-restir:no-adaptive,world-restir:no-jitter",
     "--size",
     "96x96",
     "--frames",

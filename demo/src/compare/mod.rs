@@ -19,6 +19,9 @@ use restir_world::world_restir::CameraPath;
 use restir_world::{GpuContext, GpuTimer};
 use serde::Serialize;
 
+/// A linear RGB image's pixels.
+type Rgb = Vec<[f32; 3]>;
+
 /// Options of one compare run (the CLI fills it; tests may too).
 #[derive(Debug, Clone)]
 pub struct CompareOptions {
@@ -254,7 +257,10 @@ impl Refs {
         if self.static_camera {
             self.by_frame.first().map(|(_, r)| r)
         } else {
-            self.by_frame.iter().find(|(f, _)| *f == frame).map(|(_, r)| r)
+            self.by_frame
+                .iter()
+                .find(|(f, _)| *f == frame)
+                .map(|(_, r)| r)
         }
     }
 }
@@ -292,7 +298,8 @@ fn run_method(
     let mut cumulative = 0.0f64;
     let mut records = Vec::with_capacity(frames as usize);
     let mut stage_totals: Vec<Stage> = Vec::new();
-    let mut last_eval: Option<(Vec<[f32; 3]>, Vec<[f32; 3]>, u32)> = None;
+    // (indirect, combined, frame) of the last frame with a reference.
+    let mut last_eval: Option<(Rgb, Rgb, u32)> = None;
     for f in 0..frames {
         if !static_camera {
             m.set_camera(ctx, &camera_at(base, opts.camera, opts.frames, f))?;
@@ -394,8 +401,7 @@ fn run_method(
                     .zip(&acc_dir)
                     .map(|(i, d)| [0, 1, 2].map(|c| ((i[c] + d[c]) / n) as f32))
                     .collect();
-                rec.accumulated_rel_mse_combined =
-                    Some(metrics::rel_mse(&avg_comb, &r.combined)?);
+                rec.accumulated_rel_mse_combined = Some(metrics::rel_mse(&avg_comb, &r.combined)?);
                 if let Some(ri) = &r.indirect {
                     rec.accumulated_rel_mse_indirect = Some(metrics::rel_mse(&avg_ind, ri)?);
                 }
@@ -515,9 +521,7 @@ fn make_references(
         CameraMode::Static => vec![0],
         CameraMode::Orbit | CameraMode::Dolly => {
             let every = opts.eval_every.max(1);
-            let mut v: Vec<u32> = (0..opts.frames)
-                .filter(|f| (f + 1) % every == 0)
-                .collect();
+            let mut v: Vec<u32> = (0..opts.frames).filter(|f| (f + 1) % every == 0).collect();
             if v.last() != Some(&(opts.frames - 1)) {
                 v.push(opts.frames - 1);
             }
@@ -661,7 +665,9 @@ fn compare_scene(
             if i == t || run.planted_bias.is_some() {
                 continue;
             }
-            let Some(ms1) = run.ms_per_frame else { continue };
+            let Some(ms1) = run.ms_per_frame else {
+                continue;
+            };
             let k = ((t_ms / ms1.max(1e-9)).floor() as u32).clamp(1, 4096);
             let eq = if k == 1 {
                 run.clone()
@@ -715,7 +721,16 @@ fn compare_scene(
         width: last_ref.width,
         height: last_ref.height,
         reference: last_ref.combined.clone(),
-        methods: lasts,
+        // The strip shows the methods without a variant (one column each), all when every
+        // listed method is a variant: variants live in the tables and the plot.
+        methods: {
+            let plain: Vec<_> = lasts
+                .iter()
+                .filter(|(n, _)| !n.contains(':'))
+                .cloned()
+                .collect();
+            if plain.is_empty() { lasts } else { plain }
+        },
         exposure,
     });
     if opts.write_exr {

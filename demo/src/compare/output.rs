@@ -139,7 +139,11 @@ fn markdown(r: &Report, strip: &[StripRow]) -> String {
              ratios measured in the same run, not absolute milliseconds.\n"
         );
     }
-    let _ = writeln!(s, "Command: `{}`  \nrestir-world {}\n", r.command, r.version);
+    let _ = writeln!(
+        s,
+        "Command: `{}`  \nrestir-world {}\n",
+        r.command, r.version
+    );
     let _ = writeln!(
         s,
         "Errors against the reference, linear HDR: MSE and relMSE = mean((I-R)^2/(R^2+{})) per \

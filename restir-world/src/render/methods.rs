@@ -334,7 +334,11 @@ mod tests {
         let s = world_restir_config(Some("spatial")).unwrap();
         assert!(!s.temporal && s.spatial_passes > 0);
         assert!(!world_restir_config(Some("no-jitter")).unwrap().jitter);
-        assert!(!world_restir_config(Some("no-adaptive")).unwrap().adaptive_cell_size);
+        assert!(
+            !world_restir_config(Some("no-adaptive"))
+                .unwrap()
+                .adaptive_cell_size
+        );
         assert!(world_restir_config(Some("bogus")).is_err());
     }
 }
