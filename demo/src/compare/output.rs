@@ -250,6 +250,21 @@ fn markdown(r: &Report, strip: &[StripRow]) -> String {
                     sci(e.equal_error_speedup_combined),
                 );
             }
+            if let Some(t) = sc.methods.iter().find(|m| m.method == eq.target)
+                && let Some(total) = t.ms_per_frame.filter(|&ms| ms > 0.0)
+            {
+                let shares: Vec<String> = t
+                    .ms_per_frame_by_stage
+                    .iter()
+                    .map(|st| format!("{} {:.1}%", st.name, 100.0 * st.ms / total))
+                    .collect();
+                let _ = writeln!(
+                    s,
+                    "\n`{}` frame by stage (share of its GPU time): {}.",
+                    eq.target,
+                    shares.join(", ")
+                );
+            }
             let _ = writeln!(
                 s,
                 "\nEqual-error speed-up: the GPU time the method needs to reach the target's \
