@@ -200,8 +200,9 @@ pub fn render(args: &RenderArgs) -> Result<()> {
             print_times(times);
             let stats = wr.grid_stats(&ctx)?;
             println!(
-                "grid (last frame): used slots {} overflows {} (vertices kept their own reservoir)",
-                stats.used_slots, stats.overflows
+                "grid (last frame): {} vertices found their bucket full and kept their own \
+                 reservoir",
+                stats.overflows
             );
             if args.debug_views {
                 for (view, name) in [
