@@ -195,7 +195,11 @@ fn storage_entry(binding: u32, read_only: bool) -> wgpu::BindGroupLayoutEntry {
     }
 }
 
-fn buffer_entry(binding: u32, buffer: &wgpu::Buffer, size: Option<u64>) -> wgpu::BindGroupEntry<'_> {
+fn buffer_entry(
+    binding: u32,
+    buffer: &wgpu::Buffer,
+    size: Option<u64>,
+) -> wgpu::BindGroupEntry<'_> {
     wgpu::BindGroupEntry {
         binding,
         resource: wgpu::BindingResource::Buffer(wgpu::BufferBinding {
@@ -216,8 +220,10 @@ impl Scan {
     /// Builds the pipelines and scratch for scans of up to `desc.max_len` elements.
     pub fn new(device: &wgpu::Device, desc: &ScanDescriptor) -> Result<Self, ScanError> {
         let limits = device.limits();
-        let binding_limit =
-            limits.max_storage_buffer_binding_size.min(limits.max_buffer_size) / 4;
+        let binding_limit = limits
+            .max_storage_buffer_binding_size
+            .min(limits.max_buffer_size)
+            / 4;
         if u64::from(desc.max_len) > binding_limit {
             return Err(ScanError::MaxLenAboveBindingLimit {
                 max_len: desc.max_len,
@@ -380,7 +386,11 @@ impl Scan {
         encoder.clear_buffer(&self.counters, 0, None);
     }
 
-    fn check_total(&self, total: Option<&wgpu::Buffer>, others: [&wgpu::Buffer; 2]) -> Result<(), ScanError> {
+    fn check_total(
+        &self,
+        total: Option<&wgpu::Buffer>,
+        others: [&wgpu::Buffer; 2],
+    ) -> Result<(), ScanError> {
         if let Some(t) = total {
             check_storage("total", t)?;
             if t.size() < 4 {
