@@ -10,11 +10,14 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
 }
 
 async fn run() -> Result<(), Box<dyn std::error::Error>> {
-    let instance = wgpu::Instance::new(wgpu::InstanceDescriptor::new_without_display_handle_from_env());
+    let instance =
+        wgpu::Instance::new(wgpu::InstanceDescriptor::new_without_display_handle_from_env());
     let adapter = instance
         .request_adapter(&wgpu::RequestAdapterOptions::default())
         .await
-        .map_err(|e| format!("no GPU adapter ({e}); on a machine without a GPU install lavapipe"))?;
+        .map_err(|e| {
+            format!("no GPU adapter ({e}); on a machine without a GPU install lavapipe")
+        })?;
     // Ask for subgroups when the adapter has them: the scan uses them if present.
     let features = adapter.features() & wgpu::Features::SUBGROUP;
     let (device, queue) = adapter

@@ -493,7 +493,7 @@ impl Scan {
         check_storage("input", input)?;
         check_storage("output", output)?;
         check_storage("length", len)?;
-        if len_offset % 4 != 0 {
+        if !len_offset.is_multiple_of(4) {
             return Err(ScanError::UnalignedLenOffset(len_offset));
         }
         if len.size() < len_offset + 4 {
