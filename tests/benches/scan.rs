@@ -5,8 +5,11 @@
 //!
 //! Besides the ratios, each RESULT line carries what explains them on a device that falls
 //! short: the per-tile cost, the look-back's failed polls and fallbacks (from a run with debug
-//! counters), and `tile_vs_copy`, the speed of the per-tile work alone (the reduce-then-scan
-//! downsweep: load, workgroup scan, store, no inter-tile communication) relative to the copy.
+//! counters), and `tile_vs_copy`: the speed, relative to the copy, of a tile-local scan pass
+//! with no inter-tile communication at all (the reduce-then-scan downsweep alone: scalar loads
+//! staged through workgroup memory, workgroup scan, store). When `scan_vs_copy` is close to
+//! `tile_vs_copy` and the look-back needs about one step per tile with almost no fallbacks, the
+//! device's per-tile compute, not the look-back, is what keeps the scan from the copy floor.
 
 use std::time::Duration;
 
