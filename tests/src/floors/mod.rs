@@ -2,12 +2,17 @@
 //! must pay on this device. Benchmarks print their speed as a ratio to these.
 
 mod copy;
+mod random_access;
 
 pub use copy::CopyKernel;
+pub use random_access::{RandomAccess, RandomAccessKernel};
 
 /// WGSL modules of the floor kernels, for the naga checks.
 pub fn wgsl_modules() -> Vec<(String, String)> {
-    vec![("floors/copy".into(), copy::SOURCE.into())]
+    vec![
+        ("floors/copy".into(), copy::SOURCE.into()),
+        ("floors/random_access".into(), random_access::SOURCE.into()),
+    ]
 }
 
 /// Splits `groups` workgroups into an `(x, y)` dispatch within the 65535-per-dimension limit.
