@@ -90,8 +90,8 @@ impl HashBatch {
                 entries,
             })
         };
-        let buffer_entry = |binding: u32, ty: wgpu::BufferBindingType, min: u64| {
-            wgpu::BindGroupLayoutEntry {
+        let buffer_entry =
+            |binding: u32, ty: wgpu::BufferBindingType, min: u64| wgpu::BindGroupLayoutEntry {
                 binding,
                 visibility: wgpu::ShaderStages::COMPUTE,
                 ty: wgpu::BindingType::Buffer {
@@ -100,8 +100,7 @@ impl HashBatch {
                     min_binding_size: NonZeroU64::new(min),
                 },
                 count: None,
-            }
-        };
+            };
         let io_layout = layout(
             "gpu-hash batch io",
             &[
@@ -281,7 +280,15 @@ impl HashBatch {
         output: &wgpu::Buffer,
         n: u32,
     ) -> Result<(), HashError> {
-        self.encode(Kernel::InsertPoints, device, encoder, table, points, output, n)
+        self.encode(
+            Kernel::InsertPoints,
+            device,
+            encoder,
+            table,
+            points,
+            output,
+            n,
+        )
     }
 
     /// `output[i]` = `find` of key `input[i]` through the read-only lookup role: a slot or
@@ -310,7 +317,15 @@ impl HashBatch {
         output: &wgpu::Buffer,
         n: u32,
     ) -> Result<(), HashError> {
-        self.encode(Kernel::FindPoints, device, encoder, table, points, output, n)
+        self.encode(
+            Kernel::FindPoints,
+            device,
+            encoder,
+            table,
+            points,
+            output,
+            n,
+        )
     }
 
     /// `output[8i..8i + 8]` = the [`crate::HashCell`] of point `input[i]` under the table's
@@ -338,7 +353,15 @@ impl HashBatch {
         output: &wgpu::Buffer,
         n: u32,
     ) -> Result<(), HashError> {
-        self.encode(Kernel::HashValues, device, encoder, table, values, output, n)
+        self.encode(
+            Kernel::HashValues,
+            device,
+            encoder,
+            table,
+            values,
+            output,
+            n,
+        )
     }
 
     /// Item `i` reads `input[3i]` = position, `input[3i + 1]` = normal, `input[3i + 2]` =

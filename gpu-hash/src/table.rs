@@ -255,7 +255,11 @@ impl HashTable {
 
     /// Replaces the params (eye, sizing) through `queue.write_buffer`: they take effect at the
     /// next submission. The dimensions must match the table's.
-    pub fn set_params(&self, queue: &wgpu::Queue, params: &HashGridParams) -> Result<(), HashError> {
+    pub fn set_params(
+        &self,
+        queue: &wgpu::Queue,
+        params: &HashGridParams,
+    ) -> Result<(), HashError> {
         let c = &self.config;
         if params.num_buckets != c.num_buckets
             || params.slots_per_bucket != c.slots_per_bucket
@@ -362,7 +366,11 @@ impl CpuHashTable {
                     _ => {}
                 }
             }
-            b = if b + 1 == self.config.num_buckets { 0 } else { b + 1 };
+            b = if b + 1 == self.config.num_buckets {
+                0
+            } else {
+                b + 1
+            };
         }
         (Err(None), probes)
     }
@@ -423,7 +431,13 @@ mod tests {
             assert_eq!(t.find_or_insert(3, c).slot, Some(12 + c - 1));
         }
         let before = t.checksums.clone();
-        assert_eq!(t.find_or_insert(3, 99), Probe { slot: None, probes: 4 });
+        assert_eq!(
+            t.find_or_insert(3, 99),
+            Probe {
+                slot: None,
+                probes: 4
+            }
+        );
         assert_eq!((t.checksums == before, t.overflows), (true, 1));
         assert_eq!(t.find_or_insert(3, 2).slot, Some(13));
         assert_eq!(t.find(3, 99).slot, None);
@@ -436,7 +450,13 @@ mod tests {
         for c in 1..=5 {
             s.find_or_insert(7, c);
         }
-        assert_eq!(s.find(7, 5), Probe { slot: Some(0), probes: 5 });
+        assert_eq!(
+            s.find(7, 5),
+            Probe {
+                slot: Some(0),
+                probes: 5
+            }
+        );
     }
 
     #[test]
@@ -509,9 +529,16 @@ mod tests {
         // 12-bit checksums make false matches frequent enough to count (~900 expected); the
         // 32-bit rate is the same formula with q ~ 2^-32. Tolerance: 5 standard deviations.
         let (m, e, v) = false_matches(12, false);
-        assert!((m - e).abs() < 5.0 * v.sqrt(), "measured {m}, expected {e} +- {}", v.sqrt());
+        assert!(
+            (m - e).abs() < 5.0 * v.sqrt(),
+            "measured {m}, expected {e} +- {}",
+            v.sqrt()
+        );
         // Negative control: comparing 11 of the 12 bits doubles the rate and is caught.
         let (m, e, v) = false_matches(12, true);
-        assert!((m - e).abs() > 5.0 * v.sqrt(), "planted defect not detected: {m} vs {e}");
+        assert!(
+            (m - e).abs() > 5.0 * v.sqrt(),
+            "planted defect not detected: {m} vs {e}"
+        );
     }
 }

@@ -7,9 +7,7 @@
 
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 use glam::Vec3;
-use gpu_hash::{
-    CellSizing, HASH_FULL, HashBatch, HashGridParams, HashKey, HashTable, TableConfig,
-};
+use gpu_hash::{CellSizing, HASH_FULL, HashBatch, HashGridParams, HashKey, HashTable, TableConfig};
 use rand::{Rng, SeedableRng, rngs::StdRng, seq::SliceRandom};
 use restir_world::{GpuContext, GpuTimer};
 use tests::{
@@ -18,7 +16,7 @@ use tests::{
     gpu,
 };
 
-const REPS: u32 = 5;
+const REPS: u32 = 3;
 
 struct Case {
     n: u32,
@@ -46,10 +44,11 @@ fn keys(n: u32, dup: bool, seed: u64) -> Vec<HashKey> {
     all
 }
 
-fn case(ctx: &GpuContext, n: u32, dup: bool) -> Case {
+fn case(ctx: &GpuContext, n: u32, dup: bool, probe_buckets: u32) -> Case {
     // Uniform keys fill half the slots.
     let config = TableConfig {
         num_buckets: n / 16,
+        probe_buckets,
         ..TableConfig::default()
     };
     let params = HashGridParams::new(&config, &CellSizing::default(), Vec3::ZERO)
@@ -104,22 +103,35 @@ fn hash(c: &mut Criterion) {
         let floor = |enc: &mut wgpu::CommandEncoder, kind| {
             floors.encode(&ctx.device, enc, kind, &floor_table, &floor_out, n, 12345)
         };
+        // Criterion samples only the smaller size: on lavapipe one 2^22 insert takes seconds.
+        let sampled = n == 1 << 20;
         group.throughput(Throughput::Elements(u64::from(n)));
-        group.bench_function(format!("floor_random_read_128/{n}"), |b| {
-            b.iter_custom(|iters| bench::gpu_time(ctx, iters, |enc| floor(enc, RandomAccess::Read128)))
-        });
-        group.bench_function(format!("floor_random_atomic/{n}"), |b| {
-            b.iter_custom(|iters| bench::gpu_time(ctx, iters, |enc| floor(enc, RandomAccess::Atomic)))
-        });
+        if sampled {
+            group.bench_function(format!("floor_random_read_128/{n}"), |b| {
+                b.iter_custom(|iters| {
+                    bench::gpu_time(ctx, iters, |enc| floor(enc, RandomAccess::Read128))
+                })
+            });
+            group.bench_function(format!("floor_random_atomic/{n}"), |b| {
+                b.iter_custom(|iters| {
+                    bench::gpu_time(ctx, iters, |enc| floor(enc, RandomAccess::Atomic))
+                })
+            });
+        }
         let read_floor_ms = bench::gpu_ms(ctx, REPS, |enc| floor(enc, RandomAccess::Read128));
         let atomic_floor_ms = bench::gpu_ms(ctx, REPS, |enc| floor(enc, RandomAccess::Atomic));
 
-        for dup in [false, true] {
-            let c = case(ctx, n, dup);
+        // The paper's bucket-local table (probe_buckets 1) with both key sets, and uniform keys
+        // with spilling into up to 7 following buckets.
+        for (dup, probe_buckets) in [(false, 1), (true, 1), (false, 8)] {
+            let c = case(ctx, n, dup, probe_buckets);
             let label = if dup { "dup" } else { "uniform" };
             let ins_ms = insert_ms(ctx, &batch, &c);
             let slots: Vec<u32> = buffers::read(ctx, &c.slots).expect("readback");
-            let lost = slots[..n as usize].iter().filter(|&&s| s == HASH_FULL).count();
+            let lost = slots[..n as usize]
+                .iter()
+                .filter(|&&s| s == HASH_FULL)
+                .count();
             let stats = batch
                 .read_stats(&ctx.device, &ctx.queue, &c.table)
                 .expect("stats");
@@ -128,26 +140,42 @@ fn hash(c: &mut Criterion) {
                     .encode_find_keys(&ctx.device, enc, &c.table, &c.keys, &c.slots, c.n)
                     .expect("find batch")
             };
-            group.bench_function(format!("find/{label}/{n}"), |b| {
-                b.iter_custom(|iters| bench::gpu_time(ctx, iters, find))
-            });
-            group.bench_function(format!("clear_and_insert/{label}/{}", c.n), |b| {
-                b.iter_custom(|iters| {
-                    bench::gpu_time(ctx, iters, |enc| {
-                        c.table.encode_clear(enc);
-                        batch
-                            .encode_insert_keys(&ctx.device, enc, &c.table, &c.keys, &c.slots, c.n)
-                            .expect("insert batch")
-                    })
-                })
-            });
+            if sampled {
+                group.bench_function(format!("find/{label}/p{probe_buckets}/{n}"), |b| {
+                    b.iter_custom(|iters| bench::gpu_time(ctx, iters, find))
+                });
+                group.bench_function(
+                    format!("clear_and_insert/{label}/p{probe_buckets}/{n}"),
+                    |b| {
+                        b.iter_custom(|iters| {
+                            bench::gpu_time(ctx, iters, |enc| {
+                                c.table.encode_clear(enc);
+                                batch
+                                    .encode_insert_keys(
+                                        &ctx.device,
+                                        enc,
+                                        &c.table,
+                                        &c.keys,
+                                        &c.slots,
+                                        c.n,
+                                    )
+                                    .expect("insert batch")
+                            })
+                        })
+                    },
+                );
+            }
             let find_ms = bench::gpu_ms(ctx, REPS, find);
             let per_s = |ms: f64| f64::from(n) / ms * 1e3;
             lines.push(vec![
                 ("n", n.to_string()),
                 ("keys", label.to_string()),
+                ("probe_buckets", probe_buckets.to_string()),
                 ("find_vs_floor", format!("{:.3}", read_floor_ms / find_ms)),
-                ("insert_vs_floor", format!("{:.3}", atomic_floor_ms / ins_ms)),
+                (
+                    "insert_vs_floor",
+                    format!("{:.3}", atomic_floor_ms / ins_ms),
+                ),
                 ("finds_per_s", bench::sci(per_s(find_ms))),
                 ("inserts_per_s", bench::sci(per_s(ins_ms))),
                 ("read_floor_per_s", bench::sci(per_s(read_floor_ms))),
