@@ -101,7 +101,7 @@ fn hash(c: &mut Criterion) {
         let floor_table = buffers::storage_zeroed(&ctx.device, "floor table", table_bytes);
         let floor_out = buffers::storage_zeroed(&ctx.device, "floor out", u64::from(n) * 4);
         let floor = |enc: &mut wgpu::CommandEncoder, kind| {
-            floors.encode(&ctx.device, enc, kind, &floor_table, &floor_out, n, 12345)
+            floors.encode(&ctx.device, enc, kind, &floor_table, &floor_out, n)
         };
         // Criterion samples only the smaller size: on lavapipe one 2^22 insert takes seconds.
         let sampled = n == 1 << 20;

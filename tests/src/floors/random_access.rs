@@ -2,6 +2,8 @@ use wgpu::util::DeviceExt;
 
 pub(crate) const SOURCE: &str = include_str!("random_access.wgsl");
 const WORKGROUP_SIZE: u32 = 256;
+/// Mixed into the item index before hashing it to a random line or word.
+const SEED: u32 = 0x2545_f491;
 
 /// Random-access floors: per item one random 128-byte line read, or one random atomic add,
 /// each plus one coalesced u32 write. The floors of a hash table's find and insert.
@@ -55,13 +57,12 @@ impl RandomAccessKernel {
         table: &wgpu::Buffer,
         out: &wgpu::Buffer,
         n: u32,
-        seed: u32,
     ) {
         let lines = (table.size() / 128).max(1) as u32;
         let words = (table.size() / 4).max(1) as u32;
         let params = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
             label: Some("floors/random_access params"),
-            contents: bytemuck::cast_slice(&[n, lines, words, seed]),
+            contents: bytemuck::cast_slice(&[n, lines, words, SEED]),
             usage: wgpu::BufferUsages::UNIFORM,
         });
         let (pipeline, table_binding) = match kind {
