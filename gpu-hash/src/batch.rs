@@ -268,7 +268,7 @@ impl HashBatch {
         self.encode(Kernel::InsertKeys, device, encoder, table, keys, slots, n)
     }
 
-    /// Inserts the cell of each point (`input[i]` = vec4<f32>, w ignored; no jitter):
+    /// Inserts the cell of each point (`input[i]` = `vec4<f32>`, w ignored; no jitter):
     /// `output[2i]` = slot (or [`crate::HASH_FULL`] / [`crate::HASH_REJECTED`]),
     /// `output[2i + 1]` = the point's index in its slot (the slot counter's old value).
     pub fn encode_insert_points(
@@ -343,7 +343,7 @@ impl HashBatch {
     }
 
     /// `output[2i]` = pcg(`input[i].x`), `output[2i + 1]` = xxhash32(`input[i].x`) (input is
-    /// vec4<u32>; `table` only provides the bindings).
+    /// `vec4<u32>`; `table` only provides the bindings).
     pub fn encode_hash_values(
         &self,
         device: &wgpu::Device,
@@ -365,7 +365,7 @@ impl HashBatch {
     }
 
     /// Item `i` reads `input[3i]` = position, `input[3i + 1]` = normal, `input[3i + 2]` =
-    /// (u.x, u.y, cell_size) as vec4<f32>; `output[4i..4i + 3]` = `hash_jitter` of them.
+    /// (u.x, u.y, cell_size) as `vec4<f32>`; `output[4i..4i + 3]` = `hash_jitter` of them.
     pub fn encode_jitter(
         &self,
         device: &wgpu::Device,
