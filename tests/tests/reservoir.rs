@@ -381,10 +381,13 @@ fn check_against_twin(scripts: &[Vec<Op>], max_ulps: u32) -> Vec<[Reservoir; 4]>
     for (i, script) in scripts.iter().enumerate() {
         let (regs, sel) = twin_script(script);
         assert_eq!(gpu_out.selected[i], sel, "script {i}: selections differ");
-        for k in 0..4 {
-            let (g, t) = (&gpu_out.regs[i][k], &regs[k]);
+        for (k, (g, t)) in gpu_out.regs[i].iter().zip(&regs).enumerate() {
             assert_eq!((g.m, g.sample), (t.m, t.sample), "script {i} reg {k}");
-            for (name, x) in [("w_sum", g.w_sum), ("w_sum_err", g.w_sum_err), ("ucw", g.ucw)] {
+            for (name, x) in [
+                ("w_sum", g.w_sum),
+                ("w_sum_err", g.w_sum_err),
+                ("ucw", g.ucw),
+            ] {
                 assert!(
                     x.is_finite() && (x == 0.0 || x.is_normal()),
                     "script {i} reg {k}: GPU {name} = {x}"
@@ -441,7 +444,10 @@ fn tie_free_u(rng: &mut Rng, regs: &[Reservoir; 4], op_template: Op, margin: f32
     loop {
         let u = rng.next_f32();
         let mut probe = *regs;
-        let o = Op { b: u, ..op_template };
+        let o = Op {
+            b: u,
+            ..op_template
+        };
         twin_op(&mut probe, &o);
         let r = &probe[(o.dst & 3) as usize];
         let w = match o.kind {
@@ -480,7 +486,10 @@ fn random_scripts(seed: u32, count: u32) -> Vec<Vec<Op>> {
                 ops.push(o);
             };
             let mut weights = Vec::new();
-            for (reg, len) in [(1u32, 1 + rng.next_u32() % 48), (2, 1 + rng.next_u32() % 48)] {
+            for (reg, len) in [
+                (1u32, 1 + rng.next_u32() % 48),
+                (2, 1 + rng.next_u32() % 48),
+            ] {
                 for _ in 0..len {
                     let slot = weights.len() as u32;
                     let w = wide_weight(&mut rng);
@@ -496,7 +505,7 @@ fn random_scripts(seed: u32, count: u32) -> Vec<Vec<Op>> {
                     weights[s as usize]
                 };
                 push(&mut ops, &mut regs, op(OP_FINALIZE, reg, reg, 0, p, 0.0));
-                if rng.next_u32() % 4 == 0 {
+                if rng.next_u32().is_multiple_of(4) {
                     push(&mut ops, &mut regs, op(OP_REPACK, reg, reg, s, 0.0, 0.0));
                 }
             }
@@ -526,7 +535,10 @@ fn gpu_matches_twin_on_random_streams_with_weights_1e_minus30_to_1e30() {
     let scripts = random_scripts(2024, 4096);
     let regs = check_against_twin(&scripts, 4);
     let selected = regs.iter().filter(|r| r[0].has_sample()).count();
-    assert!(selected > 3000, "too few scripts end with a sample: {selected}");
+    assert!(
+        selected > 3000,
+        "too few scripts end with a sample: {selected}"
+    );
 }
 
 #[test]
@@ -561,7 +573,10 @@ fn hard_case_all_zero_weights() {
         .chain([op(OP_FINALIZE, 0, 0, 0, 1.0, 0.0)])
         .collect();
     let r = check_against_twin(&[script], 0)[0][0];
-    assert_eq!((r.m, r.sample, r.total(), r.ucw), (100, NO_SAMPLE, 0.0, 0.0));
+    assert_eq!(
+        (r.m, r.sample, r.total(), r.ucw),
+        (100, NO_SAMPLE, 0.0, 0.0)
+    );
 }
 
 #[test]
@@ -991,7 +1006,10 @@ fn ris_estimator_is_unbiased_for_a_known_integral() {
     let exact = 1.0 / 3.0 + 0.1;
     let (mean, sigma) = ris_mean_and_sigma(0);
     eprintln!("RIS mean {mean:.6} exact {exact:.6} sigma {sigma:.2e}");
-    assert!((mean - exact).abs() < 3.0 * sigma, "RIS biased: {mean} vs {exact} (sigma {sigma})");
+    assert!(
+        (mean - exact).abs() < 3.0 * sigma,
+        "RIS biased: {mean} vs {exact} (sigma {sigma})"
+    );
     // Negative control: a target without support where f > 0 (bias -0.0227, ~100 sigma).
     let (bad, sigma_bad) = ris_mean_and_sigma(1);
     eprintln!("planted-support control mean {bad:.6}");
@@ -1024,7 +1042,10 @@ fn merging_two_reservoirs_selects_like_streaming_their_union() {
 
     // Negative control: merging with p_hat * W (without M) must be detected by both tests.
     let bad = histogram(&run_trials("merge_vs_union", &MERGE_WEIGHTS, 2, 3, 16), 16);
-    let (c_bad, c_bad_two) = (chi_square(&bad, &probs), chi_square_two_sample(&union, &bad));
+    let (c_bad, c_bad_two) = (
+        chi_square(&bad, &probs),
+        chi_square_two_sample(&union, &bad),
+    );
     eprintln!("merge-without-M control: chi-square {c_bad:.1}, two-sample {c_bad_two:.1}");
     assert!(c_bad > CHI2_999_DOF15 && c_bad_two > CHI2_999_DOF15);
 }
