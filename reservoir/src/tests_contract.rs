@@ -293,9 +293,9 @@ fn running_totals(weights: &[f32], naive: bool) -> Vec<f32> {
 
 /// Largest relative error of the effective probability that the selection falls in each of 10
 /// blocks of the stream, against the f64 block masses.
-fn worst_block_error(weights: &[f32], totals: &[f32]) -> f64 {
+fn worst_block_error(weights: &[f32], totals: &[f32], u_bits: Option<i32>) -> f64 {
     let blocks = 10;
-    let eff = reference::effective_block_probabilities(weights, totals, blocks);
+    let eff = reference::effective_block_probabilities(weights, totals, blocks, u_bits);
     let exact = reference::block_masses(weights, blocks);
     eff.iter()
         .zip(&exact)
@@ -316,13 +316,23 @@ fn ten_million_updates_keep_selection_probabilities() {
     );
     // Tolerance 1e-7 relative per block (each block holds ~10% of the mass); the float-float
     // sum achieves ~4e-11, a naive f32 sum ~1e-2.
-    let err = worst_block_error(&weights, &totals);
+    let err = worst_block_error(&weights, &totals, None);
     assert!(err < 1e-7, "block probability rel error {err}");
 
     // Negative control: a naive f32 running sum drops the small weights once the sum is large
     // and over-selects late candidates; the same check must catch it.
     let naive = running_totals(&weights, true);
-    let naive_err = worst_block_error(&weights, &naive);
+    let naive_err = worst_block_error(&weights, &naive, None);
+
+    // The resolution of u matters as much: late candidates are selected with probability
+    // ~1e-7, and u on a 2^-24 grid (Rng::next_f32) turns that into ceil(p 2^24) / 2^24. With
+    // the 2^-48 grid of Rng::next_f32_fine the error stays below 1e-6; the 24-bit grid is
+    // detected (~0.36).
+    let err_fine = worst_block_error(&weights, &totals, Some(48));
+    let err24 = worst_block_error(&weights, &totals, Some(24));
+    eprintln!("u grid 2^-48: {err_fine:.3e}, 2^-24: {err24:.3e}");
+    assert!(err_fine < 1e-6, "fine u: {err_fine}");
+    assert!(err24 > 1e-2, "24-bit u not detected: {err24}");
     eprintln!(
         "sum rel error {rel_sum:.3e}, block error {err:.3e}, naive block error {naive_err:.3e}"
     );
