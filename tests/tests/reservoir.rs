@@ -673,6 +673,12 @@ fn hard_case_m_zero_merges_are_no_ops_and_m_caps_1_and_20() {
         s.push(op(OP_MERGE, 3, 2, 0, 1.0, 0.0));
         scripts.push(s);
     }
+    // The same scripts without the m = 0 merges: reg 0 must be bit-identical on the GPU.
+    let without: Vec<Vec<Op>> = scripts.iter().map(|s| s[..s.len() - 2].to_vec()).collect();
+    let (with_gpu, without_gpu) = (run_scripts_on_gpu(&scripts), run_scripts_on_gpu(&without));
+    for (a, b) in with_gpu.regs.iter().zip(&without_gpu.regs) {
+        assert_eq!(bits(&a[0]), bits(&b[0]), "m = 0 merge changed the receiver");
+    }
     let out = check_against_twin(&scripts, 4);
     for (regs, cap) in out.iter().zip([1u32, 20]) {
         assert_eq!(regs[0].m, cap);
@@ -829,7 +835,7 @@ fn ris_estimate(@builtin(global_invocation_id) gid: vec3<u32>,
 }
 
 // Candidates 0..k with weights[k] (target = weight, p = 1). Mode 0 streams all of them; mode
-// 1 streams 0..3 into A and 3..k into B (different M), finalizes both and merges them into C;
+// 1 streams 0..split into A and split..k into B (different M), finalizes both and merges them into C;
 // mode 2 is mode 1 with the planted error of merging with p_hat * W, without M.
 @compute @workgroup_size(WORKGROUP)
 fn merge_vs_union(@builtin(global_invocation_id) gid: vec3<u32>,
@@ -837,7 +843,8 @@ fn merge_vs_union(@builtin(global_invocation_id) gid: vec3<u32>,
     let t = thread_index(gid, groups);
     if t >= params[0] { return; }
     var rng = rng_seed(t, params[2], 2u);
-    let mode = params[1];
+    let mode = params[1] & 0xffu;
+    let split = params[1] >> 8u; // A holds candidates 0..split
     if mode == 0u {
         var r = reservoir_empty();
         for (var k = 0u; k < params[3]; k++) {
@@ -849,7 +856,7 @@ fn merge_vs_union(@builtin(global_invocation_id) gid: vec3<u32>,
     var a = reservoir_empty();
     var b = reservoir_empty();
     for (var k = 0u; k < params[3]; k++) {
-        if k < 3u {
+        if k < split {
             reservoir_update_slot(&a, weights[k], rng_next_f32(&rng), k);
         } else {
             reservoir_update_slot(&b, weights[k], rng_next_f32(&rng), k);
@@ -1027,26 +1034,41 @@ const MERGE_WEIGHTS: [f32; 16] = [
 
 #[test]
 fn merging_two_reservoirs_selects_like_streaming_their_union() {
-    // A holds 3 candidates (M = 3), B 13 (M = 13): merging them must select each candidate
-    // with probability w / sum(w), as streaming all 16 does. Tolerances: chi-square against
-    // the exact probabilities and between the two histograms, 15 dof, p = 0.001.
+    // A holds `split` candidates (M = 3, then M = 1), B the other 16 - split: merging them
+    // must select each candidate with probability w / sum(w), as streaming all 16 does.
+    // Tolerances: chi-square against the exact probabilities and between the two histograms,
+    // 15 dof, p = 0.001.
     let probs = reference::selection_probabilities(&MERGE_WEIGHTS);
     let union = histogram(&run_trials("merge_vs_union", &MERGE_WEIGHTS, 0, 3, 16), 16);
-    let merged = histogram(&run_trials("merge_vs_union", &MERGE_WEIGHTS, 1, 3, 16), 16);
-    let (c_union, c_merged) = (chi_square(&union, &probs), chi_square(&merged, &probs));
-    let c_two = chi_square_two_sample(&union, &merged);
-    eprintln!(
-        "chi-square: union {c_union:.2}, merged {c_merged:.2}, two-sample {c_two:.2} \
-         (15 dof, critical {CHI2_999_DOF15})"
-    );
-    assert!(c_union < CHI2_999_DOF15 && c_merged < CHI2_999_DOF15 && c_two < CHI2_999_DOF15);
+    let c_union = chi_square(&union, &probs);
+    eprintln!("union chi-square {c_union:.2} (15 dof, critical {CHI2_999_DOF15})");
+    assert!(c_union < CHI2_999_DOF15);
+    for split in [3u32, 1] {
+        let merged = histogram(
+            &run_trials("merge_vs_union", &MERGE_WEIGHTS, 1 | split << 8, 3, 16),
+            16,
+        );
+        let c_merged = chi_square(&merged, &probs);
+        let c_two = chi_square_two_sample(&union, &merged);
+        eprintln!("split {split}: merged chi-square {c_merged:.2}, two-sample {c_two:.2}");
+        assert!(
+            c_merged < CHI2_999_DOF15 && c_two < CHI2_999_DOF15,
+            "split {split}"
+        );
 
-    // Negative control: merging with p_hat * W (without M) must be detected by both tests.
-    let bad = histogram(&run_trials("merge_vs_union", &MERGE_WEIGHTS, 2, 3, 16), 16);
-    let (c_bad, c_bad_two) = (
-        chi_square(&bad, &probs),
-        chi_square_two_sample(&union, &bad),
-    );
-    eprintln!("merge-without-M control: chi-square {c_bad:.1}, two-sample {c_bad_two:.1}");
-    assert!(c_bad > CHI2_999_DOF15 && c_bad_two > CHI2_999_DOF15);
+        // Negative control: merging with p_hat * W (without M) must be detected by both.
+        let bad = histogram(
+            &run_trials("merge_vs_union", &MERGE_WEIGHTS, 2 | split << 8, 3, 16),
+            16,
+        );
+        let (c_bad, c_bad_two) = (
+            chi_square(&bad, &probs),
+            chi_square_two_sample(&union, &bad),
+        );
+        eprintln!("split {split}: merge-without-M control {c_bad:.1}, two-sample {c_bad_two:.1}");
+        assert!(
+            c_bad > CHI2_999_DOF15 && c_bad_two > CHI2_999_DOF15,
+            "split {split}"
+        );
+    }
 }
