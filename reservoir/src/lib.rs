@@ -10,7 +10,7 @@
 //!   own kernels (see the workspace's WGSL composition convention).
 //! - [`Reservoir`] / [`PackedReservoir`]: the Rust twin, the same operations in the same order
 //!   (the numerical contract is documented on [`Reservoir`]).
-//! - [`reference`]: an f64 reference implementation, used only by tests.
+//! - [`mod@reference`]: an f64 reference implementation, used only by tests.
 //! - [`rng`]: the PCG random-number generator the ReSTIR passes share (WGSL + Rust twin).
 //!
 //! Random numbers are inputs: every helper takes `u` in [0, 1), so the GPU and the twin can be
