@@ -211,3 +211,23 @@ fn gpu_matches_cpu_reference_on_cornell() {
         }
     }
 }
+
+#[test]
+fn bad_settings_are_errors() {
+    let ctx = gpu::context();
+    let scene = builtin("cornell", &Default::default()).expect("cornell");
+    let camera = scene.camera_or_default(8, 8);
+    let zero_k = Method::Ris { candidates: 0 };
+    assert!(Renderer::new(ctx, &scene, &camera, zero_k, 0).is_err());
+    let huge = scene.camera_or_default(16384, 16384);
+    assert!(matches!(
+        Renderer::new(ctx, &scene, &huge, Method::Nee, 0),
+        Err(restir_world::render::RenderError::TooLarge { .. })
+    ));
+    assert!(
+        restir_world::render::render_images(ctx, &scene, &camera, Method::Nee, 0, 0, |_| {})
+            .is_err()
+    );
+    let empty = restir_world::scene::Scene::default();
+    assert!(Renderer::new(ctx, &empty, &camera, Method::Nee, 0).is_err());
+}

@@ -652,6 +652,26 @@ impl Renderer {
     }
 }
 
+/// One-call render for the demo and tests: builds a [`Renderer`], renders `frames` frames (one
+/// sample per pixel each), and returns the averaged images and the per-pass GPU times (`None`
+/// without timestamp queries). `progress` gets the number of frames done.
+pub fn render_images(
+    ctx: &GpuContext,
+    scene: &Scene,
+    camera: &Camera,
+    method: Method,
+    seed: u32,
+    frames: u32,
+    progress: impl FnMut(u32),
+) -> Result<(Rendered, Option<PassTimes>), RenderError> {
+    if frames == 0 {
+        return Err(RenderError::Settings("at least one frame".into()));
+    }
+    let mut renderer = Renderer::new(ctx, scene, camera, method, seed)?;
+    let times = renderer.render(ctx, frames, progress)?;
+    Ok((renderer.images(ctx)?, times))
+}
+
 #[cfg(test)]
 mod tests {
     #[test]
