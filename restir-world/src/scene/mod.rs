@@ -17,7 +17,7 @@ mod loaders;
 pub use builtin::{
     BUILTIN_NAMES, BuiltinOptions, builtin, cornell, furnace, furnace_sphere, many_lights,
 };
-pub use loaders::{load, load_gltf, load_obj};
+pub use loaders::{DEFAULT_ALBEDO, Loaded, load, load_gltf, load_obj};
 
 use std::path::PathBuf;
 
@@ -26,7 +26,7 @@ use glam::Vec3;
 /// What can go wrong when building, loading or checking a scene.
 #[derive(Debug, thiserror::Error)]
 pub enum SceneError {
-    #[error("{path}: {source}")]
+    #[error("{path}: cannot read the file")]
     Io {
         path: PathBuf,
         #[source]
