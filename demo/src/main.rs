@@ -382,16 +382,7 @@ fn render_gpu(
         }
         None => println!("{tag}: {samples} frames (adapter has no timestamps)"),
     }
-    let img = r.images(&ctx)?;
-    let to = |p: Vec<[f32; 3]>| image_io::Image::from_pixels(img.width, img.height, p);
-    Ok((
-        tag,
-        reference::Rendered {
-            direct: to(img.direct.clone())?,
-            indirect: to(img.indirect.clone())?,
-            combined: to(img.combined.clone())?,
-        },
-    ))
+    Ok((tag, r.images(&ctx)?))
 }
 
 const SMOKE_WGSL: &str = r#"
