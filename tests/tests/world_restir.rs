@@ -221,6 +221,7 @@ fn no_nan_over_many_frames_overflow_and_camera_cut() {
                 target: cam.target + (cam.target - cam.eye),
                 ..cam
             };
+            let mut overflows = 0u32;
             for f in 0..frames {
                 if f == frames / 2 {
                     wr.set_camera(&ctx.queue, &cut).expect("cut");
@@ -229,11 +230,11 @@ fn no_nan_over_many_frames_overflow_and_camera_cut() {
                 let img = wr.last_frame(ctx).expect("frame");
                 assert_finite(&format!("{name} {label} frame {f}"), &img.indirect);
                 assert_finite(&format!("{name} {label} frame {f}"), &img.direct);
+                overflows = overflows.max(wr.grid_stats(ctx).expect("stats").overflows);
             }
-            let stats = wr.grid_stats(ctx).expect("stats");
-            eprintln!("{name} {label}: last frame overflows {}", stats.overflows);
-            if label == "tiny table" && (name == "cornell" || name == "many-lights") {
-                assert!(stats.overflows > 0, "{name}: tiny table did not overflow");
+            eprintln!("{name} {label}: most overflows in a frame {overflows}");
+            if label == "tiny table" {
+                assert!(overflows > 0, "{name}: tiny table did not overflow");
             }
             let res = wr.reservoirs(ctx).expect("reservoirs");
             assert!(res.iter().all(|r| r.ucw.is_finite()));
@@ -263,4 +264,43 @@ fn orbit_and_debug_views() {
     let o = wr.debug_image(ctx, DebugView::Overflow).expect("overflow");
     assert!(o.iter().all(|c| c[1] >= 0.0), "overflow view");
     assert!(!o.iter().any(|c| c == &[1.0, 0.0, 0.0]), "no overflow expected");
+}
+
+/// The other knobs produce finite, non-black indirect images: half-resolution GI (gi_stride 2),
+/// visibility for the selected candidate, no jitter, no adaptive cell size (2 cm cells), unsorted
+/// cells, a single spatial pass without temporal reuse.
+#[test]
+fn other_knobs_render_finite_non_black() {
+    let ctx = gpu::context();
+    let s = scene("cornell", 32, 32);
+    let cam = s.camera_or_default(32, 32);
+    let configs = [
+        WorldRestirConfig {
+            gi_stride: 2,
+            ..small()
+        },
+        WorldRestirConfig {
+            visibility: true,
+            ..small()
+        },
+        WorldRestirConfig {
+            jitter: false,
+            adaptive_cell_size: false,
+            min_cell_size: 0.02,
+            sort_cells: false,
+            ..small()
+        },
+        WorldRestirConfig {
+            temporal: false,
+            spatial_passes: 1,
+            ..small()
+        },
+    ];
+    for config in configs {
+        let mut wr = WorldRestir::new(ctx, &s, &cam, config, 4).expect("world-restir");
+        wr.render(ctx, 4, None, |_| {}).expect("render");
+        let img = wr.images(ctx).expect("images");
+        assert_finite("knobs", &img.indirect);
+        assert!(mean_lum(&img.indirect) > 0.0, "{config:?}: black indirect");
+    }
 }

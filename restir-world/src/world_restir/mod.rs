@@ -83,8 +83,9 @@ pub struct WorldRestirConfig {
     pub spatial_passes: u32,
     /// One temporal reuse pass from last frame's grid (default on, the paper's).
     pub temporal: bool,
-    /// Confidence cap of each reservoir reused from last frame, as a multiple of `candidates`
-    /// (default 20: M <= 20 x 16 = 320).
+    /// Cap of the confidence taken from last frame, as a multiple of `candidates` (default 20:
+    /// at most 20 x 16 = 320 in total; each of the n <= max_count reservoirs the temporal lookup
+    /// visits is capped at 320 / n).
     pub temporal_m_cap: u32,
     /// Smallest cell edge in world units (default 0.01 = 1 cm; the cell size when
     /// `adaptive_cell_size` is off).
