@@ -41,7 +41,16 @@ fn layouts_match_wgsl() {
         WrReservoir,
         src,
         "WrReservoir",
-        [light_position, ucw, light_normal, m, light_emission, _pad0, vertex_normal, _pad1]
+        [
+            light_position,
+            ucw,
+            light_normal,
+            m,
+            light_emission,
+            _pad0,
+            vertex_normal,
+            _pad1
+        ]
     );
     tests::assert_wgsl_layout!(
         WrParams,
@@ -84,7 +93,11 @@ fn grid_build_stores_every_vertex_once() {
         let inserted: Vec<usize> = (0..g.vertex_slot.len())
             .filter(|&i| g.vertex_slot[i][0] < gpu_hash::HASH_FIRST_SENTINEL)
             .collect();
-        assert!(inserted.len() > 1000, "frame {frame}: only {} vertices", inserted.len());
+        assert!(
+            inserted.len() > 1000,
+            "frame {frame}: only {} vertices",
+            inserted.len()
+        );
         assert_eq!(acc as usize, inserted.len(), "counts != inserted vertices");
         let mut seen = vec![0u32; g.vertex_slot.len()];
         for &i in &inserted {
@@ -122,7 +135,11 @@ fn frame_means_baseline(r: &mut Renderer, frames: u32) -> Vec<f64> {
     (0..frames)
         .map(|_| {
             r.render(ctx, 1, |_| {}).expect("render");
-            mean_lum(&world_restir::read_last_frame(ctx, r).expect("frame").indirect)
+            mean_lum(
+                &world_restir::read_last_frame(ctx, r)
+                    .expect("frame")
+                    .indirect,
+            )
         })
         .collect()
 }
@@ -159,15 +176,28 @@ fn reuse_off_equals_ris_in_expectation() {
     for name in ["cornell", "many-lights"] {
         let s = scene(name, w, h);
         let cam = s.camera_or_default(w, h);
-        let mut wr = WorldRestir::new(ctx, &s, &cam, WorldRestirConfig { buckets: 4096, ..WorldRestirConfig::no_reuse() }, 11)
-            .expect("world-restir");
-        let mut ris = Renderer::new(ctx, &s, &cam, Method::Ris { candidates: 16 }, 12).expect("ris");
+        let mut wr = WorldRestir::new(
+            ctx,
+            &s,
+            &cam,
+            WorldRestirConfig {
+                buckets: 4096,
+                ..WorldRestirConfig::no_reuse()
+            },
+            11,
+        )
+        .expect("world-restir");
+        let mut ris =
+            Renderer::new(ctx, &s, &cam, Method::Ris { candidates: 16 }, 12).expect("ris");
         let frames = 96;
         let a = frame_means_wr(&mut wr, frames);
         let b = frame_means_baseline(&mut ris, frames);
         let (ok, rel, se) = equivalent(&a, &b, MARGIN);
         eprintln!("{name}: reuse off vs ris: rel diff {rel:+.4}, rel se {se:.4}");
-        assert!(ok, "{name}: reuse-off world-restir differs from ris: {rel:+.4} (se {se:.4})");
+        assert!(
+            ok,
+            "{name}: reuse-off world-restir differs from ris: {rel:+.4} (se {se:.4})"
+        );
         let planted: Vec<f64> = a.iter().map(|v| v * 1.06).collect();
         let (bad, rel_p, _) = equivalent(&planted, &b, MARGIN);
         assert!(!bad, "{name}: planted 6% bias not detected ({rel_p:+.4})");
@@ -253,17 +283,25 @@ fn orbit_and_debug_views() {
         frames: 8,
         degrees: 20.0,
     };
-    wr.render(ctx, 8, Some((&path, &cam)), |_| {}).expect("render");
+    wr.render(ctx, 8, Some((&path, &cam)), |_| {})
+        .expect("render");
     assert_finite("orbit", &wr.images(ctx).expect("images").indirect);
     let cells = wr.debug_image(ctx, DebugView::Cells).expect("cells");
     let distinct: std::collections::HashSet<[u32; 3]> =
         cells.iter().map(|c| c.map(f32::to_bits)).collect();
-    assert!(distinct.len() > 4, "cell view shows {} colours", distinct.len());
+    assert!(
+        distinct.len() > 4,
+        "cell view shows {} colours",
+        distinct.len()
+    );
     let m = wr.debug_image(ctx, DebugView::M).expect("m");
     assert!(m.iter().any(|c| c.iter().any(|&v| v > 0.0)));
     let o = wr.debug_image(ctx, DebugView::Overflow).expect("overflow");
     assert!(o.iter().all(|c| c[1] >= 0.0), "overflow view");
-    assert!(!o.iter().any(|c| c == &[1.0, 0.0, 0.0]), "no overflow expected");
+    assert!(
+        !o.iter().any(|c| c == &[1.0, 0.0, 0.0]),
+        "no overflow expected"
+    );
 }
 
 /// The other knobs produce finite, non-black indirect images: half-resolution GI (gi_stride 2),

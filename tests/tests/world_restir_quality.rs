@@ -171,7 +171,10 @@ fn single_frame_noise_on_many_lights() {
     let reference = reference("many-lights");
     let n = f64::from(FRAMES);
     let mut base = [0.0; 2];
-    for (k, method) in [Method::Ris { candidates: 16 }, Method::Nee].into_iter().enumerate() {
+    for (k, method) in [Method::Ris { candidates: 16 }, Method::Nee]
+        .into_iter()
+        .enumerate()
+    {
         let mut r = Renderer::new(ctx, &s, &cam, method, 300).expect("baseline");
         for _ in 0..FRAMES {
             r.render(ctx, 1, |_| {}).expect("render");
