@@ -35,8 +35,15 @@ use crate::lights::Lights;
 use crate::sampling::{self, CameraGpu};
 use crate::scene::{Camera, Scene, SceneError, builtin::luminance};
 
-/// Light estimator at each shading point: the GPU renderer's [`crate::render::Method`].
-pub use crate::render::Method;
+/// Light estimator at each shading point (shared with the GPU renderer, which re-exports it as
+/// `render::Method`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Method {
+    /// One light sample + shadow ray.
+    Nee,
+    /// `candidates` light samples resampled by RIS + one shadow ray (default 16).
+    Ris { candidates: u32 },
+}
 
 /// Options of [`ReferenceRenderer::render`].
 #[derive(Debug, Clone, Copy, PartialEq)]
