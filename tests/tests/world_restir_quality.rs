@@ -72,9 +72,12 @@ fn rel_mse(img: &[[f32; 3]], reference: &[[f32; 3]]) -> f64 {
     s / (3 * img.len()) as f64
 }
 
+/// (scene name, side, reference image).
+type Cached = (String, u32, Vec<[f32; 3]>);
+
 /// The converged reference of a scene at side x side, computed once per test binary.
 fn reference(name: &str, side: u32) -> Vec<[f32; 3]> {
-    static CACHE: Mutex<Vec<(String, u32, Vec<[f32; 3]>)>> = Mutex::new(Vec::new());
+    static CACHE: Mutex<Vec<Cached>> = Mutex::new(Vec::new());
     let mut cache = CACHE.lock().unwrap_or_else(|e| e.into_inner());
     if let Some((_, _, r)) = cache.iter().find(|(n, s, _)| n == name && *s == side) {
         return r.clone();
