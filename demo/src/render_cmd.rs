@@ -1,25 +1,17 @@
-//! `restir-demo render`: renders a built-in scene with `nee`, `ris` or `world-restir`, static or
-//! with a camera animation, and writes the direct / indirect / combined images (PNG + EXR), the
-//! world-restir debug views, and the per-pass GPU times.
+//! `restir-demo render --method world-restir`: world-space ReSTIR GI with every knob as a flag,
+//! static or with a camera animation (orbit or dolly over F frames), the debug views (PNG) and
+//! the per-pass GPU times.
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
-use anyhow::{Context, Result, bail};
+use anyhow::Result;
 use clap::{Args, ValueEnum};
 use restir_world::GpuContext;
-use restir_world::image_io::{Image, write_exr, write_png};
-use restir_world::render::{Method, PassTimes, Renderer};
-use restir_world::scene::{BuiltinOptions, builtin};
-use restir_world::world_restir::{
-    self, CameraPath, DebugView, FrameImages, WorldRestir, WorldRestirConfig,
-};
-
-#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
-pub enum MethodArg {
-    Nee,
-    Ris,
-    WorldRestir,
-}
+use restir_world::image_io::{Image, write_png};
+use restir_world::reference::Rendered;
+use restir_world::render::PassTimes;
+use restir_world::scene::{Camera, Scene};
+use restir_world::world_restir::{CameraPath, DebugView, WorldRestir, WorldRestirConfig};
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
 pub enum Animation {
@@ -36,26 +28,11 @@ fn on_off(s: &str) -> Result<bool, String> {
     }
 }
 
-/// Render arguments. Every world-restir knob has a flag; defaults are `WorldRestirConfig`'s.
+/// World-restir arguments (used with `--method world-restir`). Defaults are
+/// `WorldRestirConfig`'s.
 #[derive(Args, Debug)]
-pub struct RenderArgs {
-    /// Built-in scene: cornell, many-lights, furnace, furnace-sphere.
-    #[arg(long, default_value = "cornell")]
-    scene: String,
-    /// Image size, WxH.
-    #[arg(long, default_value = "256x256", value_parser = crate::parse_size)]
-    size: (u32, u32),
-    /// Frames (one path per pixel each), accumulated.
-    #[arg(long, default_value_t = 16)]
-    frames: u32,
-    #[arg(long, value_enum, default_value_t = MethodArg::WorldRestir)]
-    method: MethodArg,
-    #[arg(long, default_value_t = 1)]
-    seed: u32,
-    /// many-lights: number of lights.
-    #[arg(long, default_value_t = 10_000)]
-    lights: u32,
-    /// Camera animation over --anim-frames frames (static, orbit, dolly).
+pub struct WorldArgs {
+    /// world-restir: camera animation over --anim-frames frames (static, orbit, dolly).
     #[arg(long, value_enum, default_value_t = Animation::Static)]
     animation: Animation,
     #[arg(long, default_value_t = 32)]
@@ -66,19 +43,11 @@ pub struct RenderArgs {
     /// Dolly: fraction of the eye-target distance travelled over the animation.
     #[arg(long, default_value_t = 0.3)]
     dolly_fraction: f32,
-    /// Exposure of the PNGs.
-    #[arg(long, default_value_t = 1.0)]
-    exposure: f32,
-    /// Output directory.
-    #[arg(long, default_value = "out")]
-    out: PathBuf,
     // World-restir knobs.
     #[arg(long, default_value_t = WorldRestirConfig::default().buckets)]
     buckets: u32,
     #[arg(long, default_value_t = WorldRestirConfig::default().slots)]
     slots: u32,
-    #[arg(long, default_value_t = WorldRestirConfig::default().candidates)]
-    candidates: u32,
     #[arg(long, default_value_t = WorldRestirConfig::default().max_count)]
     max_count: u32,
     #[arg(long, default_value_t = WorldRestirConfig::default().spatial_passes)]
@@ -114,12 +83,12 @@ pub struct RenderArgs {
     debug_views: bool,
 }
 
-impl RenderArgs {
-    fn config(&self) -> WorldRestirConfig {
+impl WorldArgs {
+    fn config(&self, candidates: u32) -> WorldRestirConfig {
         WorldRestirConfig {
             buckets: self.buckets,
             slots: self.slots,
-            candidates: self.candidates,
+            candidates,
             max_count: self.max_count,
             spatial_passes: self.spatial_passes,
             temporal: self.temporal,
@@ -154,115 +123,68 @@ fn image(w: u32, h: u32, px: Vec<[f32; 3]>) -> Result<Image> {
     Image::from_pixels(w, h, px).map_err(|e| anyhow::anyhow!("{e}"))
 }
 
-fn write(out: &Path, name: &str, img: &Image, exposure: f32) -> Result<()> {
-    write_png(&out.join(format!("{name}.png")), img, exposure)
-        .with_context(|| format!("writing {name}.png"))?;
-    write_exr(&out.join(format!("{name}.exr")), img).with_context(|| format!("writing {name}.exr"))
-}
-
 fn print_times(times: Option<PassTimes>) {
     match times {
         Some(t) => {
             let line: Vec<String> = t
                 .per_frame()
                 .iter()
-                .map(|(n, ms)| format!("{n}={ms:.3}ms"))
+                .map(|(n, ms)| format!("{n}={ms:.3}"))
                 .collect();
-            println!("GPU ms per frame: {}", line.join(" "));
+            println!(
+                "world-restir: {} frames, GPU {:.3} ms/frame ({})",
+                t.frames,
+                t.total_ms() / f64::from(t.frames.max(1)),
+                line.join(" ")
+            );
         }
         None => println!("(no GPU timestamps on this adapter)"),
     }
 }
 
-pub fn render(args: &RenderArgs) -> Result<()> {
-    let (w, h) = args.size;
-    if args.frames == 0 {
-        bail!("--frames must be at least 1");
-    }
+/// Renders `frames` frames of world-space ReSTIR (candidates = `candidates`) and returns the
+/// accumulated images; writes the debug views into `out` when asked.
+#[allow(clippy::too_many_arguments)]
+pub fn render_world_restir(
+    args: &WorldArgs,
+    scene: &Scene,
+    camera: &Camera,
+    frames: u32,
+    candidates: u32,
+    seed: u32,
+    out: &Path,
+    tag: &str,
+) -> Result<Rendered> {
     let ctx = GpuContext::new()?;
-    println!("{}", ctx.describe());
-    let opts = BuiltinOptions {
-        width: w,
-        height: h,
-        lights: args.lights,
-        seed: args.seed,
-        ..Default::default()
-    };
-    let scene = builtin(&args.scene, &opts)?;
-    let base = scene.camera_or_default(w, h);
-    std::fs::create_dir_all(&args.out)
-        .with_context(|| format!("creating {}", args.out.display()))?;
+    eprintln!("{}", ctx.describe());
+    let (w, h) = (camera.width, camera.height);
     let path = args.path();
-    let images: FrameImages = match args.method {
-        MethodArg::WorldRestir => {
-            let mut wr = WorldRestir::new(&ctx, &scene, &base, args.config(), args.seed)?;
-            let times = wr.render(&ctx, args.frames, Some((&path, &base)), |_| {})?;
-            print_times(times);
-            let stats = wr.grid_stats(&ctx)?;
-            println!(
-                "grid (last frame): used slots {} overflows {} (vertices kept their own reservoir)",
-                stats.used_slots, stats.overflows
-            );
-            if args.debug_views {
-                for (view, name) in [
-                    (DebugView::Cells, "debug_cells"),
-                    (DebugView::M, "debug_m"),
-                    (DebugView::Overflow, "debug_overflow"),
-                ] {
-                    let px = wr.debug_image(&ctx, view)?;
-                    write(&args.out, name, &image(w, h, px)?, 1.0)?;
-                }
-            }
-            wr.images(&ctx)?
-        }
-        MethodArg::Nee | MethodArg::Ris => {
-            let method = if args.method == MethodArg::Nee {
-                Method::Nee
-            } else {
-                Method::Ris {
-                    candidates: args.candidates,
-                }
-            };
-            let mut r = Renderer::new(&ctx, &scene, &base, method, args.seed)?;
-            let mut timer_total = PassTimes::default();
-            for f in 0..args.frames {
-                r.set_camera(&ctx.queue, &path.camera(&base, f))?;
-                if let Some(t) = r.render(&ctx, 1, |_| {})? {
-                    for (n, ms) in t.passes {
-                        match timer_total.passes.iter_mut().find(|(m, _)| *m == n) {
-                            Some((_, v)) => *v += ms,
-                            None => timer_total.passes.push((n, ms)),
-                        }
-                    }
-                    timer_total.frames += 1;
-                }
-            }
-            print_times((timer_total.frames > 0).then_some(timer_total));
-            world_restir::read_accumulated(&ctx, &r)?
-        }
-    };
-    let combined = images.combined();
-    write(
-        &args.out,
-        "direct",
-        &image(w, h, images.direct)?,
-        args.exposure,
-    )?;
-    write(
-        &args.out,
-        "indirect",
-        &image(w, h, images.indirect)?,
-        args.exposure,
-    )?;
-    write(
-        &args.out,
-        "combined",
-        &image(w, h, combined)?,
-        args.exposure,
-    )?;
+    let mut wr = WorldRestir::new(&ctx, scene, camera, args.config(candidates), seed)?;
+    let times = wr.render(&ctx, frames, Some((&path, camera)), |_| {})?;
+    print_times(times);
+    let stats = wr.grid_stats(&ctx)?;
     println!(
-        "wrote direct, indirect, combined (.png, .exr) to {}",
-        args.out.display()
+        "grid (last frame): {} vertices found their bucket full and kept their own reservoir",
+        stats.overflows
     );
-    Ok(())
+    if args.debug_views {
+        std::fs::create_dir_all(out)?;
+        for (view, name) in [
+            (DebugView::Cells, "debug-cells"),
+            (DebugView::M, "debug-m"),
+            (DebugView::Overflow, "debug-overflow"),
+        ] {
+            let px = wr.debug_image(&ctx, view)?;
+            let file = out.join(format!("{tag}-world-restir-{name}.png"));
+            write_png(&file, &image(w, h, px)?, 1.0)?;
+            println!("wrote {}", file.display());
+        }
+    }
+    let img = wr.images(&ctx)?;
+    let combined = img.combined();
+    Ok(Rendered {
+        direct: image(w, h, img.direct)?,
+        indirect: image(w, h, img.indirect)?,
+        combined: image(w, h, combined)?,
+    })
 }

@@ -30,7 +30,9 @@ impl Default for ReferenceSettings {
     fn default() -> Self {
         Self {
             spp: 1024,
-            method: Method::ris(),
+            method: Method::Ris {
+                candidates: crate::render::DEFAULT_CANDIDATES,
+            },
             seed: 0x5eed_0001,
         }
     }
@@ -137,7 +139,7 @@ fn half(
     seed: u32,
     frames: u32,
     progress: &mut dyn FnMut(u32),
-) -> Result<crate::render::Images, RenderError> {
+) -> Result<crate::reference::Rendered, RenderError> {
     let mut r = Renderer::new(ctx, scene, camera, method, seed)?;
     let mut done = 0;
     while done < frames {
@@ -189,11 +191,11 @@ pub fn render(
             .map(|(p, q)| [0, 1, 2].map(|c| 0.5 * (p[c] + q[c])))
             .collect()
     };
-    let combined = avg(&a.combined, &b.combined);
-    let indirect = avg(&a.indirect, &b.indirect);
+    let combined = avg(&a.combined.pixels, &b.combined.pixels);
+    let indirect = avg(&a.indirect.pixels, &b.indirect.pixels);
     let self_rel_mse = (
-        metrics::rel_mse_of_average(&a.combined, &b.combined)?,
-        metrics::rel_mse_of_average(&a.indirect, &b.indirect)?,
+        metrics::rel_mse_of_average(&a.combined.pixels, &b.combined.pixels)?,
+        metrics::rel_mse_of_average(&a.indirect.pixels, &b.indirect.pixels)?,
     );
     Ok(GpuReference {
         width: camera.width,

@@ -51,6 +51,8 @@ fn world_restir(c: &mut Criterion) {
 
     let mut group = c.benchmark_group("world_restir_frame");
     group.sample_size(10);
+    group.warm_up_time(std::time::Duration::from_secs(1));
+    group.measurement_time(std::time::Duration::from_secs(3));
     group.bench_function(format!("world-restir_{side}"), |b| {
         b.iter_custom(|iters| {
             // One frame per submission (the frame writes its grid params through the queue).

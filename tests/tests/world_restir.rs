@@ -41,7 +41,16 @@ fn layouts_match_wgsl() {
         WrReservoir,
         src,
         "WrReservoir",
-        [light_position, ucw, light_normal, m, light_emission, _pad0, vertex_normal, _pad1]
+        [
+            light_position,
+            ucw,
+            light_normal,
+            m,
+            light_emission,
+            _pad0,
+            vertex_normal,
+            _pad1
+        ]
     );
     tests::assert_wgsl_layout!(
         WrParams,
@@ -84,7 +93,11 @@ fn grid_build_stores_every_vertex_once() {
         let inserted: Vec<usize> = (0..g.vertex_slot.len())
             .filter(|&i| g.vertex_slot[i][0] < gpu_hash::HASH_FIRST_SENTINEL)
             .collect();
-        assert!(inserted.len() > 1000, "frame {frame}: only {} vertices", inserted.len());
+        assert!(
+            inserted.len() > 1000,
+            "frame {frame}: only {} vertices",
+            inserted.len()
+        );
         assert_eq!(acc as usize, inserted.len(), "counts != inserted vertices");
         let mut seen = vec![0u32; g.vertex_slot.len()];
         for &i in &inserted {
@@ -122,7 +135,11 @@ fn frame_means_baseline(r: &mut Renderer, frames: u32) -> Vec<f64> {
     (0..frames)
         .map(|_| {
             r.render(ctx, 1, |_| {}).expect("render");
-            mean_lum(&world_restir::read_last_frame(ctx, r).expect("frame").indirect)
+            mean_lum(
+                &world_restir::read_last_frame(ctx, r)
+                    .expect("frame")
+                    .indirect,
+            )
         })
         .collect()
 }
@@ -159,15 +176,28 @@ fn reuse_off_equals_ris_in_expectation() {
     for name in ["cornell", "many-lights"] {
         let s = scene(name, w, h);
         let cam = s.camera_or_default(w, h);
-        let mut wr = WorldRestir::new(ctx, &s, &cam, WorldRestirConfig { buckets: 4096, ..WorldRestirConfig::no_reuse() }, 11)
-            .expect("world-restir");
-        let mut ris = Renderer::new(ctx, &s, &cam, Method::Ris { candidates: 16 }, 12).expect("ris");
+        let mut wr = WorldRestir::new(
+            ctx,
+            &s,
+            &cam,
+            WorldRestirConfig {
+                buckets: 4096,
+                ..WorldRestirConfig::no_reuse()
+            },
+            11,
+        )
+        .expect("world-restir");
+        let mut ris =
+            Renderer::new(ctx, &s, &cam, Method::Ris { candidates: 16 }, 12).expect("ris");
         let frames = 96;
         let a = frame_means_wr(&mut wr, frames);
         let b = frame_means_baseline(&mut ris, frames);
         let (ok, rel, se) = equivalent(&a, &b, MARGIN);
         eprintln!("{name}: reuse off vs ris: rel diff {rel:+.4}, rel se {se:.4}");
-        assert!(ok, "{name}: reuse-off world-restir differs from ris: {rel:+.4} (se {se:.4})");
+        assert!(
+            ok,
+            "{name}: reuse-off world-restir differs from ris: {rel:+.4} (se {se:.4})"
+        );
         let planted: Vec<f64> = a.iter().map(|v| v * 1.06).collect();
         let (bad, rel_p, _) = equivalent(&planted, &b, MARGIN);
         assert!(!bad, "{name}: planted 6% bias not detected ({rel_p:+.4})");
@@ -200,7 +230,7 @@ fn assert_finite(what: &str, img: &[[f32; 3]]) {
 
 /// No NaN/Inf in any frame on every built-in scene with reuse on, with a tiny table that
 /// overflows (the overflowing vertices keep their own reservoirs; counted), and with temporal
-/// reuse across a camera cut. 60 frames per scene (the issue asks for 500; lavapipe time).
+/// reuse across a camera cut, checking every frame (60 per run; the 500-frame runs are below).
 #[test]
 fn no_nan_over_many_frames_overflow_and_camera_cut() {
     let ctx = gpu::context();
@@ -221,6 +251,7 @@ fn no_nan_over_many_frames_overflow_and_camera_cut() {
                 target: cam.target + (cam.target - cam.eye),
                 ..cam
             };
+            let mut overflows = 0u32;
             for f in 0..frames {
                 if f == frames / 2 {
                     wr.set_camera(&ctx.queue, &cut).expect("cut");
@@ -229,11 +260,11 @@ fn no_nan_over_many_frames_overflow_and_camera_cut() {
                 let img = wr.last_frame(ctx).expect("frame");
                 assert_finite(&format!("{name} {label} frame {f}"), &img.indirect);
                 assert_finite(&format!("{name} {label} frame {f}"), &img.direct);
+                overflows = overflows.max(wr.grid_stats(ctx).expect("stats").overflows);
             }
-            let stats = wr.grid_stats(ctx).expect("stats");
-            eprintln!("{name} {label}: last frame overflows {}", stats.overflows);
-            if label == "tiny table" && (name == "cornell" || name == "many-lights") {
-                assert!(stats.overflows > 0, "{name}: tiny table did not overflow");
+            eprintln!("{name} {label}: most overflows in a frame {overflows}");
+            if label == "tiny table" {
+                assert!(overflows > 0, "{name}: tiny table did not overflow");
             }
             let res = wr.reservoirs(ctx).expect("reservoirs");
             assert!(res.iter().all(|r| r.ucw.is_finite()));
@@ -252,15 +283,103 @@ fn orbit_and_debug_views() {
         frames: 8,
         degrees: 20.0,
     };
-    wr.render(ctx, 8, Some((&path, &cam)), |_| {}).expect("render");
+    wr.render(ctx, 8, Some((&path, &cam)), |_| {})
+        .expect("render");
     assert_finite("orbit", &wr.images(ctx).expect("images").indirect);
     let cells = wr.debug_image(ctx, DebugView::Cells).expect("cells");
     let distinct: std::collections::HashSet<[u32; 3]> =
         cells.iter().map(|c| c.map(f32::to_bits)).collect();
-    assert!(distinct.len() > 4, "cell view shows {} colours", distinct.len());
+    assert!(
+        distinct.len() > 4,
+        "cell view shows {} colours",
+        distinct.len()
+    );
     let m = wr.debug_image(ctx, DebugView::M).expect("m");
     assert!(m.iter().any(|c| c.iter().any(|&v| v > 0.0)));
     let o = wr.debug_image(ctx, DebugView::Overflow).expect("overflow");
     assert!(o.iter().all(|c| c[1] >= 0.0), "overflow view");
-    assert!(!o.iter().any(|c| c == &[1.0, 0.0, 0.0]), "no overflow expected");
+    assert!(
+        !o.iter().any(|c| c == &[1.0, 0.0, 0.0]),
+        "no overflow expected"
+    );
+}
+
+/// The other knobs produce finite, non-black indirect images: half-resolution GI (gi_stride 2),
+/// visibility for the selected candidate, no jitter, no adaptive cell size (2 cm cells), unsorted
+/// cells, a single spatial pass without temporal reuse.
+#[test]
+fn other_knobs_render_finite_non_black() {
+    let ctx = gpu::context();
+    let s = scene("cornell", 32, 32);
+    let cam = s.camera_or_default(32, 32);
+    let configs = [
+        WorldRestirConfig {
+            gi_stride: 2,
+            ..small()
+        },
+        WorldRestirConfig {
+            visibility: true,
+            ..small()
+        },
+        WorldRestirConfig {
+            jitter: false,
+            adaptive_cell_size: false,
+            min_cell_size: 0.02,
+            sort_cells: false,
+            ..small()
+        },
+        WorldRestirConfig {
+            temporal: false,
+            spatial_passes: 1,
+            ..small()
+        },
+    ];
+    for config in configs {
+        let mut wr = WorldRestir::new(ctx, &s, &cam, config, 4).expect("world-restir");
+        wr.render(ctx, 4, None, |_| {}).expect("render");
+        let img = wr.images(ctx).expect("images");
+        assert_finite("knobs", &img.indirect);
+        assert!(mean_lum(&img.indirect) > 0.0, "{config:?}: black indirect");
+    }
+}
+
+/// 500 frames on every built-in scene at 16x16 with a table that overflows (8 slots, 2 px
+/// cells), temporal
+/// reuse, an orbit and a camera cut at frame 250: no NaN/Inf in any frame (a single NaN or Inf
+/// in any frame would stay in the accumulated sums, which are checked at the end).
+#[test]
+fn five_hundred_frames_every_scene_overflowing_with_cut() {
+    let ctx = gpu::context();
+    let (w, h) = (16, 16);
+    for name in restir_world::scene::BUILTIN_NAMES {
+        let s = scene(name, w, h);
+        let cam = s.camera_or_default(w, h);
+        let tiny = WorldRestirConfig {
+            buckets: 4,
+            slots: 2,
+            projected_size: 2.0,
+            ..Default::default()
+        };
+        let mut wr = WorldRestir::new(ctx, &s, &cam, tiny, 9).expect("world-restir");
+        let orbit = CameraPath::Orbit {
+            frames: 250,
+            degrees: 40.0,
+        };
+        wr.render(ctx, 1, None, |_| {}).expect("render");
+        let overflows = wr.grid_stats(ctx).expect("stats").overflows;
+        assert!(overflows > 0, "{name}: the tiny table did not overflow");
+        wr.render(ctx, 249, Some((&orbit, &cam)), |_| {})
+            .expect("render");
+        let cut = Camera {
+            eye: cam.target + (cam.target - cam.eye) * 0.3,
+            target: cam.target + (cam.target - cam.eye),
+            ..cam
+        };
+        wr.set_camera(&ctx.queue, &cut).expect("cut");
+        wr.render(ctx, 250, None, |_| {}).expect("render");
+        let img = wr.images(ctx).expect("images");
+        assert_eq!(img.frames, 500);
+        assert_finite(&format!("{name} 500 frames"), &img.indirect);
+        assert_finite(&format!("{name} 500 frames"), &img.direct);
+    }
 }

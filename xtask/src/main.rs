@@ -21,9 +21,10 @@ fn main() -> ExitCode {
             eprintln!(
                 "usage: cargo xtask <test|demo> [args...]\n  test  run every test of the \
                  workspace on the available adapter (args go to `cargo test`)\n  demo  build \
-                 in release and run the speed-against-error comparison on many-lights and \
-                 cornell (with args: run `restir-demo` with them instead)\n  results  \
-                 regenerate docs/results.md (the reference configuration's comparison)"
+                 in release, render cornell and many-lights into out/ and run the \
+                 speed-against-error comparison on both (with args: run `restir-demo` with them \
+                 instead)\n  results  regenerate docs/results.md (the reference configuration's \
+                 comparison)"
             );
             return ExitCode::from(2);
         }
@@ -84,10 +85,55 @@ const RESULTS_COMPARE: [&str; 16] = [
     "out/cache",
 ];
 
+/// Default renders of `cargo xtask demo` (no arguments): each finishes in well under a minute in
+/// release on a 2-core lavapipe machine; the images land in `out/<scene>/`.
+const DEFAULT_RENDERS: [&[&str]; 2] = [
+    &[
+        "render",
+        "--scene",
+        "cornell",
+        "--method",
+        "ris",
+        "--size",
+        "256x256",
+        "--spp",
+        "1",
+        "--frames",
+        "16",
+        "--seed",
+        "1",
+        "--out",
+        "out/cornell",
+    ],
+    &[
+        "render",
+        "--scene",
+        "many-lights",
+        "--method",
+        "ris",
+        "--size",
+        "192x192",
+        "--spp",
+        "1",
+        "--frames",
+        "8",
+        "--seed",
+        "1",
+        "--out",
+        "out/many-lights",
+    ],
+];
+
 fn demo(args: &[String]) -> Result<(), String> {
     ensure_vulkan()?;
-    let mut run = vec!["run", "--release", "--package", "demo", "--"];
+    let base = ["run", "--release", "--package", "demo", "--"];
     if args.is_empty() {
+        for render in DEFAULT_RENDERS {
+            let mut run = base.to_vec();
+            run.extend_from_slice(render);
+            cargo(&run)?;
+        }
+        let mut run = base.to_vec();
         run.extend(DEMO_COMPARE);
         cargo(&run)?;
         println!(
@@ -96,6 +142,7 @@ fn demo(args: &[String]) -> Result<(), String> {
         );
         return Ok(());
     }
+    let mut run = base.to_vec();
     run.extend(args.iter().map(String::as_str));
     cargo(&run)
 }

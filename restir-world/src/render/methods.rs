@@ -242,7 +242,9 @@ fn build_ris(
     variant: Option<&str>,
 ) -> Result<Box<dyn FrameMethod>, MethodError> {
     let method = match variant {
-        None => Method::ris(),
+        None => Method::Ris {
+            candidates: super::DEFAULT_CANDIDATES,
+        },
         Some(v) => Method::Ris {
             candidates: v.parse().map_err(|_| MethodError::Variant {
                 method: "ris".into(),

@@ -83,8 +83,9 @@ pub struct WorldRestirConfig {
     pub spatial_passes: u32,
     /// One temporal reuse pass from last frame's grid (default on, the paper's).
     pub temporal: bool,
-    /// Confidence cap of each reservoir reused from last frame, as a multiple of `candidates`
-    /// (default 20: M <= 20 x 16 = 320).
+    /// Cap of the confidence taken from last frame, as a multiple of `candidates` (default 20:
+    /// at most 20 x 16 = 320 in total; each of the n <= max_count reservoirs the temporal lookup
+    /// visits is capped at 320 / n).
     pub temporal_m_cap: u32,
     /// Smallest cell edge in world units (default 0.01 = 1 cm; the cell size when
     /// `adaptive_cell_size` is off).
@@ -177,7 +178,10 @@ impl WorldRestirConfig {
             return bad("max_count must be at least 1".into());
         }
         if self.spatial_passes > 64 {
-            return bad(format!("spatial_passes {} must be <= 64", self.spatial_passes));
+            return bad(format!(
+                "spatial_passes {} must be <= 64",
+                self.spatial_passes
+            ));
         }
         if !(-1.0..=1.0).contains(&self.normal_threshold) {
             return bad(format!(
@@ -431,7 +435,9 @@ impl Kernel {
             v.extend(gpu_hash::bind_group_layout_entries(self.hash_first()));
         }
         if self.hash_lookup {
-            v.extend(gpu_hash::lookup_bind_group_layout_entries(self.hash_first()));
+            v.extend(gpu_hash::lookup_bind_group_layout_entries(
+                self.hash_first(),
+            ));
         }
         v
     }
@@ -467,7 +473,12 @@ impl FrameImages {
     }
 }
 
-fn read_rgb(ctx: &GpuContext, b: &wgpu::Buffer, n: usize, scale: f32) -> Result<Vec<[f32; 3]>, GpuError> {
+fn read_rgb(
+    ctx: &GpuContext,
+    b: &wgpu::Buffer,
+    n: usize,
+    scale: f32,
+) -> Result<Vec<[f32; 3]>, GpuError> {
     let v: Vec<[f32; 4]> = buffers::read(ctx, b)?;
     Ok(v.iter()
         .take(n)
@@ -520,9 +531,15 @@ pub fn add_times(total: &mut PassTimes, frame: &SpanTimes) {
 pub enum CameraPath {
     Static,
     /// Orbit around the target by `degrees` about the up axis over `frames` frames.
-    Orbit { frames: u32, degrees: f32 },
+    Orbit {
+        frames: u32,
+        degrees: f32,
+    },
     /// Move towards the target by `fraction` of the eye-target distance over `frames` frames.
-    Dolly { frames: u32, fraction: f32 },
+    Dolly {
+        frames: u32,
+        fraction: f32,
+    },
 }
 
 impl CameraPath {
@@ -532,7 +549,8 @@ impl CameraPath {
             CameraPath::Static => *base,
             CameraPath::Orbit { frames, degrees } => {
                 let t = (frame % frames.max(1)) as f32 / frames.max(1) as f32;
-                let rot = glam::Quat::from_axis_angle(base.up.normalize(), (degrees * t).to_radians());
+                let rot =
+                    glam::Quat::from_axis_angle(base.up.normalize(), (degrees * t).to_radians());
                 Camera {
                     eye: base.target + rot * (base.eye - base.target),
                     ..*base
@@ -621,7 +639,10 @@ impl WorldRestir {
             .into());
         }
         let zeroed = |label: &str, size: u64| buffers::storage_zeroed(device, label, size);
-        let offsets = [zeroed("wr offsets 0", slots * 4), zeroed("wr offsets 1", slots * 4)];
+        let offsets = [
+            zeroed("wr offsets 0", slots * 4),
+            zeroed("wr offsets 1", slots * 4),
+        ];
         let cells = [zeroed("wr cells 0", px * 4), zeroed("wr cells 1", px * 4)];
         let vertex_slot = zeroed("wr vertex slot", px * 8);
         let reservoirs = [
@@ -646,7 +667,10 @@ impl WorldRestir {
             &[wr_params],
             wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
         );
-        let scan = Scan::new(device, &ScanDescriptor::for_device(device, slots_u32.max(1)))?;
+        let scan = Scan::new(
+            device,
+            &ScanDescriptor::for_device(device, slots_u32.max(1)),
+        )?;
 
         // Pipelines, one layout per kernel module.
         let (render_group, render_layout) = renderer.bind_group();
@@ -683,10 +707,7 @@ impl WorldRestir {
                             module: &module,
                             entry_point: Some(e),
                             compilation_options: wgpu::PipelineCompilationOptions {
-                                constants: &[(
-                                    "WORKGROUP_SIZE",
-                                    f64::from(render::WORKGROUP_SIZE),
-                                )],
+                                constants: &[("WORKGROUP_SIZE", f64::from(render::WORKGROUP_SIZE))],
                                 ..Default::default()
                             },
                             cache: None,
@@ -860,7 +881,11 @@ impl WorldRestir {
 
     /// Moves the camera for the next frame (the grid of this frame keeps this frame's eye for
     /// the temporal lookup of the next).
-    pub fn set_camera(&mut self, queue: &wgpu::Queue, camera: &Camera) -> Result<(), WorldRestirError> {
+    pub fn set_camera(
+        &mut self,
+        queue: &wgpu::Queue,
+        camera: &Camera,
+    ) -> Result<(), WorldRestirError> {
         self.renderer.set_camera(queue, camera)?;
         Ok(())
     }
@@ -876,28 +901,54 @@ impl WorldRestir {
         let p = self.parity;
         let eye: Vec3 = self.renderer.camera.eye;
         self.tables[p].set_params(queue, &self.grid_params.with_eye(eye)?)?;
-        self.renderer.encode_primary_and_gi(encoder, timer.as_deref_mut());
+        self.renderer
+            .encode_primary_and_gi(encoder, timer.as_deref_mut());
         Self::span(&mut timer, encoder, "generate", |enc| {
-            self.dispatch(enc, "wr generate", &self.pipelines[K_GENERATE][0], &self.generate_group)
+            self.dispatch(
+                enc,
+                "wr generate",
+                &self.pipelines[K_GENERATE][0],
+                &self.generate_group,
+            )
         });
         let slots = self.config.table().num_slots() as u32;
-        Self::span(&mut timer, encoder, "build", |enc| -> Result<(), WorldRestirError> {
-            self.tables[p].encode_clear(enc);
-            self.dispatch(enc, "wr insert", &self.pipelines[K_INSERT][0], &self.insert_groups[p]);
-            self.scan.encode(
-                enc,
-                self.tables[p].counters(),
-                &self.offsets[p],
-                slots,
-                ScanKind::Exclusive,
-                None,
-            )?;
-            self.dispatch(enc, "wr scatter", &self.pipelines[K_SCATTER][0], &self.scatter_groups[p]);
-            if self.config.sort_cells {
-                self.dispatch(enc, "wr sort", &self.pipelines[K_SCATTER][1], &self.scatter_groups[p]);
-            }
-            Ok(())
-        })?;
+        Self::span(
+            &mut timer,
+            encoder,
+            "build",
+            |enc| -> Result<(), WorldRestirError> {
+                self.tables[p].encode_clear(enc);
+                self.dispatch(
+                    enc,
+                    "wr insert",
+                    &self.pipelines[K_INSERT][0],
+                    &self.insert_groups[p],
+                );
+                self.scan.encode(
+                    enc,
+                    self.tables[p].counters(),
+                    &self.offsets[p],
+                    slots,
+                    ScanKind::Exclusive,
+                    None,
+                )?;
+                self.dispatch(
+                    enc,
+                    "wr scatter",
+                    &self.pipelines[K_SCATTER][0],
+                    &self.scatter_groups[p],
+                );
+                if self.config.sort_cells {
+                    self.dispatch(
+                        enc,
+                        "wr sort",
+                        &self.pipelines[K_SCATTER][1],
+                        &self.scatter_groups[p],
+                    );
+                }
+                Ok(())
+            },
+        )?;
         if let Some(groups) = &self.temporal_groups {
             Self::span(&mut timer, encoder, "temporal", |enc| {
                 self.dispatch(enc, "wr temporal", &self.pipelines[K_REUSE][0], &groups[p])
@@ -911,9 +962,15 @@ impl WorldRestir {
             });
         }
         Self::span(&mut timer, encoder, "shade", |enc| {
-            self.dispatch(enc, "wr shade", &self.pipelines[K_SHADE][0], &self.shade_group)
+            self.dispatch(
+                enc,
+                "wr shade",
+                &self.pipelines[K_SHADE][0],
+                &self.shade_group,
+            )
         });
-        self.renderer.encode_shade_direct(encoder, timer.as_deref_mut());
+        self.renderer
+            .encode_shade_direct(encoder, timer.as_deref_mut());
         if self.config.temporal {
             Self::span(&mut timer, encoder, "persist", |enc| {
                 enc.copy_buffer_to_buffer(
@@ -948,9 +1005,11 @@ impl WorldRestir {
                 self.set_camera(&ctx.queue, &cam)?;
             }
             timer.reset();
-            let mut encoder = ctx.device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
-                label: Some("world-restir frame"),
-            });
+            let mut encoder = ctx
+                .device
+                .create_command_encoder(&wgpu::CommandEncoderDescriptor {
+                    label: Some("world-restir frame"),
+                });
             self.encode_frame(&ctx.queue, &mut encoder, Some(&mut timer))?;
             timer.resolve(&mut encoder);
             ctx.queue.submit([encoder.finish()]);
@@ -1019,11 +1078,20 @@ impl WorldRestir {
     }
 
     /// Renders a debug view of the last frame (RGB per pixel, row-major).
-    pub fn debug_image(&self, ctx: &GpuContext, view: DebugView) -> Result<Vec<[f32; 3]>, GpuError> {
+    pub fn debug_image(
+        &self,
+        ctx: &GpuContext,
+        view: DebugView,
+    ) -> Result<Vec<[f32; 3]>, GpuError> {
         ctx.queue
             .write_buffer(&self.params, 28, bytemuck::bytes_of(&(view as u32)));
         let mut encoder = ctx.device.create_command_encoder(&Default::default());
-        self.dispatch(&mut encoder, "wr debug", &self.pipelines[K_DEBUG][0], &self.debug_group);
+        self.dispatch(
+            &mut encoder,
+            "wr debug",
+            &self.pipelines[K_DEBUG][0],
+            &self.debug_group,
+        );
         ctx.queue.submit([encoder.finish()]);
         read_rgb(ctx, &self.debug, self.renderer.pixels() as usize, 1.0)
     }
@@ -1046,7 +1114,10 @@ mod tests {
     fn defaults_are_the_papers() {
         let c = WorldRestirConfig::default();
         assert_eq!((c.buckets, c.slots, c.candidates), (100_000, 32, 16));
-        assert_eq!((c.max_count, c.spatial_passes, c.temporal_m_cap), (4, 4, 20));
+        assert_eq!(
+            (c.max_count, c.spatial_passes, c.temporal_m_cap),
+            (4, 4, 20)
+        );
         assert!(c.temporal && c.jitter && c.adaptive_cell_size);
         assert!((c.normal_threshold.powi(4) - 0.5).abs() < 1e-5);
         c.validate().unwrap();

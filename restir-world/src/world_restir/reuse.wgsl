@@ -2,9 +2,9 @@
 // (wr_self) and a stochastic subset of up to max_count reservoirs (wr_src) of the cell it falls
 // in, looked up (jittered) in a grid bound in gpu-hash's lookup role with its compact cell
 // storage (wr_lookup_offsets, wr_lookup_cells): last frame's grid, eye and reservoirs for the
-// temporal pass (their M capped), this frame's for the spatial passes (ping-pong wr_self ->
-// wr_out). Reservoirs whose generating normal differs from the receiver's beyond
-// normal_threshold (cosine) are skipped. Writes wr_out.
+// temporal pass (at most temporal_m_cap of M taken from last frame in total), this frame's for
+// the spatial passes (ping-pong wr_self -> wr_out). Reservoirs whose generating normal differs
+// from the receiver's beyond normal_threshold (cosine) are skipped. Writes wr_out.
 
 @compute @workgroup_size(WORKGROUP_SIZE)
 fn wr_reuse(@builtin(global_invocation_id) gid: vec3<u32>,
@@ -42,6 +42,10 @@ fn wr_reuse(@builtin(global_invocation_id) gid: vec3<u32>,
         let max_count = max(wr_params.max_count, 1u);
         let increment = max((count + max_count - 1u) / max_count, 1u);
         let offset = rng_next_u32(&rng) % increment;
+        // Temporal: the M taken from last frame is capped at temporal_m_cap in total, split
+        // over the (at most max_count) reservoirs this lookup visits.
+        let visited = (count + increment - 1u) / increment;
+        let cap = max(wr_params.temporal_m_cap / max(visited, 1u), 1u);
         for (var k = 0u; k < count; k += increment) {
             let j = wr_lookup_cells[start + (k + offset) % count];
             let u_merge = rng_next_f32(&rng);
@@ -54,7 +58,7 @@ fn wr_reuse(@builtin(global_invocation_id) gid: vec3<u32>,
             }
             var other = reservoir_unpack(PackedReservoir(n.ucw, n.m), j);
             if temporal {
-                reservoir_cap_m(&other, wr_params.temporal_m_cap);
+                reservoir_cap_m(&other, cap);
             }
             let p_hat = wr_target(v, wr_light_sample(n));
             if reservoir_merge(&r, other, p_hat, u_merge) {
