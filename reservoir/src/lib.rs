@@ -10,7 +10,7 @@
 //!   own kernels (see the workspace's WGSL composition convention).
 //! - [`Reservoir`] / [`PackedReservoir`]: the Rust twin, the same operations in the same order
 //!   (the numerical contract is documented on [`Reservoir`]).
-//! - [`reference`]: an f64 reference implementation, used only by tests.
+//! - [`mod@reference`]: an f64 reference implementation, used only by tests.
 //! - [`rng`]: the PCG random-number generator the ReSTIR passes share (WGSL + Rust twin).
 //!
 //! Random numbers are inputs: every helper takes `u` in [0, 1), so the GPU and the twin can be
@@ -50,11 +50,11 @@ pub const NO_SAMPLE: u32 = u32::MAX;
 /// Smallest weight the sum accepts: 2^-100 (about 7.9e-31). Smaller positive weights count as
 /// 0. Keeping every summand at or above 2^-100 keeps every rounding error of the compensated
 /// sum a normal f32, so GPUs that flush subnormals agree with the twin bit for bit.
-pub const WEIGHT_MIN: f32 = 7.888_609_052_210_118e-31; // 2^-100
+pub const WEIGHT_MIN: f32 = f32::from_bits(0x0d80_0000); // 2^-100
 
 /// The weight sum saturates here: 2^127 (about 1.7e38), half the f32 range, so that no sum of
 /// two accepted values overflows.
-pub const SUM_MAX: f32 = 1.701_411_834_604_692_3e38; // 2^127
+pub const SUM_MAX: f32 = f32::from_bits(0x7f00_0000); // 2^127
 
 /// IEEE-754 bit patterns the WGSL side tests against (`bitcast<u32>`): the smallest positive
 /// normal f32 and +Inf.

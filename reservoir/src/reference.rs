@@ -95,7 +95,17 @@ pub fn selection_probabilities(weights: &[f32]) -> Vec<f64> {
 /// `min(1, w_i / totals[i])` (totals after adding `w_i`), so
 /// `P(final = i) = p_i * prod_{j > i} (1 - p_j)`. With exact totals this is `w_i / sum(w)`;
 /// an inaccurate running sum skews it. Compare with [`block_masses`].
-pub fn effective_block_probabilities(weights: &[f32], totals: &[f32], blocks: usize) -> Vec<f64> {
+///
+/// `u_bits`: the resolution of the uniform `u` near 0 (`None`: continuous). With `u` on a grid
+/// of `2^-bits`, `P(u < p) = ceil(p 2^bits) / 2^bits`, which inflates small probabilities:
+/// 24 bits ([`crate::rng::Rng::next_f32`]) are too coarse for 10^7-long streams, 32 bits
+/// ([`crate::rng::Rng::next_f32_fine`]) are fine.
+pub fn effective_block_probabilities(
+    weights: &[f32],
+    totals: &[f32],
+    blocks: usize,
+    u_bits: Option<i32>,
+) -> Vec<f64> {
     assert_eq!(weights.len(), totals.len());
     let n = weights.len();
     let mut out = vec![0.0; blocks];
@@ -103,7 +113,11 @@ pub fn effective_block_probabilities(weights: &[f32], totals: &[f32], blocks: us
     for i in (0..n).rev() {
         let w = f64::from(crate::sanitize_weight(weights[i]));
         let t = f64::from(totals[i]);
-        let p = if w > 0.0 { (w / t).min(1.0) } else { 0.0 };
+        let mut p = if w > 0.0 { (w / t).min(1.0) } else { 0.0 };
+        if let Some(bits) = u_bits {
+            let scale = 2f64.powi(bits);
+            p = ((p * scale).ceil() / scale).min(1.0);
+        }
         out[i * blocks / n] += p * survive;
         survive *= 1.0 - p;
     }

@@ -6,9 +6,16 @@ use crate::rng::Rng;
 use crate::{NO_SAMPLE, PackedReservoir, Reservoir, SUM_MAX, WEIGHT_MIN};
 
 fn assert_clean(r: &Reservoir) {
-    for (name, x) in [("w_sum", r.w_sum), ("w_sum_err", r.w_sum_err), ("ucw", r.ucw)] {
+    for (name, x) in [
+        ("w_sum", r.w_sum),
+        ("w_sum_err", r.w_sum_err),
+        ("ucw", r.ucw),
+    ] {
         assert!(x.is_finite(), "{name} = {x} in {r:?}");
-        assert!(x == 0.0 || x.is_normal(), "{name} = {x} is subnormal in {r:?}");
+        assert!(
+            x == 0.0 || x.is_normal(),
+            "{name} = {x} is subnormal in {r:?}"
+        );
     }
     assert!(r.w_sum >= 0.0 && r.ucw >= 0.0, "{r:?}");
 }
@@ -20,9 +27,9 @@ const INVALID: [f32; 9] = [
     -1.0,
     -0.0,
     0.0,
-    1e-40,           // subnormal
+    1e-40,             // subnormal
     f32::MIN_POSITIVE, // normal but below WEIGHT_MIN
-    7.0e-31,         // just below WEIGHT_MIN
+    7.0e-31,           // just below WEIGHT_MIN
 ];
 
 #[test]
@@ -202,7 +209,12 @@ fn cap_keeps_w_and_scales_the_sum() {
         r.finalize(p);
         capped.finalize(p);
         let rel = ((capped.ucw - r.ucw) / r.ucw).abs();
-        assert!(rel < 4.0 * f32::EPSILON, "cap {cap}: {} vs {}", capped.ucw, r.ucw);
+        assert!(
+            rel < 4.0 * f32::EPSILON,
+            "cap {cap}: {} vs {}",
+            capped.ucw,
+            r.ucw
+        );
         // Capping below the current m again is a no-op for m <= cap.
         let again = capped;
         capped.cap_m(cap + 5);
@@ -281,9 +293,9 @@ fn running_totals(weights: &[f32], naive: bool) -> Vec<f32> {
 
 /// Largest relative error of the effective probability that the selection falls in each of 10
 /// blocks of the stream, against the f64 block masses.
-fn worst_block_error(weights: &[f32], totals: &[f32]) -> f64 {
+fn worst_block_error(weights: &[f32], totals: &[f32], u_bits: Option<i32>) -> f64 {
     let blocks = 10;
-    let eff = reference::effective_block_probabilities(weights, totals, blocks);
+    let eff = reference::effective_block_probabilities(weights, totals, blocks, u_bits);
     let exact = reference::block_masses(weights, blocks);
     eff.iter()
         .zip(&exact)
@@ -298,17 +310,32 @@ fn ten_million_updates_keep_selection_probabilities() {
     let exact: f64 = weights.iter().map(|&w| f64::from(w)).sum();
     let totals = running_totals(&weights, false);
     let rel_sum = (f64::from(totals[n - 1]) - exact).abs() / exact;
-    assert!(rel_sum < 2.0 * f64::from(f32::EPSILON), "sum rel error {rel_sum}");
+    assert!(
+        rel_sum < 2.0 * f64::from(f32::EPSILON),
+        "sum rel error {rel_sum}"
+    );
     // Tolerance 1e-7 relative per block (each block holds ~10% of the mass); the float-float
     // sum achieves ~4e-11, a naive f32 sum ~1e-2.
-    let err = worst_block_error(&weights, &totals);
+    let err = worst_block_error(&weights, &totals, None);
     assert!(err < 1e-7, "block probability rel error {err}");
 
     // Negative control: a naive f32 running sum drops the small weights once the sum is large
     // and over-selects late candidates; the same check must catch it.
     let naive = running_totals(&weights, true);
-    let naive_err = worst_block_error(&weights, &naive);
-    eprintln!("sum rel error {rel_sum:.3e}, block error {err:.3e}, naive block error {naive_err:.3e}");
+    let naive_err = worst_block_error(&weights, &naive, None);
+
+    // The resolution of u matters as much: late candidates are selected with probability
+    // ~1e-7, and u on a 2^-24 grid (Rng::next_f32) turns that into ceil(p 2^24) / 2^24. With
+    // the 2^-48 grid of Rng::next_f32_fine the error stays below 1e-6; the 24-bit grid is
+    // detected (~0.36).
+    let err_fine = worst_block_error(&weights, &totals, Some(48));
+    let err24 = worst_block_error(&weights, &totals, Some(24));
+    eprintln!("u grid 2^-48: {err_fine:.3e}, 2^-24: {err24:.3e}");
+    assert!(err_fine < 1e-6, "fine u: {err_fine}");
+    assert!(err24 > 1e-2, "24-bit u not detected: {err24}");
+    eprintln!(
+        "sum rel error {rel_sum:.3e}, block error {err:.3e}, naive block error {naive_err:.3e}"
+    );
     assert!(naive_err > 1e-3, "naive sum not detected: {naive_err}");
 }
 

@@ -16,7 +16,12 @@ use crate::{INF_BITS, MIN_NORMAL_BITS, NO_SAMPLE, SUM_MAX, WEIGHT_MIN};
 ///   (`bitcast<u32>` in WGSL), so this holds under fast-math compilers too.
 /// - **`u`** must be in [0, 1). A candidate of weight `w > 0` is selected when
 ///   `u * total < w`, where `total` is the sum after adding `w`; the first positive weight is
-///   always selected. (NaN `u` never selects.)
+///   always selected. (NaN `u` never selects.) A decision of probability `p` happens with
+///   probability `P(u < p)`, so `u` must resolve the smallest `p` that matters: on a 2^-24 grid
+///   (`rng_next_f32`) a decision of probability `p` happens with probability
+///   `ceil(p 2^24) / 2^24`, which inflates `p < ~2^-12` (late candidates of long streams, tiny
+///   weights next to huge ones). `rng_next_f32_fine` (grid 2^-48 near 0) keeps 10^7-long
+///   streams within 2e-8 of the exact selection probabilities.
 /// - **Compensated sum.** `(w_sum, w_sum_err)` is a float-float sum (Neumaier two-sum of each
 ///   weight, then renormalized so `|w_sum_err| <= ulp(w_sum) / 2`): its relative error stays
 ///   around one f32 ulp for any stream length (a naive f32 sum over 10^7 weights of very

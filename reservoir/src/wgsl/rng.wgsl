@@ -24,3 +24,15 @@ fn rng_next_u32(state: ptr<function, u32>) -> u32 {
 fn rng_next_f32(state: ptr<function, u32>) -> f32 {
     return f32(rng_next_u32(state) >> 8u) * (1.0 / 16777216.0);
 }
+
+// Uniform in [0, 1) from two words: (hi >> 8) * 2^-24 + (lo >> 8) * 2^-48, rounded to f32 and
+// kept below 1. Below 2^-24 its grid is 2^-48, elsewhere it has full f32 precision, so
+// P(u < p) is accurate even for tiny p: use it for reservoir decisions in long streams (with
+// rng_next_f32's 2^-24 grid, a decision of probability p happens with probability
+// ceil(p 2^24) / 2^24, which inflates p < ~2^-12 noticeably).
+fn rng_next_f32_fine(state: ptr<function, u32>) -> f32 {
+    let hi = rng_next_u32(state) >> 8u;
+    let lo = rng_next_u32(state) >> 8u;
+    let u = f32(hi) * (1.0 / 16777216.0) + f32(lo) * (1.0 / 281474976710656.0);
+    return min(u, 0.99999994);
+}
