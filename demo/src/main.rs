@@ -1,10 +1,15 @@
 //! `restir-demo`: render, compare and inspect world-space ReSTIR GI.
 
 use std::path::{Path, PathBuf};
+use std::process::ExitCode;
 
 use anyhow::{Context, Result};
 use clap::{Parser, Subcommand};
-use restir_world::{GpuContext, GpuTimer, gpu::buffers};
+use glam::Vec3;
+use indicatif::{ProgressBar, ProgressStyle};
+use restir_world::lights::Lights;
+use restir_world::scene::{self, Scene};
+use restir_world::{GpuContext, GpuTimer, gpu::buffers, image_io, reference, render};
 
 #[derive(Parser, Debug)]
 #[command(name = "restir-demo", version, about)]
@@ -15,8 +20,18 @@ struct Cli {
 
 #[derive(Subcommand, Debug)]
 enum Command {
-    /// Print the adapter, its optional features and its limits.
-    Info,
+    /// Print the adapter, its optional features and its limits (and, with --scene, the
+    /// scene's statistics).
+    Info {
+        /// A built-in scene (cornell, many-lights, furnace, furnace-sphere) or a .gltf/.glb/.obj
+        /// file.
+        #[arg(long)]
+        scene: Option<String>,
+        #[command(flatten)]
+        scene_opts: SceneArgs,
+    },
+    /// Render a scene: direct, indirect and combined images as linear EXR + sRGB PNG.
+    Render(Box<RenderArgs>),
     /// The default job: prove the device works by running a compute shader and writing its
     /// image as a PNG.
     Smoke {
@@ -27,6 +42,83 @@ enum Command {
         #[arg(long, default_value = "256x256", value_parser = parse_size)]
         size: (u32, u32),
     },
+}
+
+#[derive(clap::Args, Debug, Clone)]
+struct SceneArgs {
+    /// many-lights: number of emissive quads.
+    #[arg(long, default_value_t = 10_000)]
+    lights: u32,
+    /// furnace: albedo of every surface.
+    #[arg(long, default_value_t = 0.5)]
+    rho: f32,
+    /// furnace: emitted radiance of every surface.
+    #[arg(long, default_value_t = 1.0)]
+    le: f32,
+    /// many-lights: seed of the generated scene.
+    #[arg(long, default_value_t = 1)]
+    scene_seed: u32,
+}
+
+#[derive(clap::ValueEnum, Debug, Clone, Copy, PartialEq, Eq)]
+enum MethodArg {
+    /// GPU: one light sample + shadow ray at each vertex.
+    Nee,
+    /// GPU: RIS over --candidates light samples, no reuse.
+    Ris,
+    /// CPU reference renderer: the nee estimator (or ris with --reference-ris), f64
+    /// accumulation, all cores.
+    CpuReference,
+}
+
+#[derive(clap::Args, Debug)]
+struct RenderArgs {
+    /// A built-in scene (cornell, many-lights, furnace, furnace-sphere) or a .gltf/.glb/.obj
+    /// file.
+    #[arg(long, default_value = "cornell")]
+    scene: String,
+    #[command(flatten)]
+    scene_opts: SceneArgs,
+    #[arg(long, value_enum, default_value_t = MethodArg::Nee)]
+    method: MethodArg,
+    /// RIS candidates (ris, and cpu-reference with --reference-ris).
+    #[arg(long, default_value_t = 16)]
+    candidates: u32,
+    /// cpu-reference: use the RIS estimator instead of NEE.
+    #[arg(long)]
+    reference_ris: bool,
+    /// Samples per pixel per frame.
+    #[arg(long, default_value_t = 1)]
+    spp: u32,
+    /// Frames accumulated progressively (total samples per pixel = spp x frames).
+    #[arg(long, default_value_t = 16)]
+    frames: u32,
+    /// Image size, WxH (default: the scene camera's, or 256x256).
+    #[arg(long, value_parser = parse_size)]
+    size: Option<(u32, u32)>,
+    #[arg(long, default_value_t = 0)]
+    seed: u32,
+    /// Output directory.
+    #[arg(long, default_value = "out")]
+    out: PathBuf,
+    /// Camera position x,y,z (overrides the scene's camera).
+    #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true)]
+    eye: Option<Vec3>,
+    /// Camera target x,y,z.
+    #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true)]
+    target: Option<Vec3>,
+    /// Camera up vector x,y,z.
+    #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true)]
+    up: Option<Vec3>,
+    /// Vertical field of view, degrees.
+    #[arg(long)]
+    fov: Option<f32>,
+    /// Exposure multiplier of the PNGs (EXRs are always linear and unscaled).
+    #[arg(long, default_value_t = 1.0)]
+    exposure: f32,
+    /// Worker threads of the CPU reference (0 = all cores).
+    #[arg(long, default_value_t = 0)]
+    threads: usize,
 }
 
 fn parse_size(s: &str) -> Result<(u32, u32), String> {
@@ -41,18 +133,73 @@ fn parse_size(s: &str) -> Result<(u32, u32), String> {
     Ok((w, h))
 }
 
-fn main() -> Result<()> {
-    let cli = Cli::parse();
-    match cli.command.unwrap_or(Command::Smoke {
-        out: "out".into(),
-        size: (256, 256),
-    }) {
-        Command::Info => info(),
-        Command::Smoke { out, size } => smoke(&out, size),
+fn parse_vec3(s: &str) -> Result<Vec3, String> {
+    let v: Vec<f32> = s
+        .split(',')
+        .map(|x| x.trim().parse::<f32>())
+        .collect::<Result<_, _>>()
+        .map_err(|_| format!("expected x,y,z, got {s:?}"))?;
+    match v[..] {
+        [x, y, z] if v.iter().all(|c| c.is_finite()) => Ok(Vec3::new(x, y, z)),
+        _ => Err(format!("expected three finite numbers x,y,z, got {s:?}")),
     }
 }
 
-fn info() -> Result<()> {
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    let result = match cli.command.unwrap_or(Command::Smoke {
+        out: "out".into(),
+        size: (256, 256),
+    }) {
+        Command::Info { scene, scene_opts } => info(scene.as_deref(), &scene_opts),
+        Command::Render(args) => render(&args),
+        Command::Smoke { out, size } => smoke(&out, size),
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("error: {e:#}");
+            ExitCode::FAILURE
+        }
+    }
+}
+
+/// A built-in scene by name or a scene file, sanitized; warnings go to stderr.
+fn load_scene(name: &str, opts: &SceneArgs, size: Option<(u32, u32)>) -> Result<Scene> {
+    if scene::BUILTIN_NAMES.contains(&name) {
+        let (width, height) = size.unwrap_or((256, 256));
+        let mut s = scene::builtin(
+            name,
+            &scene::BuiltinOptions {
+                lights: opts.lights,
+                seed: opts.scene_seed,
+                rho: opts.rho,
+                le: opts.le,
+                width,
+                height,
+            },
+        )?;
+        s.sanitize(name)?;
+        return Ok(s);
+    }
+    let path = Path::new(name);
+    if path.extension().is_none() && !path.exists() {
+        anyhow::bail!(
+            "{name:?} is neither a built-in scene ({}) nor a scene file",
+            scene::BUILTIN_NAMES.join(", ")
+        );
+    }
+    let loaded = scene::load(path)?;
+    if !loaded.report.is_clean() {
+        eprintln!("warning: {}: {}", path.display(), loaded.report);
+    }
+    for w in &loaded.warnings {
+        eprintln!("warning: {w}");
+    }
+    Ok(loaded.scene)
+}
+
+fn info(scene_name: Option<&str>, opts: &SceneArgs) -> Result<()> {
     let ctx = GpuContext::new()?;
     println!("{}", ctx.describe());
     let l = ctx.limits();
@@ -72,7 +219,170 @@ fn info() -> Result<()> {
         "subgroup sizes: {}..{}",
         sg.subgroup_min_size, sg.subgroup_max_size
     );
+    if let Some(name) = scene_name {
+        let s = load_scene(name, opts, None)?;
+        let lights = Lights::build(&s);
+        println!(
+            "scene {name}: {} triangles, {} materials, {} emissive triangles (total power {:.4e})",
+            s.triangles.len(),
+            s.materials.len(),
+            lights.len(),
+            lights.total_power
+        );
+        if let Some((lo, hi)) = s.bounds() {
+            println!("bounds: {lo} .. {hi}");
+        }
+        match s.camera {
+            Some(c) => println!(
+                "camera: eye {} target {} up {} fov {} deg, {}x{}",
+                c.eye, c.target, c.up, c.vfov_deg, c.width, c.height
+            ),
+            None => println!("camera: none in the file (a default framing is used)"),
+        }
+    }
     Ok(())
+}
+
+fn progress_bar(len: u64, what: &str) -> ProgressBar {
+    let pb = ProgressBar::new(len);
+    pb.set_style(
+        ProgressStyle::with_template("{msg} [{bar:40}] {pos}/{len} {elapsed_precise} eta {eta}")
+            .unwrap_or_else(|_| ProgressStyle::default_bar())
+            .progress_chars("=> "),
+    );
+    pb.set_message(what.to_owned());
+    pb
+}
+
+fn render(args: &RenderArgs) -> Result<()> {
+    if args.spp == 0 || args.frames == 0 {
+        anyhow::bail!("--spp and --frames must be at least 1");
+    }
+    let samples = args
+        .spp
+        .checked_mul(args.frames)
+        .context("--spp x --frames overflows")?;
+    let scene = load_scene(&args.scene, &args.scene_opts, args.size)?;
+    let (w, h) = args
+        .size
+        .or(scene.camera.map(|c| (c.width, c.height)))
+        .unwrap_or((256, 256));
+    let mut camera = scene.camera_or_default(w, h);
+    if let Some(e) = args.eye {
+        camera.eye = e;
+    }
+    if let Some(t) = args.target {
+        camera.target = t;
+    }
+    if let Some(u) = args.up {
+        camera.up = u;
+    }
+    if let Some(f) = args.fov {
+        camera.vfov_deg = f;
+    }
+    camera.validate()?;
+    if !(args.exposure.is_finite() && args.exposure > 0.0) {
+        anyhow::bail!("--exposure must be a positive number");
+    }
+    let scene_tag: String = Path::new(&args.scene)
+        .file_stem()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_else(|| "scene".into());
+    let (method_tag, images) = match args.method {
+        MethodArg::CpuReference => {
+            let method = if args.reference_ris {
+                reference::Method::Ris {
+                    candidates: args.candidates.max(1),
+                }
+            } else {
+                reference::Method::Nee
+            };
+            let r = reference::ReferenceRenderer::new(&scene)?;
+            let pb = progress_bar(u64::from(camera.height), "cpu-reference rows");
+            let start = std::time::Instant::now();
+            let out = r.render(
+                &camera,
+                &reference::ReferenceOptions {
+                    method,
+                    spp: samples,
+                    seed: args.seed,
+                    threads: args.threads,
+                },
+                Some(&|rows| pb.set_position(u64::from(rows))),
+            )?;
+            pb.finish_and_clear();
+            println!(
+                "cpu-reference ({method:?}): {}x{} x {samples} spp in {:.2} s (CPU wall clock)",
+                camera.width,
+                camera.height,
+                start.elapsed().as_secs_f64()
+            );
+            ("cpu-reference", out)
+        }
+        MethodArg::Nee | MethodArg::Ris => render_gpu(args, &scene, &camera, samples)?,
+    };
+    std::fs::create_dir_all(&args.out)
+        .with_context(|| format!("creating {}", args.out.display()))?;
+    for (kind, img) in [
+        ("direct", &images.direct),
+        ("indirect", &images.indirect),
+        ("combined", &images.combined),
+    ] {
+        let base = args.out.join(format!("{scene_tag}-{method_tag}-{kind}"));
+        image_io::write_exr(&base.with_extension("exr"), img)?;
+        image_io::write_png(&base.with_extension("png"), img, args.exposure)?;
+        let m = img.mean();
+        println!(
+            "wrote {}.{{exr,png}} (mean {:.4} {:.4} {:.4})",
+            base.display(),
+            m[0],
+            m[1],
+            m[2]
+        );
+    }
+    Ok(())
+}
+
+/// The GPU methods: `samples` frames of one sample each, accumulated.
+fn render_gpu(
+    args: &RenderArgs,
+    scene: &Scene,
+    camera: &restir_world::scene::Camera,
+    samples: u32,
+) -> Result<(&'static str, reference::Rendered)> {
+    let ctx = GpuContext::new()?;
+    eprintln!("{}", ctx.describe());
+    let (tag, method) = match args.method {
+        MethodArg::Ris => (
+            "ris",
+            render::Method::Ris {
+                candidates: args.candidates,
+            },
+        ),
+        _ => ("nee", render::Method::Nee),
+    };
+    let mut r = render::Renderer::new(&ctx, scene, camera, method, args.seed)?;
+    let pb = progress_bar(u64::from(samples), &format!("{tag} frames"));
+    let times = r.render(&ctx, samples, |f| pb.set_position(u64::from(f)))?;
+    pb.finish_and_clear();
+    match &times {
+        Some(t) => {
+            let per: Vec<String> = t
+                .per_frame()
+                .iter()
+                .map(|(n, ms)| format!("{n}={ms:.3}"))
+                .collect();
+            println!(
+                "{tag}: {} frames, GPU {:.3} ms/frame ({}) on {}",
+                t.frames,
+                t.total_ms() / f64::from(t.frames.max(1)),
+                per.join(" "),
+                ctx.info.name
+            );
+        }
+        None => println!("{tag}: {samples} frames (adapter has no timestamps)"),
+    }
+    Ok((tag, r.images(&ctx)?))
 }
 
 const SMOKE_WGSL: &str = r#"

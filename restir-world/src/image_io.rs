@@ -15,13 +15,13 @@ pub struct Image {
 /// What can go wrong reading or writing an image.
 #[derive(Debug, thiserror::Error)]
 pub enum ImageIoError {
-    #[error("{path}: {source}")]
+    #[error("{path}: file system error")]
     Io {
         path: PathBuf,
         #[source]
         source: std::io::Error,
     },
-    #[error("{path}: {source}")]
+    #[error("{path}: image encoding or decoding failed")]
     Codec {
         path: PathBuf,
         #[source]

@@ -285,6 +285,20 @@ pub enum LightsError {
     },
 }
 
+/// Checks that `count` lights fit one storage binding of `limit` bytes (the largest of the
+/// light buffers is the `LightTriangle` array).
+pub fn check_fits(count: usize, limit: u64) -> Result<(), LightsError> {
+    let bytes = (count as u64).saturating_mul(std::mem::size_of::<LightTriangle>() as u64);
+    if bytes > limit {
+        return Err(LightsError::TooLarge {
+            count,
+            bytes,
+            limit,
+        });
+    }
+    Ok(())
+}
+
 /// The lights uploaded to the GPU. Empty lights upload one zeroed dummy per array (bindings
 /// must not be empty) and `count = 0`.
 #[derive(Debug)]
@@ -299,15 +313,10 @@ impl GpuLights {
     /// Uploads `lights`; errors before allocating if they exceed the device's storage binding
     /// size.
     pub fn new(device: &wgpu::Device, lights: &Lights) -> Result<Self, LightsError> {
-        let limit = device.limits().max_storage_buffer_binding_size;
-        let bytes = (lights.len() * std::mem::size_of::<LightTriangle>()) as u64;
-        if bytes > limit {
-            return Err(LightsError::TooLarge {
-                count: lights.len(),
-                bytes,
-                limit,
-            });
-        }
+        check_fits(
+            lights.len(),
+            device.limits().max_storage_buffer_binding_size,
+        )?;
         let dummy_t = [bytemuck::Zeroable::zeroed()];
         let dummy_a = [AliasEntry {
             prob: 1.0,
@@ -445,6 +454,15 @@ mod tests {
         let l = Lights::build(&s);
         assert!(l.is_empty() && l.sample([0.5; 4]).is_none());
         assert_eq!(l.info().count, 0);
+    }
+
+    #[test]
+    fn too_many_lights_for_the_adapter_is_an_error() {
+        // lavapipe's 128 MiB binding holds 2^21 lights of 64 bytes.
+        let limit = 128 << 20;
+        assert!(check_fits(1 << 21, limit).is_ok());
+        let e = check_fits((1 << 21) + 1, limit).unwrap_err();
+        assert!(e.to_string().contains("2097153 lights"), "{e}");
     }
 
     #[test]

@@ -15,16 +15,18 @@
 //!
 //! NEE is one light sample (power-proportional alias table, uniform on the triangle) with one
 //! shadow ray; [`Method::Ris`] draws K candidates, resamples one by RIS (target: luminance of
-//! the unshadowed contribution) and traces one shadow ray. Outputs ([`Images`]): `direct` =
+//! the unshadowed contribution) and traces one shadow ray. Outputs: `direct` =
 //! emission seen + reflected direct light, `indirect` = one-bounce indirect light, `combined` =
-//! their sum; linear HDR. Emitters are two-sided; shading uses the geometric normal.
+//! their sum; linear HDR ([`Rendered`], as the CPU reference returns them). Emitters are two-sided; shading uses the geometric normal.
 //!
 //! WGSL: [`bindings_wgsl`] declares every render buffer at fixed `render_*` names, so a later
 //! pass composes `render::library(..)` + its own kernel and binds [`Renderer::bind_group`]
 //! (group 0), the BVH (group 1) and the lights (group 2) from [`Renderer::scene_bind_groups`].
 
 use crate::gpu::buffers;
+use crate::image_io::Image;
 use crate::lights::{self, GpuLights, Lights};
+use crate::reference::Rendered;
 use crate::sampling::CameraGpu;
 use crate::scene::{Camera, Material, Scene};
 use crate::trace::{self, Bvh, GpuBvh, dispatch_2d};
@@ -55,20 +57,14 @@ pub const PASS_COUNT: u32 = 16;
 const METHOD_NEE: u32 = 0;
 const METHOD_RIS: u32 = 1;
 
-/// Light sampling at both vertices.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Method {
-    /// One light sample + shadow ray.
-    Nee,
-    /// RIS over `candidates` light samples, one shadow ray, no reuse.
-    Ris { candidates: u32 },
-}
+/// Light sampling at both vertices (shared with the CPU reference): `Nee` = one light sample
+/// + shadow ray; `Ris { candidates }` = RIS over K light samples, one shadow ray, no reuse.
+pub use crate::reference::Method;
 
-impl Method {
-    pub fn ris() -> Self {
-        Self::Ris {
-            candidates: DEFAULT_CANDIDATES,
-        }
+/// [`Method::Ris`] with the default candidate count.
+pub fn ris() -> Method {
+    Method::Ris {
+        candidates: DEFAULT_CANDIDATES,
     }
 }
 
@@ -245,18 +241,6 @@ pub struct RenderBuffers {
     pub accum_indirect: wgpu::Buffer,
     /// Per material.
     pub materials: wgpu::Buffer,
-}
-
-/// Accumulated images, linear HDR RGB, row-major from the top-left pixel.
-#[derive(Debug, Clone, PartialEq)]
-pub struct Images {
-    pub width: u32,
-    pub height: u32,
-    /// Samples per pixel averaged.
-    pub samples: u32,
-    pub direct: Vec<[f32; 3]>,
-    pub indirect: Vec<[f32; 3]>,
-    pub combined: Vec<[f32; 3]>,
 }
 
 /// Total GPU milliseconds per pass over the frames rendered so far.
@@ -635,7 +619,7 @@ impl Renderer {
     }
 
     /// The accumulated images (averages over the frames so far; black before any frame).
-    pub fn images(&self, ctx: &GpuContext) -> Result<Images, RenderError> {
+    pub fn images(&self, ctx: &GpuContext) -> Result<Rendered, RenderError> {
         let n = self.pixels as usize;
         let read = |b: &wgpu::Buffer| -> Result<Vec<[f32; 4]>, GpuError> {
             let mut v: Vec<[f32; 4]> = buffers::read(ctx, b)?;
@@ -657,15 +641,35 @@ impl Renderer {
             .zip(&indirect)
             .map(|(a, b)| [a[0] + b[0], a[1] + b[1], a[2] + b[2]])
             .collect();
-        Ok(Images {
-            width: self.camera.width,
-            height: self.camera.height,
-            samples: self.frames,
-            direct,
-            indirect,
-            combined,
+        let (w, h) = (self.camera.width, self.camera.height);
+        let image =
+            |p| Image::from_pixels(w, h, p).map_err(|e| RenderError::Settings(e.to_string()));
+        Ok(Rendered {
+            direct: image(direct)?,
+            indirect: image(indirect)?,
+            combined: image(combined)?,
         })
     }
+}
+
+/// One-call render for the demo and tests: builds a [`Renderer`], renders `frames` frames (one
+/// sample per pixel each), and returns the averaged images and the per-pass GPU times (`None`
+/// without timestamp queries). `progress` gets the number of frames done.
+pub fn render_images(
+    ctx: &GpuContext,
+    scene: &Scene,
+    camera: &Camera,
+    method: Method,
+    seed: u32,
+    frames: u32,
+    progress: impl FnMut(u32),
+) -> Result<(Rendered, Option<PassTimes>), RenderError> {
+    if frames == 0 {
+        return Err(RenderError::Settings("at least one frame".into()));
+    }
+    let mut renderer = Renderer::new(ctx, scene, camera, method, seed)?;
+    let times = renderer.render(ctx, frames, progress)?;
+    Ok((renderer.images(ctx)?, times))
 }
 
 #[cfg(test)]

@@ -305,10 +305,11 @@ pub fn many_lights(lights: u32, seed: u32, width: u32, height: u32) -> Result<Sc
             power,
         });
     }
-    // Total two-sided power P = sum 2 pi A_i L_i; aim for an average irradiance of about pi
-    // on the hall's surfaces (white surfaces then look about 1 before tone mapping).
+    // Total two-sided power P = sum 2 pi A_i L_i; aim for an average irradiance of about
+    // pi / 4 on the hall's surfaces (white surfaces then look about 0.25 before tone mapping,
+    // leaving room for the interreflections and the lights seen directly).
     let surface = 2.0 * w * w + 4.0 * w * h;
-    let target = f64::from(surface) * 0.5; // sum A_i L_i (luminance)
+    let target = f64::from(surface) * 0.125; // sum A_i L_i (luminance)
     s.materials.reserve(quads.len());
     s.triangles.reserve(2 * quads.len());
     for q in quads {
@@ -321,8 +322,9 @@ pub fn many_lights(lights: u32, seed: u32, width: u32, height: u32) -> Result<Sc
         s.push_quad(q.corners, m);
     }
     s.camera = Some(Camera {
-        eye: Vec3::new(1.5, 1.7, 1.5),
-        target: Vec3::new(w * 0.6, 2.2, w * 0.75),
+        // Down the corridor between the pillar rows at z = w/4 * 1.5 and w/4 * 2.5.
+        eye: Vec3::new(0.8, 1.6, 0.5 * w),
+        target: Vec3::new(w, 3.0, 0.5 * w + 0.5),
         up: Vec3::Y,
         vfov_deg: 60.0,
         width,

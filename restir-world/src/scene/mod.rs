@@ -26,7 +26,7 @@ use glam::Vec3;
 /// What can go wrong when building, loading or checking a scene.
 #[derive(Debug, thiserror::Error)]
 pub enum SceneError {
-    #[error("{path}: {source}")]
+    #[error("{path}: cannot read the file")]
     Io {
         path: PathBuf,
         #[source]
