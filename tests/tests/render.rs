@@ -231,3 +231,30 @@ fn bad_settings_are_errors() {
     let empty = restir_world::scene::Scene::default();
     assert!(Renderer::new(ctx, &empty, &camera, Method::Nee, 0).is_err());
 }
+
+#[test]
+fn render_structs_match_wgsl_layout() {
+    use restir_world::render::{GVertex, RenderParams, RenderState, passes_source};
+    let src = passes_source();
+    tests::assert_wgsl_layout!(
+        GVertex,
+        src,
+        "GVertex",
+        [
+            position, prim, normal, _pad0, albedo, _pad1, emission, _pad2
+        ]
+    );
+    tests::assert_wgsl_layout!(
+        RenderParams,
+        src,
+        "RenderParams",
+        [camera, pixel_count, seed, method, candidates]
+    );
+    tests::assert_wgsl_layout!(RenderState, src, "RenderState", [frame, _pad]);
+    tests::assert_wgsl_layout!(
+        restir_world::scene::Material,
+        src,
+        "Material",
+        [albedo, _pad0, emission, _pad1]
+    );
+}

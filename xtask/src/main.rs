@@ -58,7 +58,7 @@ const DEFAULT_RENDERS: [&[&str]; 2] = [
         "--spp",
         "1",
         "--frames",
-        "32",
+        "16",
         "--seed",
         "1",
         "--out",

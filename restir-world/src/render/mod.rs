@@ -57,9 +57,14 @@ pub const PASS_COUNT: u32 = 16;
 const METHOD_NEE: u32 = 0;
 const METHOD_RIS: u32 = 1;
 
-/// Light sampling at both vertices (shared with the CPU reference): `Nee` = one light sample
-/// + shadow ray; `Ris { candidates }` = RIS over K light samples, one shadow ray, no reuse.
-pub use crate::reference::Method;
+/// Light sampling at both vertices (shared with the CPU reference, which re-exports it).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Method {
+    /// One light sample + shadow ray.
+    Nee,
+    /// RIS over `candidates` light samples, one shadow ray, no reuse (default 16).
+    Ris { candidates: u32 },
+}
 
 /// [`Method::Ris`] with the default candidate count.
 pub fn ris() -> Method {

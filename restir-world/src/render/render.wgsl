@@ -38,9 +38,7 @@ struct RenderParams {
 // GPU-side frame counter: advanced by render_accumulate, read by every pass for its seeds.
 struct RenderState {
     frame: u32,
-    _pad0: u32,
-    _pad1: u32,
-    _pad2: u32,
+    _pad: array<u32, 3>,
 }
 
 fn render_luminance(c: vec3<f32>) -> f32 {
