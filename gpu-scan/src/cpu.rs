@@ -147,12 +147,8 @@ mod tests {
     #[test]
     fn tile_model_falls_back_past_stalled_tiles() {
         let input = random(10_000, 7);
-        let stall_patterns: [&dyn Fn(usize) -> bool; 4] = [
-            &|t| t == 0,
-            &|t| t % 3 == 1,
-            &|t| t < 50,
-            &|t| t % 2 == 0,
-        ];
+        let stall_patterns: [&dyn Fn(usize) -> bool; 4] =
+            [&|t| t == 0, &|t| t % 3 == 1, &|t| t < 50, &|t| t % 2 == 0];
         for stalled in stall_patterns {
             let (got, stats) = tiled_scan_model(&input, ScanKind::Exclusive, 64, stalled);
             assert_eq!(got, scan(&input, ScanKind::Exclusive));

@@ -57,8 +57,8 @@ pub struct ScanDescriptor {
     /// Count tiles, look-back steps, failed polls and fallbacks into a debug buffer
     /// ([`Scan::counters_buffer`]). Costs a few atomics per tile; for benchmarks and tests.
     pub debug_counters: bool,
-    /// Elements per thread (tile = workgroup size x this). `None` picks the largest of
-    /// 16, 8, 4, 2, 1 that fits the device's workgroup memory.
+    /// Elements per thread (tile = workgroup size x this), a multiple of 4. `None` picks the
+    /// largest of 16, 8, 4 that fits the device's workgroup memory.
     pub items_per_thread: Option<u32>,
 }
 
@@ -179,6 +179,8 @@ pub struct Scan {
     counters: wgpu::Buffer,
     dummy_in: wgpu::Buffer,
     dummy_out: wgpu::Buffer,
+    dummy_in4: wgpu::Buffer,
+    dummy_out4: wgpu::Buffer,
     binding_limit: u64,
 }
 
@@ -195,7 +197,11 @@ fn storage_entry(binding: u32, read_only: bool) -> wgpu::BindGroupLayoutEntry {
     }
 }
 
-fn buffer_entry(binding: u32, buffer: &wgpu::Buffer, size: Option<u64>) -> wgpu::BindGroupEntry<'_> {
+fn buffer_entry(
+    binding: u32,
+    buffer: &wgpu::Buffer,
+    size: Option<u64>,
+) -> wgpu::BindGroupEntry<'_> {
     wgpu::BindGroupEntry {
         binding,
         resource: wgpu::BindingResource::Buffer(wgpu::BufferBinding {
@@ -216,8 +222,10 @@ impl Scan {
     /// Builds the pipelines and scratch for scans of up to `desc.max_len` elements.
     pub fn new(device: &wgpu::Device, desc: &ScanDescriptor) -> Result<Self, ScanError> {
         let limits = device.limits();
-        let binding_limit =
-            limits.max_storage_buffer_binding_size.min(limits.max_buffer_size) / 4;
+        let binding_limit = limits
+            .max_storage_buffer_binding_size
+            .min(limits.max_buffer_size)
+            / 4;
         if u64::from(desc.max_len) > binding_limit {
             return Err(ScanError::MaxLenAboveBindingLimit {
                 max_len: desc.max_len,
@@ -247,9 +255,14 @@ impl Scan {
             subgroups: desc.use_subgroups,
         };
         let candidates: Vec<u32> = match desc.items_per_thread {
-            Some(items) => vec![items.max(1)],
-            None => vec![16, 8, 4, 2, 1],
+            Some(items) => vec![items.max(4)],
+            None => vec![16, 8, 4],
         };
+        if candidates.iter().any(|i| i % 4 != 0) {
+            return Err(ScanError::UnsupportedLimits(
+                "items_per_thread must be a multiple of 4 (vec4 loads)".into(),
+            ));
+        }
         let items = candidates.into_iter().find(|&items| {
             let c = KernelConfig {
                 items_per_thread: items,
@@ -280,6 +293,8 @@ impl Scan {
                 storage_entry(3, false),
                 storage_entry(4, true),
                 storage_entry(5, false),
+                storage_entry(6, true),
+                storage_entry(7, false),
             ],
         });
         let prepare_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
@@ -338,6 +353,8 @@ impl Scan {
         );
         let dummy_in = buffer("gpu-scan empty input", 16, U::STORAGE);
         let dummy_out = buffer("gpu-scan empty output", 16, U::STORAGE);
+        let dummy_in4 = buffer("gpu-scan empty vec4 input", 16, U::STORAGE);
+        let dummy_out4 = buffer("gpu-scan empty vec4 output", 16, U::STORAGE);
         Ok(Self {
             device: device.clone(),
             config,
@@ -350,6 +367,8 @@ impl Scan {
             counters,
             dummy_in,
             dummy_out,
+            dummy_in4,
+            dummy_out4,
             binding_limit,
         })
     }
@@ -380,7 +399,11 @@ impl Scan {
         encoder.clear_buffer(&self.counters, 0, None);
     }
 
-    fn check_total(&self, total: Option<&wgpu::Buffer>, others: [&wgpu::Buffer; 2]) -> Result<(), ScanError> {
+    fn check_total(
+        &self,
+        total: Option<&wgpu::Buffer>,
+        others: [&wgpu::Buffer; 2],
+    ) -> Result<(), ScanError> {
         if let Some(t) = total {
             check_storage("total", t)?;
             if t.size() < 4 {
@@ -437,13 +460,29 @@ impl Scan {
         if n == 0 && total.is_none() {
             return Ok(());
         }
-        let (input, output, size) = if n == 0 {
-            (&self.dummy_in, &self.dummy_out, None)
+        let views = if n == 0 {
+            Views {
+                input: (&self.dummy_in, None),
+                output: (&self.dummy_out, None),
+                input4: (&self.dummy_in4, None),
+                output4: (&self.dummy_out4, None),
+            }
         } else {
-            (input, output, Some(bytes))
+            let bytes4 = bytes / 16 * 16;
+            let (input4, output4) = if bytes4 == 0 {
+                ((&self.dummy_in4, None), (&self.dummy_out4, None))
+            } else {
+                ((input, Some(bytes4)), (output, Some(bytes4)))
+            };
+            Views {
+                input: (input, Some(bytes)),
+                output: (output, Some(bytes)),
+                input4,
+                output4,
+            }
         };
         let params = self.params(n, kind, total.is_some(), 0);
-        let bind_group = self.bind_group(input, output, size, total, &params);
+        let bind_group = self.bind_group(&views, total, &params);
         let tiles = n.div_ceil(self.config.tile_len()).max(1);
         let tiles_bytes = (1 + 2 * u64::from(tiles)) * 4;
         encoder.clear_buffer(&self.scratch, 0, Some(tiles_bytes));
@@ -483,7 +522,7 @@ impl Scan {
         check_storage("input", input)?;
         check_storage("output", output)?;
         check_storage("length", len)?;
-        if len_offset % 4 != 0 {
+        if !len_offset.is_multiple_of(4) {
             return Err(ScanError::UnalignedLenOffset(len_offset));
         }
         if len.size() < len_offset + 4 {
@@ -523,19 +562,19 @@ impl Scan {
                 buffer_entry(2, &self.dispatch, Some(12)),
             ],
         });
-        let whole = |b: &wgpu::Buffer| Some(b.size().min(self.binding_limit * 4) & !3);
-        let bind_group = self.device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("gpu-scan"),
-            layout: &self.layout,
-            entries: &[
-                buffer_entry(0, input, whole(input)),
-                buffer_entry(1, output, whole(output)),
-                buffer_entry(2, &self.scratch, None),
-                buffer_entry(3, total.unwrap_or(&self.dummy_out), Some(4)),
-                buffer_entry(4, &params, None),
-                buffer_entry(5, &self.counters, None),
-            ],
-        });
+        let whole =
+            |b: &wgpu::Buffer, align: u64| b.size().min(self.binding_limit * 4) / align * align;
+        let view4 = |b, dummy| match whole(b, 16) {
+            0 => (dummy, None),
+            size => (b, Some(size)),
+        };
+        let views = Views {
+            input: (input, Some(whole(input, 4))),
+            output: (output, Some(whole(output, 4))),
+            input4: view4(input, &self.dummy_in4),
+            output4: view4(output, &self.dummy_out4),
+        };
+        let bind_group = self.bind_group(&views, total, &params);
         encoder.clear_buffer(&self.scratch, 0, None);
         let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
             label: Some("gpu-scan indirect"),
@@ -567,9 +606,7 @@ impl Scan {
 
     fn bind_group(
         &self,
-        input: &wgpu::Buffer,
-        output: &wgpu::Buffer,
-        size: Option<u64>,
+        views: &Views<'_>,
         total: Option<&wgpu::Buffer>,
         params: &wgpu::Buffer,
     ) -> wgpu::BindGroup {
@@ -577,8 +614,10 @@ impl Scan {
             label: Some("gpu-scan"),
             layout: &self.layout,
             entries: &[
-                buffer_entry(0, input, size),
-                buffer_entry(1, output, size),
+                buffer_entry(0, views.input.0, views.input.1),
+                buffer_entry(1, views.output.0, views.output.1),
+                buffer_entry(6, views.input4.0, views.input4.1),
+                buffer_entry(7, views.output4.0, views.output4.1),
                 buffer_entry(2, &self.scratch, None),
                 buffer_entry(3, total.unwrap_or(&self.dummy_out), Some(4)),
                 buffer_entry(4, params, None),
@@ -586,6 +625,14 @@ impl Scan {
             ],
         })
     }
+}
+
+/// The four views of input and output the kernel binds: (buffer, binding size).
+struct Views<'a> {
+    input: (&'a wgpu::Buffer, Option<u64>),
+    output: (&'a wgpu::Buffer, Option<u64>),
+    input4: (&'a wgpu::Buffer, Option<u64>),
+    output4: (&'a wgpu::Buffer, Option<u64>),
 }
 
 fn check_storage(which: &'static str, buffer: &wgpu::Buffer) -> Result<(), ScanError> {

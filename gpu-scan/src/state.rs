@@ -78,7 +78,14 @@ mod tests {
             (FLAG_PREFIX, prefix),
             (FLAG_AGGREGATE, agg),
         ];
-        for order in [[0, 1, 2], [0, 2, 1], [2, 0, 1], [1, 0, 2], [1, 2, 0], [2, 1, 0]] {
+        for order in [
+            [0, 1, 2],
+            [0, 2, 1],
+            [2, 0, 1],
+            [1, 0, 2],
+            [1, 2, 0],
+            [2, 1, 0],
+        ] {
             let mut words = [0u32; 2];
             let mut best = 0;
             for &e in &order {

@@ -37,12 +37,26 @@ fn adapter_max(ctx: &GpuContext) -> u32 {
 fn variants(ctx: &GpuContext, desc: ScanDescriptor, test: &str) -> Vec<(&'static str, Scan)> {
     let mut out = vec![(
         "no subgroups",
-        Scan::new(&ctx.device, &ScanDescriptor { use_subgroups: false, ..desc }).unwrap(),
+        Scan::new(
+            &ctx.device,
+            &ScanDescriptor {
+                use_subgroups: false,
+                ..desc
+            },
+        )
+        .unwrap(),
     )];
     if gpu::with_subgroups(test).is_some() {
         out.push((
             "subgroups",
-            Scan::new(&ctx.device, &ScanDescriptor { use_subgroups: true, ..desc }).unwrap(),
+            Scan::new(
+                &ctx.device,
+                &ScanDescriptor {
+                    use_subgroups: true,
+                    ..desc
+                },
+            )
+            .unwrap(),
         ));
     }
     out
@@ -91,7 +105,21 @@ fn awkward_sizes_match_cpu_twin() {
     let desc = ScanDescriptor::new(adapter_max(ctx));
     for (name, scan) in variants(ctx, desc, "awkward_sizes_match_cpu_twin (subgroup half)") {
         let t = scan.tile_len();
-        let sizes = [0, 1, 2, 3, 31, 32, 33, t - 1, t, t + 1, 2 * t - 1, 2 * t + 1, 1_000_003];
+        let sizes = [
+            0,
+            1,
+            2,
+            3,
+            31,
+            32,
+            33,
+            t - 1,
+            t,
+            t + 1,
+            2 * t - 1,
+            2 * t + 1,
+            1_000_003,
+        ];
         for (i, &n) in sizes.iter().enumerate() {
             for kind in KINDS {
                 check(ctx, &scan, name, Pattern::Random(i as u64), n, kind);
@@ -107,7 +135,11 @@ fn random_totals_wrap_past_2_32() {
     let wide: u64 = input.iter().map(|&x| u64::from(x)).sum();
     assert!(wide > 100 * (1u64 << 32));
     let ctx = gpu::context();
-    let scan = Scan::new(&ctx.device, &ScanDescriptor::for_device(&ctx.device, 1 << 16)).unwrap();
+    let scan = Scan::new(
+        &ctx.device,
+        &ScanDescriptor::for_device(&ctx.device, 1 << 16),
+    )
+    .unwrap();
     let (got, total) = gpu_scan(ctx, &scan, &input, ScanKind::Inclusive);
     assert_eq!(u64::from(total), wide % (1u64 << 32));
     assert_eq!(got[999], total);
@@ -119,7 +151,10 @@ fn zeros_and_all_ones() {
     let desc = ScanDescriptor::new(1 << 21);
     for (name, scan) in variants(ctx, desc, "zeros_and_all_ones (subgroup half)") {
         for pattern in [Pattern::Zeros, Pattern::AllOnes] {
-            for (n, kind) in [(3 * scan.tile_len() + 5, ScanKind::Exclusive), (1_000_003, ScanKind::Inclusive)] {
+            for (n, kind) in [
+                (3 * scan.tile_len() + 5, ScanKind::Exclusive),
+                (1_000_003, ScanKind::Inclusive),
+            ] {
                 check(ctx, &scan, name, pattern, n, kind);
             }
         }
@@ -136,7 +171,12 @@ fn large_sizes_cover_each_variant_kind_and_pattern() {
     let scans = variants(ctx, desc, "large_sizes (subgroup half)");
     let last = scans.len() - 1; // the subgroup variant when the adapter has it
     let cases = [
-        (last, Pattern::Random(22), (1 << 22) + 7, ScanKind::Exclusive),
+        (
+            last,
+            Pattern::Random(22),
+            (1 << 22) + 7,
+            ScanKind::Exclusive,
+        ),
         (0, Pattern::AllOnes, (1 << 22) + 7, ScanKind::Inclusive),
         (last, Pattern::Random(25), max, ScanKind::Exclusive),
         (0, Pattern::Random(26), max, ScanKind::Inclusive),
@@ -176,8 +216,15 @@ fn hundred_scans_in_one_submit() {
         let out = buffers::storage_zeroed(&ctx.device, "out", n as u64 * 4);
         let total = buffers::storage_zeroed(&ctx.device, "total", 4);
         let input = if i % 5 == 0 {
-            scan.encode(&mut encoder, &shared_buf, &out, n as u32, kind, Some(&total))
-                .unwrap();
+            scan.encode(
+                &mut encoder,
+                &shared_buf,
+                &out,
+                n as u32,
+                kind,
+                Some(&total),
+            )
+            .unwrap();
             shared_input[..n].to_vec()
         } else {
             let input = make_input(Pattern::Random(1000 + i as u64), n);
@@ -186,14 +233,24 @@ fn hundred_scans_in_one_submit() {
                 .unwrap();
             input
         };
-        jobs.push(Job { input, kind, out, total });
+        jobs.push(Job {
+            input,
+            kind,
+            out,
+            total,
+        });
     }
     ctx.queue.submit([encoder.finish()]);
     ctx.wait().unwrap();
     for (i, job) in jobs.iter().enumerate() {
         let n = job.input.len() as u64;
         let got: Vec<u32> = buffers::read_range(ctx, &job.out, 0, n * 4).unwrap();
-        assert_scan_eq(&got, &job.input, job.kind, &format!("scan {i} of 100 (n={n})"));
+        assert_scan_eq(
+            &got,
+            &job.input,
+            job.kind,
+            &format!("scan {i} of 100 (n={n})"),
+        );
         let total: Vec<u32> = buffers::read_range(ctx, &job.total, 0, 4).unwrap();
         assert_eq!(total[0], cpu::total(&job.input), "scan {i}: total");
     }
@@ -203,7 +260,11 @@ fn hundred_scans_in_one_submit() {
 fn indirect_length_read_on_the_gpu() {
     let ctx = gpu::context();
     let max_len = 300_000;
-    for (name, scan) in variants(ctx, ScanDescriptor::new(max_len), "indirect (subgroup half)") {
+    for (name, scan) in variants(
+        ctx,
+        ScanDescriptor::new(max_len),
+        "indirect (subgroup half)",
+    ) {
         let t = scan.tile_len();
         let input = make_input(Pattern::Random(9), max_len as usize + 100);
         let in_buf = buffers::storage_from(&ctx.device, "input", &input);
@@ -233,7 +294,8 @@ fn indirect_length_read_on_the_gpu() {
         for (out, total, kind, effective) in jobs {
             let what = format!("{name} indirect n={effective} {kind:?}");
             let want = &input[..effective as usize];
-            let got: Vec<u32> = buffers::read_range(ctx, &out, 0, u64::from(effective) * 4).unwrap();
+            let got: Vec<u32> =
+                buffers::read_range(ctx, &out, 0, u64::from(effective) * 4).unwrap();
             assert_scan_eq(&got, want, kind, &what);
             let total: Vec<u32> = buffers::read_range(ctx, &total, 0, 4).unwrap();
             assert_eq!(total[0], cpu::total(want), "{what}: total");
@@ -262,14 +324,21 @@ fn forced_fallback_is_exact() {
         ..ScanDescriptor::new(1 << 21)
     };
     for (name, scan) in variants(ctx, desc, "forced_fallback_is_exact (subgroup half)") {
-        for (n, kind, seed) in [(33, ScanKind::Exclusive, 1), ((1 << 20) + 3, ScanKind::Inclusive, 2), ((1 << 21) - 1, ScanKind::Exclusive, 3)] {
+        for (n, kind, seed) in [
+            (33, ScanKind::Exclusive, 1),
+            ((1 << 20) + 3, ScanKind::Inclusive, 2),
+            ((1 << 21) - 1, ScanKind::Exclusive, 3),
+        ] {
             gpu::run(ctx, |enc| scan.clear_counters(enc));
             check(ctx, &scan, name, Pattern::Random(seed), n, kind);
             let c = read_counters(ctx, &scan);
             let tiles = n.div_ceil(scan.tile_len());
             eprintln!("{name} forced fallback n={n}: {c:?}");
             assert_eq!(c.tiles, tiles, "{name}: every tile counted once");
-            assert!(c.fallbacks >= tiles - 1, "{name}: every tile > 0 must fall back: {c:?}");
+            assert!(
+                c.fallbacks >= tiles - 1,
+                "{name}: every tile > 0 must fall back: {c:?}"
+            );
         }
     }
 }
@@ -288,7 +357,14 @@ fn short_spin_limit_is_exact_and_counted() {
         gpu::run(ctx, |enc| scan.clear_counters(enc));
         let n = (1 << 21) - 5;
         for seed in 0..4 {
-            check(ctx, &scan, name, Pattern::Random(seed), n, KINDS[seed as usize % 2]);
+            check(
+                ctx,
+                &scan,
+                name,
+                Pattern::Random(seed),
+                n,
+                KINDS[seed as usize % 2],
+            );
         }
         let c = read_counters(ctx, &scan);
         let tiles = 4 * n.div_ceil(scan.tile_len());
@@ -306,7 +382,10 @@ fn errors_are_returned_before_encoding() {
     // max_len above the binding limit.
     if let Some(over) = max.checked_add(1) {
         let err = Scan::new(&ctx.device, &ScanDescriptor::new(over)).unwrap_err();
-        assert!(matches!(err, ScanError::MaxLenAboveBindingLimit { .. }), "{err}");
+        assert!(
+            matches!(err, ScanError::MaxLenAboveBindingLimit { .. }),
+            "{err}"
+        );
     }
     let scan = Scan::new(&ctx.device, &ScanDescriptor::new(1000)).unwrap();
     let a = buffers::storage_zeroed(&ctx.device, "a", 4000);
@@ -316,7 +395,10 @@ fn errors_are_returned_before_encoding() {
     let ex = ScanKind::Exclusive;
     assert_eq!(
         scan.encode(&mut enc, &a, &b, 1001, ex, None),
-        Err(ScanError::TooLong { n: 1001, max_len: 1000 })
+        Err(ScanError::TooLong {
+            n: 1001,
+            max_len: 1000
+        })
     );
     assert_eq!(
         scan.encode(&mut enc, &a, &a, 10, ex, None),
@@ -328,7 +410,10 @@ fn errors_are_returned_before_encoding() {
     );
     assert!(matches!(
         scan.encode(&mut enc, &a, &small, 101, ex, None),
-        Err(ScanError::BufferTooSmall { which: "output", .. })
+        Err(ScanError::BufferTooSmall {
+            which: "output",
+            ..
+        })
     ));
     let not_storage = ctx.device.create_buffer(&wgpu::BufferDescriptor {
         label: Some("uniform"),
@@ -346,7 +431,10 @@ fn errors_are_returned_before_encoding() {
     );
     assert!(matches!(
         scan.encode_indirect(&mut enc, &a, &b, &small, 400, ex, None),
-        Err(ScanError::BufferTooSmall { which: "length", .. })
+        Err(ScanError::BufferTooSmall {
+            which: "length",
+            ..
+        })
     ));
     // n = 0 without a total records nothing; the encoder is still valid afterwards.
     scan.encode(&mut enc, &a, &b, 0, ex, None).unwrap();
@@ -354,7 +442,9 @@ fn errors_are_returned_before_encoding() {
     ctx.wait().unwrap();
     // n = 0 with a total writes 0.
     let total = buffers::storage_from(&ctx.device, "total", &[5u32]);
-    gpu::run(ctx, |enc| scan.encode(enc, &a, &b, 0, ex, Some(&total)).unwrap());
+    gpu::run(ctx, |enc| {
+        scan.encode(enc, &a, &b, 0, ex, Some(&total)).unwrap()
+    });
     let t: Vec<u32> = buffers::read_range(ctx, &total, 0, 4).unwrap();
     assert_eq!(t[0], 0);
 }
@@ -371,8 +461,14 @@ fn own_device_without_subgroups() {
     }))
     .expect("a plain device on the same adapter");
     assert!(!device.features().contains(wgpu::Features::SUBGROUP));
-    let desc = ScanDescriptor { use_subgroups: true, ..ScanDescriptor::new(1 << 16) };
-    assert_eq!(Scan::new(&device, &desc).unwrap_err(), ScanError::SubgroupsUnavailable);
+    let desc = ScanDescriptor {
+        use_subgroups: true,
+        ..ScanDescriptor::new(1 << 16)
+    };
+    assert_eq!(
+        Scan::new(&device, &desc).unwrap_err(),
+        ScanError::SubgroupsUnavailable
+    );
     let desc = ScanDescriptor::for_device(&device, 1 << 16);
     assert!(!desc.use_subgroups);
     let scan = Scan::new(&device, &desc).unwrap();
@@ -408,9 +504,8 @@ fn differential_check_catches_a_planted_error() {
     let input = make_input(Pattern::Random(3), 20_000);
     let (mut got, _) = gpu_scan(ctx, &scan, &input, ScanKind::Exclusive);
     got[12_345] ^= 1 << 7;
-    let caught = std::panic::catch_unwind(|| {
-        assert_scan_eq(&got, &input, ScanKind::Exclusive, "planted")
-    });
+    let caught =
+        std::panic::catch_unwind(|| assert_scan_eq(&got, &input, ScanKind::Exclusive, "planted"));
     assert!(caught.is_err());
 }
 

@@ -28,6 +28,11 @@
 @group(0) @binding(4) var<storage, read> scan_params: ScanParams;
 // Debug counters (only touched when SCAN_COUNTERS): tiles, look-back steps, failed polls, fallbacks.
 @group(0) @binding(5) var<storage, read_write> scan_counters: array<atomic<u32>, 4>;
+// The same input and output buffers viewed as vec4s (their first floor(n / 4) * 16 bytes):
+// full tiles move their data with one vec4 access per 4 elements, straight between registers
+// and memory; only the last, partial tile goes through scalar accesses.
+@group(0) @binding(6) var<storage, read> scan_in4: array<vec4<u32>>;
+@group(0) @binding(7) var<storage, read_write> scan_out4: array<vec4<u32>>;
 
 const SCAN_TILE_PADDED: u32 = SCAN_TILE + SCAN_TILE / 32u;
 
@@ -47,18 +52,26 @@ fn scan_publish(tile: u32, flag: u32, value: u32) {
 }
 
 // Sum of the full tile `tile`, by the whole workgroup (the fallback).
-fn scan_reduce_tile(li: u32, tile: u32) -> u32 {
-    let base = tile * SCAN_TILE + li;
+fn scan_reduce_tile(li: u32, tile: u32, vec4_ok: bool) -> u32 {
     var x = 0u;
-    for (var k = 0u; k < SCAN_ITEMS; k++) {
-        x += scan_in[base + k * SCAN_WG];
+    if vec4_ok {
+        let base4 = tile * (SCAN_TILE / 4u) + li;
+        for (var k = 0u; k < SCAN_ITEMS / 4u; k++) {
+            let v = scan_in4[base4 + k * SCAN_WG];
+            x += v.x + v.y + v.z + v.w;
+        }
+    } else {
+        let base = tile * SCAN_TILE + li;
+        for (var k = 0u; k < SCAN_ITEMS; k++) {
+            x += scan_in[base + k * SCAN_WG];
+        }
     }
     return wg_scan(x).y;
 }
 
 // Exclusive prefix of tile `tile` (> 0) from its predecessors' states. Called by the whole
 // workgroup; every branch depends only on workgroup-uniform values.
-fn scan_lookback(li: u32, tile: u32) -> u32 {
+fn scan_lookback(li: u32, tile: u32, vec4_ok: bool) -> u32 {
     var prefix = 0u;
     var j = tile - 1u;
     var polls = 0u;
@@ -102,7 +115,7 @@ fn scan_lookback(li: u32, tile: u32) -> u32 {
         failed += select(1u, 0u, force);
         if force || polls > SCAN_SPIN_LIMIT {
             force = false;
-            let agg = scan_reduce_tile(li, j);
+            let agg = scan_reduce_tile(li, j, vec4_ok);
             if li == 0u {
                 // The sum of tile 0 is its inclusive prefix.
                 scan_publish(j, select(SCAN_FLAG_AGGREGATE, SCAN_FLAG_PREFIX, j == 0u), agg);
@@ -136,24 +149,43 @@ fn scan_tile(li: u32) {
     }
     let base = tile * SCAN_TILE;
     let full = base + SCAN_TILE <= n;
-
-    // Coalesced load into workgroup memory.
-    for (var k = 0u; k < SCAN_ITEMS; k++) {
-        let i = k * SCAN_WG + li;
-        var v = 0u;
-        if full || base + i < n {
-            v = scan_in[base + i];
-        }
-        scan_tile_buf[scan_pad(i)] = v;
-    }
-    workgroupBarrier();
+    // Every full tile lies inside the vec4 views (all tiles before the last are full); the
+    // views may be shorter only in the indirect variant, where they are checked.
+    let len4 = min(arrayLength(&scan_in4), arrayLength(&scan_out4));
+    let vec4_ok = tile * (SCAN_TILE / 4u) + SCAN_TILE / 4u <= len4;
+    let fast = full && vec4_ok;
 
     // Each thread scans SCAN_ITEMS consecutive elements in registers.
     var items: array<u32, SCAN_ITEMS>;
     var x = 0u;
-    for (var j = 0u; j < SCAN_ITEMS; j++) {
-        x += scan_tile_buf[scan_pad(scan_t * SCAN_ITEMS + j)];
-        items[j] = x;
+    if fast {
+        let at = (base + scan_t * SCAN_ITEMS) / 4u;
+        for (var q = 0u; q < SCAN_ITEMS / 4u; q++) {
+            let v = scan_in4[at + q];
+            x += v.x;
+            items[4u * q] = x;
+            x += v.y;
+            items[4u * q + 1u] = x;
+            x += v.z;
+            items[4u * q + 2u] = x;
+            x += v.w;
+            items[4u * q + 3u] = x;
+        }
+    } else {
+        // Coalesced load into workgroup memory.
+        for (var k = 0u; k < SCAN_ITEMS; k++) {
+            let i = k * SCAN_WG + li;
+            var v = 0u;
+            if base + i < n {
+                v = scan_in[base + i];
+            }
+            scan_tile_buf[scan_pad(i)] = v;
+        }
+        workgroupBarrier();
+        for (var j = 0u; j < SCAN_ITEMS; j++) {
+            x += scan_tile_buf[scan_pad(scan_t * SCAN_ITEMS + j)];
+            items[j] = x;
+        }
     }
     let local = wg_scan(x);
     let aggregate = local.y;
@@ -167,7 +199,7 @@ fn scan_tile(li: u32) {
         if li == 0u {
             scan_publish(tile, SCAN_FLAG_AGGREGATE, aggregate);
         }
-        prefix = scan_lookback(li, tile);
+        prefix = scan_lookback(li, tile, vec4_ok);
         if li == 0u {
             scan_publish(tile, SCAN_FLAG_PREFIX, prefix + aggregate);
         }
@@ -184,6 +216,21 @@ fn scan_tile(li: u32) {
     // Results back through workgroup memory, then a coalesced store.
     let offset = prefix + local.x;
     let inclusive = scan_params.inclusive != 0u;
+    if fast {
+        let at = (base + scan_t * SCAN_ITEMS) / 4u;
+        var before = 0u;
+        for (var q = 0u; q < SCAN_ITEMS / 4u; q++) {
+            var v: vec4<u32>;
+            if inclusive {
+                v = vec4<u32>(items[4u * q], items[4u * q + 1u], items[4u * q + 2u], items[4u * q + 3u]);
+            } else {
+                v = vec4<u32>(before, items[4u * q], items[4u * q + 1u], items[4u * q + 2u]);
+            }
+            before = items[4u * q + 3u];
+            scan_out4[at + q] = vec4<u32>(offset) + v;
+        }
+        return;
+    }
     var before = 0u;
     for (var j = 0u; j < SCAN_ITEMS; j++) {
         scan_tile_buf[scan_pad(scan_t * SCAN_ITEMS + j)] = offset + select(before, items[j], inclusive);
@@ -192,7 +239,7 @@ fn scan_tile(li: u32) {
     workgroupBarrier();
     for (var k = 0u; k < SCAN_ITEMS; k++) {
         let i = k * SCAN_WG + li;
-        if full || base + i < n {
+        if base + i < n {
             scan_out[base + i] = scan_tile_buf[scan_pad(i)];
         }
     }
