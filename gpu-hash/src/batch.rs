@@ -90,8 +90,8 @@ impl HashBatch {
                 entries,
             })
         };
-        let buffer_entry = |binding: u32, ty: wgpu::BufferBindingType, min: u64| {
-            wgpu::BindGroupLayoutEntry {
+        let buffer_entry =
+            |binding: u32, ty: wgpu::BufferBindingType, min: u64| wgpu::BindGroupLayoutEntry {
                 binding,
                 visibility: wgpu::ShaderStages::COMPUTE,
                 ty: wgpu::BindingType::Buffer {
@@ -100,8 +100,7 @@ impl HashBatch {
                     min_binding_size: NonZeroU64::new(min),
                 },
                 count: None,
-            }
-        };
+            };
         let io_layout = layout(
             "gpu-hash batch io",
             &[
@@ -269,7 +268,7 @@ impl HashBatch {
         self.encode(Kernel::InsertKeys, device, encoder, table, keys, slots, n)
     }
 
-    /// Inserts the cell of each point (`input[i]` = vec4<f32>, w ignored; no jitter):
+    /// Inserts the cell of each point (`input[i]` = `vec4<f32>`, w ignored; no jitter):
     /// `output[2i]` = slot (or [`crate::HASH_FULL`] / [`crate::HASH_REJECTED`]),
     /// `output[2i + 1]` = the point's index in its slot (the slot counter's old value).
     pub fn encode_insert_points(
@@ -281,7 +280,15 @@ impl HashBatch {
         output: &wgpu::Buffer,
         n: u32,
     ) -> Result<(), HashError> {
-        self.encode(Kernel::InsertPoints, device, encoder, table, points, output, n)
+        self.encode(
+            Kernel::InsertPoints,
+            device,
+            encoder,
+            table,
+            points,
+            output,
+            n,
+        )
     }
 
     /// `output[i]` = `find` of key `input[i]` through the read-only lookup role: a slot or
@@ -310,7 +317,15 @@ impl HashBatch {
         output: &wgpu::Buffer,
         n: u32,
     ) -> Result<(), HashError> {
-        self.encode(Kernel::FindPoints, device, encoder, table, points, output, n)
+        self.encode(
+            Kernel::FindPoints,
+            device,
+            encoder,
+            table,
+            points,
+            output,
+            n,
+        )
     }
 
     /// `output[8i..8i + 8]` = the [`crate::HashCell`] of point `input[i]` under the table's
@@ -328,7 +343,7 @@ impl HashBatch {
     }
 
     /// `output[2i]` = pcg(`input[i].x`), `output[2i + 1]` = xxhash32(`input[i].x`) (input is
-    /// vec4<u32>; `table` only provides the bindings).
+    /// `vec4<u32>`; `table` only provides the bindings).
     pub fn encode_hash_values(
         &self,
         device: &wgpu::Device,
@@ -338,11 +353,19 @@ impl HashBatch {
         output: &wgpu::Buffer,
         n: u32,
     ) -> Result<(), HashError> {
-        self.encode(Kernel::HashValues, device, encoder, table, values, output, n)
+        self.encode(
+            Kernel::HashValues,
+            device,
+            encoder,
+            table,
+            values,
+            output,
+            n,
+        )
     }
 
     /// Item `i` reads `input[3i]` = position, `input[3i + 1]` = normal, `input[3i + 2]` =
-    /// (u.x, u.y, cell_size) as vec4<f32>; `output[4i..4i + 3]` = `hash_jitter` of them.
+    /// (u.x, u.y, cell_size) as `vec4<f32>`; `output[4i..4i + 3]` = `hash_jitter` of them.
     pub fn encode_jitter(
         &self,
         device: &wgpu::Device,

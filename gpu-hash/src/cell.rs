@@ -81,10 +81,9 @@ impl HashKey {
     /// Bucket `h1(level + h1(z + h1(y + h1(x)))) % num_buckets` with `h1` = [`hash::pcg`].
     pub fn bucket(&self, num_buckets: u32) -> u32 {
         let [x, y, z] = self.coords.map(|c| c as u32);
-        let h = hash::pcg(
-            self.level
-                .wrapping_add(hash::pcg(z.wrapping_add(hash::pcg(y.wrapping_add(hash::pcg(x)))))),
-        );
+        let h = hash::pcg(self.level.wrapping_add(hash::pcg(
+            z.wrapping_add(hash::pcg(y.wrapping_add(hash::pcg(x)))),
+        )));
         h % num_buckets
     }
 
@@ -141,16 +140,25 @@ impl HashGridParams {
         let bad = |why: String| Err(HashError::InvalidSizing(why));
         let s = sizing;
         if !(s.min_cell_size.is_normal() && s.min_cell_size > 0.0) {
-            return bad(format!("min_cell_size {} must be a normal f32 > 0", s.min_cell_size));
+            return bad(format!(
+                "min_cell_size {} must be a normal f32 > 0",
+                s.min_cell_size
+            ));
         }
         if !(s.projected_size.is_finite() && s.projected_size > 0.0) {
-            return bad(format!("projected_size {} must be finite and > 0", s.projected_size));
+            return bad(format!(
+                "projected_size {} must be finite and > 0",
+                s.projected_size
+            ));
         }
         if !(s.fov_y > 0.0 && s.fov_y < std::f32::consts::PI) {
             return bad(format!("fov_y {} must be in (0, pi) radians", s.fov_y));
         }
         if s.width == 0 || s.height == 0 {
-            return bad(format!("resolution {}x{} must be non-zero", s.width, s.height));
+            return bad(format!(
+                "resolution {}x{} must be non-zero",
+                s.width, s.height
+            ));
         }
         if !eye.is_finite() {
             return bad(format!("eye {eye} must be finite"));
@@ -197,7 +205,9 @@ impl HashGridParams {
     /// The same parameters seen from another eye (e.g. this frame's camera).
     pub fn with_eye(mut self, eye: Vec3) -> Result<Self, HashError> {
         if !eye.is_finite() {
-            return Err(HashError::InvalidSizing(format!("eye {eye} must be finite")));
+            return Err(HashError::InvalidSizing(format!(
+                "eye {eye} must be finite"
+            )));
         }
         self.eye = eye.to_array();
         Ok(self)
@@ -232,7 +242,10 @@ impl HashGridParams {
         }
         let level = self.cell_level(pos);
         let q = pos * (self.inv_min_cell_size * pow2(-(level as i32)));
-        if q.to_array().iter().any(|v| v.to_bits() & 0x7fff_ffff >= 0x4f00_0000) {
+        if q.to_array()
+            .iter()
+            .any(|v| v.to_bits() & 0x7fff_ffff >= 0x4f00_0000)
+        {
             cell.status = STATUS_OUT_OF_RANGE;
             return cell;
         }
@@ -323,22 +336,34 @@ mod tests {
             }
         }
         // Level 24 cells are 167772.16 wide: 1e20 is ~6e14 cells out, beyond i32.
-        assert_eq!(p.cell(Vec3::new(1e20, 0.0, 0.0)).status, STATUS_OUT_OF_RANGE);
-        assert_eq!(p.cell(Vec3::new(0.0, -3e38, 0.0)).status, STATUS_OUT_OF_RANGE);
+        assert_eq!(
+            p.cell(Vec3::new(1e20, 0.0, 0.0)).status,
+            STATUS_OUT_OF_RANGE
+        );
+        assert_eq!(
+            p.cell(Vec3::new(0.0, -3e38, 0.0)).status,
+            STATUS_OUT_OF_RANGE
+        );
         assert_eq!(p.cell(Vec3::MAX).status, STATUS_OUT_OF_RANGE);
         // Just inside and just outside 2^31 cells at the coarsest level.
         let size = f64::from(p.cell_size_at(24));
         let inside = (2f64.powi(31) * size * 0.999) as f32;
         let outside = (2f64.powi(31) * size * 1.001) as f32;
         assert!(p.cell(Vec3::new(inside, 0.0, 0.0)).is_ok());
-        assert_eq!(p.cell(Vec3::new(outside, 0.0, 0.0)).status, STATUS_OUT_OF_RANGE);
+        assert_eq!(
+            p.cell(Vec3::new(outside, 0.0, 0.0)).status,
+            STATUS_OUT_OF_RANGE
+        );
         let c = p.cell(Vec3::new(-inside, 0.0, 0.0));
         assert!(c.is_ok() && c.coords[0] < -2_000_000_000);
     }
 
     #[test]
     fn level_goes_into_bucket_and_checksum() {
-        let a = HashKey { coords: [3, -4, 5], level: 2 };
+        let a = HashKey {
+            coords: [3, -4, 5],
+            level: 2,
+        };
         let b = HashKey { level: 3, ..a };
         assert_ne!(a.checksum(), b.checksum());
         assert_ne!(a.bucket(1 << 30), b.bucket(1 << 30));
@@ -349,16 +374,40 @@ mod tests {
         let t = TableConfig::default();
         let ok = CellSizing::default();
         for s in [
-            CellSizing { min_cell_size: 0.0, ..ok },
-            CellSizing { min_cell_size: f32::NAN, ..ok },
+            CellSizing {
+                min_cell_size: 0.0,
+                ..ok
+            },
+            CellSizing {
+                min_cell_size: f32::NAN,
+                ..ok
+            },
             CellSizing { fov_y: 0.0, ..ok },
             CellSizing { fov_y: 4.0, ..ok },
             CellSizing { height: 0, ..ok },
-            CellSizing { projected_size: -1.0, ..ok },
-            CellSizing { projected_size: 1e6, ..ok },
-            CellSizing { min_cell_size: 1e30, max_level: 40, ..ok },
-            CellSizing { min_cell_size: 1e-39, max_level: 0, ..ok },
-            CellSizing { min_cell_size: 1e-30, max_level: 127, ..ok },
+            CellSizing {
+                projected_size: -1.0,
+                ..ok
+            },
+            CellSizing {
+                projected_size: 1e6,
+                ..ok
+            },
+            CellSizing {
+                min_cell_size: 1e30,
+                max_level: 40,
+                ..ok
+            },
+            CellSizing {
+                min_cell_size: 1e-39,
+                max_level: 0,
+                ..ok
+            },
+            CellSizing {
+                min_cell_size: 1e-30,
+                max_level: 127,
+                ..ok
+            },
         ] {
             assert!(HashGridParams::new(&t, &s, Vec3::ZERO).is_err(), "{s:?}");
         }

@@ -98,7 +98,10 @@ mod tests {
             }
         }
         for w in [0u32, 1, 4, u32::MAX, 0x8000_0000] {
-            assert_eq!(xxh32_word(w, 0), xxhash_rust::xxh32::xxh32(&w.to_le_bytes(), 0));
+            assert_eq!(
+                xxh32_word(w, 0),
+                xxhash_rust::xxh32::xxh32(&w.to_le_bytes(), 0)
+            );
         }
     }
 
@@ -116,7 +119,10 @@ mod tests {
         }
         for p in [0u32, 1, 3, 4, 5, u32::MAX] {
             let word = xxhash32_as_standard_input(p);
-            assert_eq!(xxhash32(p), xxhash_rust::xxh32::xxh32(&word.to_le_bytes(), 0));
+            assert_eq!(
+                xxhash32(p),
+                xxhash_rust::xxh32::xxh32(&word.to_le_bytes(), 0)
+            );
         }
     }
 }

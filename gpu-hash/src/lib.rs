@@ -69,10 +69,14 @@ pub enum HashError {
     #[error("invalid cell sizing: {0}")]
     InvalidSizing(String),
     /// The table does not fit the device's storage-binding limit.
-    #[error("hash table of {bytes} bytes exceeds the device's max storage binding of {limit} bytes")]
+    #[error(
+        "hash table of {bytes} bytes exceeds the device's max storage binding of {limit} bytes"
+    )]
     TooLarge { bytes: u64, limit: u64 },
     /// Params built for another table size.
-    #[error("params are for {params_buckets}x{params_slots} slots, the table is {table_buckets}x{table_slots}")]
+    #[error(
+        "params are for {params_buckets}x{params_slots} slots, the table is {table_buckets}x{table_slots}"
+    )]
     ParamsMismatch {
         params_buckets: u32,
         params_slots: u32,

@@ -255,7 +255,11 @@ impl HashTable {
 
     /// Replaces the params (eye, sizing) through `queue.write_buffer`: they take effect at the
     /// next submission. The dimensions must match the table's.
-    pub fn set_params(&self, queue: &wgpu::Queue, params: &HashGridParams) -> Result<(), HashError> {
+    pub fn set_params(
+        &self,
+        queue: &wgpu::Queue,
+        params: &HashGridParams,
+    ) -> Result<(), HashError> {
         let c = &self.config;
         if params.num_buckets != c.num_buckets
             || params.slots_per_bucket != c.slots_per_bucket
@@ -362,7 +366,11 @@ impl CpuHashTable {
                     _ => {}
                 }
             }
-            b = if b + 1 == self.config.num_buckets { 0 } else { b + 1 };
+            b = if b + 1 == self.config.num_buckets {
+                0
+            } else {
+                b + 1
+            };
         }
         (Err(None), probes)
     }
@@ -396,5 +404,141 @@ impl CpuHashTable {
     /// Non-empty slots.
     pub fn used_slots(&self) -> usize {
         self.checksums.iter().filter(|&&c| c != 0).count()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::{HashKey, hash};
+
+    fn key(i: u32, level: u32) -> HashKey {
+        HashKey {
+            coords: [hash::pcg(i) as i32, hash::pcg(i ^ 0x5555) as i32, i as i32],
+            level,
+        }
+    }
+
+    #[test]
+    fn full_bucket_overflows_without_touching_anything_else() {
+        let config = TableConfig {
+            num_buckets: 8,
+            slots_per_bucket: 4,
+            probe_buckets: 1,
+        };
+        let mut t = CpuHashTable::new(config).unwrap();
+        for c in 1..=4 {
+            assert_eq!(t.find_or_insert(3, c).slot, Some(12 + c - 1));
+        }
+        let before = t.checksums.clone();
+        assert_eq!(
+            t.find_or_insert(3, 99),
+            Probe {
+                slot: None,
+                probes: 4
+            }
+        );
+        assert_eq!((t.checksums == before, t.overflows), (true, 1));
+        assert_eq!(t.find_or_insert(3, 2).slot, Some(13));
+        assert_eq!(t.find(3, 99).slot, None);
+        // With two probe buckets the key spills into bucket 4.
+        let mut s = CpuHashTable::new(TableConfig {
+            probe_buckets: 2,
+            ..config
+        })
+        .unwrap();
+        for c in 1..=5 {
+            s.find_or_insert(7, c);
+        }
+        assert_eq!(
+            s.find(7, 5),
+            Probe {
+                slot: Some(0),
+                probes: 5
+            }
+        );
+    }
+
+    #[test]
+    fn invalid_configs_are_errors() {
+        for c in [
+            TableConfig {
+                num_buckets: 0,
+                ..TableConfig::default()
+            },
+            TableConfig {
+                slots_per_bucket: 0,
+                ..TableConfig::default()
+            },
+            TableConfig {
+                probe_buckets: 0,
+                ..TableConfig::default()
+            },
+            TableConfig {
+                num_buckets: 1 << 28,
+                slots_per_bucket: 16,
+                probe_buckets: 1,
+            },
+        ] {
+            assert!(c.validate().is_err(), "{c:?}");
+        }
+    }
+
+    /// Measured false matches of absent keys with `bits`-bit checksums, and the count the theory
+    /// expects with its variance. `planted` makes `find` compare one bit fewer (the negative
+    /// control: a real defect the test must catch).
+    fn false_matches(bits: u32, planted: bool) -> (f64, f64, f64) {
+        let mask = (1u32 << bits) - 1;
+        let narrow = |k: &HashKey| (hash::xxhash32(k.checksum()) & mask).max(1);
+        let config = TableConfig {
+            num_buckets: 1024,
+            slots_per_bucket: 32,
+            probe_buckets: 1,
+        };
+        let nb = config.num_buckets;
+        let mut t = CpuHashTable::new(config).unwrap();
+        for i in 0..(0.6 * config.num_slots() as f64) as u32 {
+            let k = key(i, 0);
+            t.find_or_insert(k.bucket(nb), narrow(&k));
+        }
+        // P(two independent checksums are equal): value 1 has probability 2/2^b, the others 1/2^b.
+        let q = (2f64.powi(bits as i32) + 2.0) / 4f64.powi(bits as i32);
+        let (mut measured, mut expected, mut variance) = (0.0, 0.0, 0.0);
+        let compare_mask = if planted { mask >> 1 } else { mask };
+        for i in 0..200_000 {
+            let k = key(i, 99); // level 99: never inserted
+            let (b, c) = (k.bucket(nb), narrow(&k));
+            let slots = &t.checksums[(b * 32) as usize..(b * 32 + 32) as usize];
+            let occupied = slots.iter().take_while(|&&s| s != 0).count();
+            let hit = slots[..occupied]
+                .iter()
+                .any(|&s| (s ^ c) & compare_mask == 0);
+            if !planted {
+                assert_eq!(hit, t.find(b, c).slot.is_some());
+            }
+            measured += f64::from(u8::from(hit));
+            let p = 1.0 - (1.0 - q).powi(occupied as i32);
+            expected += p;
+            variance += p * (1.0 - p);
+        }
+        (measured, expected, variance)
+    }
+
+    #[test]
+    fn checksum_false_match_rate_follows_theory() {
+        // 12-bit checksums make false matches frequent enough to count (~900 expected); the
+        // 32-bit rate is the same formula with q ~ 2^-32. Tolerance: 5 standard deviations.
+        let (m, e, v) = false_matches(12, false);
+        assert!(
+            (m - e).abs() < 5.0 * v.sqrt(),
+            "measured {m}, expected {e} +- {}",
+            v.sqrt()
+        );
+        // Negative control: comparing 11 of the 12 bits doubles the rate and is caught.
+        let (m, e, v) = false_matches(12, true);
+        assert!(
+            (m - e).abs() > 5.0 * v.sqrt(),
+            "planted defect not detected: {m} vs {e}"
+        );
     }
 }

@@ -256,7 +256,10 @@ fn cell_keys_match_twin_on_1e5_positions_from_1e_3_to_1e4() {
     );
     assert_eq!(got[0].level, 0, "distance 0 is level 0");
     // Default sizing: level 0 up to ~0.6 m, level 13 at 1e4 m.
-    assert!(levels.len() >= 13, "distances 1e-3..1e4 should span many levels: {levels:?}");
+    assert!(
+        levels.len() >= 13,
+        "distances 1e-3..1e4 should span many levels: {levels:?}"
+    );
     assert!(mismatches <= 20, "{mismatches} mismatches");
 }
 
@@ -404,7 +407,10 @@ fn point_inserts_count_items_per_slot() {
         );
     }
     let counters: Vec<u32> = buffers::read(f.ctx, t.counters()).unwrap();
-    assert_eq!(counters.iter().map(|&c| c as usize).sum::<usize>(), points.len());
+    assert_eq!(
+        counters.iter().map(|&c| c as usize).sum::<usize>(),
+        points.len()
+    );
     let found = f.points_kernel(&t, &points, false);
     for ([slot, _], [fslot, count]) in ins.iter().zip(&found) {
         assert_eq!(slot, fslot);
@@ -461,7 +467,12 @@ fn adversarial_33_keys_in_one_bucket() {
     assert!(counters.iter().all(|&c| c == 0));
     let stats = f.stats(&t);
     assert_eq!(
-        (stats.overflows, stats.used_slots, stats.full_buckets, stats.max_probe()),
+        (
+            stats.overflows,
+            stats.used_slots,
+            stats.full_buckets,
+            stats.max_probe()
+        ),
         (1, 32, 1, 32),
         "{stats:?}"
     );
@@ -488,7 +499,11 @@ fn spill_config_moves_the_33rd_key_to_the_next_bucket() {
     let t = f.table(&params(config, Vec3::ZERO));
     let slots = f.insert_keys(&t, &keys);
     let next = (bucket + 1) % config.num_buckets;
-    let spilled: Vec<u32> = slots.iter().copied().filter(|s| s / spb != bucket).collect();
+    let spilled: Vec<u32> = slots
+        .iter()
+        .copied()
+        .filter(|s| s / spb != bucket)
+        .collect();
     assert_eq!(spilled, vec![next * spb], "{slots:x?}");
     let stats = f.stats(&t);
     assert_eq!(
@@ -588,7 +603,10 @@ fn load_sweep_failed_inserts_probe_lengths_and_false_matches() {
                 total as f64 / stored as f64,
             );
             // Poisson with mean `expected` (< 0.02 here): 3 or more has probability < 2e-6.
-            assert!(false_matches < 3, "false matches {false_matches} vs {expected}");
+            assert!(
+                false_matches < 3,
+                "false matches {false_matches} vs {expected}"
+            );
         }
     }
 }
@@ -617,7 +635,12 @@ fn nonfinite_and_huge_positions_are_rejected_and_counted() {
     let ins = f.points_kernel(&t, &points, true);
     for (i, [slot, index]) in ins.iter().enumerate() {
         if i < nonfinite + huge {
-            assert_eq!((*slot, *index), (HASH_REJECTED, HASH_NOT_FOUND), "{}", points[i]);
+            assert_eq!(
+                (*slot, *index),
+                (HASH_REJECTED, HASH_NOT_FOUND),
+                "{}",
+                points[i]
+            );
         } else {
             assert!(*slot < TableConfig::default().num_slots() as u32);
         }
@@ -644,7 +667,10 @@ fn nonfinite_and_huge_positions_are_rejected_and_counted() {
         ins[nonfinite + huge][0] / 32,
         params(TableConfig::default(), eye).cell(eye).bucket
     );
-    assert_eq!(cell::STATUS_OK, params(TableConfig::default(), eye).cell(eye).status);
+    assert_eq!(
+        cell::STATUS_OK,
+        params(TableConfig::default(), eye).cell(eye).status
+    );
 }
 
 #[test]
@@ -836,7 +862,10 @@ fn previous_frame_lookup_while_building_the_current_frame() {
         // This frame's insert used this frame's eye.
         assert_eq!(g[0] / config.slots_per_bucket, pb.cell(*q).bucket);
     }
-    assert!(hits > frame_b.len() * 2 / 5, "only {hits} lookups hit last frame's grid");
+    assert!(
+        hits > frame_b.len() * 2 / 5,
+        "only {hits} lookups hit last frame's grid"
+    );
     // The current table answers its own finds like the batch kernel.
     let found = f.points_kernel(&cur, &frame_b, false);
     for (g, [slot, _]) in got.iter().zip(&found) {

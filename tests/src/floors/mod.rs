@@ -2,9 +2,11 @@
 //! must pay on this device. Benchmarks print their speed as a ratio to these.
 
 mod copy;
+mod random_access;
 mod rts;
 
 pub use copy::CopyKernel;
+pub use random_access::{RandomAccess, RandomAccessKernel};
 pub use rts::ReduceThenScan;
 
 /// WGSL modules of the floor kernels, for the naga checks.
@@ -12,6 +14,7 @@ pub fn wgsl_modules() -> Vec<(String, String)> {
     vec![
         ("floors/copy".into(), copy::SOURCE.into()),
         ("floors/rts".into(), rts::composed()),
+        ("floors/random_access".into(), random_access::SOURCE.into()),
     ]
 }
 
