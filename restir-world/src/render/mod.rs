@@ -57,14 +57,8 @@ pub const PASS_COUNT: u32 = 16;
 const METHOD_NEE: u32 = 0;
 const METHOD_RIS: u32 = 1;
 
-/// Light sampling at both vertices (shared with the CPU reference, which re-exports it).
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Method {
-    /// One light sample + shadow ray.
-    Nee,
-    /// RIS over `candidates` light samples, one shadow ray, no reuse (default 16).
-    Ris { candidates: u32 },
-}
+/// Light sampling at both vertices: the CPU reference's estimator type, shared.
+pub use crate::reference::Method;
 
 /// [`Method::Ris`] with the default candidate count.
 pub fn ris() -> Method {
