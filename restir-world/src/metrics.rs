@@ -72,18 +72,42 @@ pub fn rel_mse(image: &[[f32; 3]], reference: &[[f32; 3]]) -> Result<f64, Metric
     Ok(m.iter().sum::<f64>() / m.len() as f64)
 }
 
-/// MSE and relMSE of one image.
+/// The fraction of pixels with the largest errors that [`rel_mse_trimmed`] leaves out.
+pub const TRIM_FRACTION: f64 = 0.001;
+
+/// relMSE without the `fraction` of pixels with the largest per-pixel error (at least one
+/// pixel is kept): robust to a handful of fireflies, which dominate the plain mean of
+/// heavy-tailed estimators (many small lights: 1/d^2 next to a light).
+pub fn rel_mse_trimmed(
+    image: &[[f32; 3]],
+    reference: &[[f32; 3]],
+    fraction: f64,
+) -> Result<f64, MetricsError> {
+    let mut m = rel_mse_map(image, reference)?;
+    let drop = ((m.len() as f64 * fraction.clamp(0.0, 1.0)).floor() as usize).min(m.len() - 1);
+    let keep = m.len() - drop;
+    if drop > 0 {
+        // NaN sorts last (total order): a NaN pixel is trimmed first, like any outlier.
+        m.select_nth_unstable_by(keep - 1, f64::total_cmp);
+    }
+    Ok(m[..keep].iter().sum::<f64>() / keep as f64)
+}
+
+/// MSE, relMSE and trimmed relMSE of one image.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct Errors {
     pub mse: f64,
     pub rel_mse: f64,
+    /// [`rel_mse_trimmed`] with [`TRIM_FRACTION`].
+    pub rel_mse_trimmed: f64,
 }
 
-/// Both linear-HDR errors at once.
+/// All linear-HDR errors at once.
 pub fn errors(image: &[[f32; 3]], reference: &[[f32; 3]]) -> Result<Errors, MetricsError> {
     Ok(Errors {
         mse: mse(image, reference)?,
         rel_mse: rel_mse(image, reference)?,
+        rel_mse_trimmed: rel_mse_trimmed(image, reference, TRIM_FRACTION)?,
     })
 }
 
@@ -205,6 +229,21 @@ mod tests {
     fn nan_is_not_hidden() {
         let img = [[f32::NAN, 0.0, 0.0]];
         assert!(!rel_mse(&img, &[[0.0; 3]]).unwrap().is_finite());
+    }
+
+    #[test]
+    fn trimmed_drops_the_largest_pixels() {
+        // 1000 pixels: 999 with per-pixel relMSE 1 (0.1 against 0), one firefly of 1e6.
+        let r = vec![[0.0f32; 3]; 1000];
+        let mut img = vec![[0.1f32; 3]; 1000];
+        img[17] = [100.0; 3];
+        let plain = rel_mse(&img, &r).unwrap();
+        assert!(plain > 900.0, "{plain}");
+        let t = rel_mse_trimmed(&img, &r, 0.001).unwrap();
+        assert!((t - 1.0).abs() < 1e-6, "{t}");
+        // Nothing to drop below one pixel's worth; at least one pixel always stays.
+        assert_eq!(rel_mse_trimmed(&img, &r, 0.0).unwrap(), plain);
+        assert!(rel_mse_trimmed(&img[..1], &r[..1], 1.0).unwrap() > 0.0);
     }
 
     #[test]

@@ -75,11 +75,12 @@ fn camera_at(base: &Camera, mode: CameraMode, frames: u32, frame: u32) -> Camera
 
 // ---------------------------------------------------------------- report data (report.json)
 
-/// MSE and relMSE of one image.
+/// MSE, relMSE and relMSE without the 0.1% largest per-pixel errors of one image.
 #[derive(Debug, Clone, Copy, Serialize, Default)]
 pub struct Err2 {
     pub mse: f64,
     pub rel_mse: f64,
+    pub rel_mse_trimmed: f64,
 }
 
 impl From<metrics::Errors> for Err2 {
@@ -87,6 +88,7 @@ impl From<metrics::Errors> for Err2 {
         Self {
             mse: e.mse,
             rel_mse: e.rel_mse,
+            rel_mse_trimmed: e.rel_mse_trimmed,
         }
     }
 }
@@ -149,10 +151,14 @@ pub struct EqualTimeEntry {
     /// relMSE of this method at equal time divided by the target's (>1: the target is better).
     pub rel_mse_ratio_indirect: Option<f64>,
     pub rel_mse_ratio_combined: Option<f64>,
+    /// The same ratio of the trimmed relMSE (robust to fireflies).
+    pub rel_mse_trimmed_ratio_indirect: Option<f64>,
     /// GPU time this method needs to reach the target's per-frame relMSE (1/N variance law
     /// from its equal-time error) divided by the target's time per frame.
     pub equal_error_speedup_indirect: Option<f64>,
     pub equal_error_speedup_combined: Option<f64>,
+    /// The same from the trimmed relMSE of the indirect image.
+    pub equal_error_speedup_indirect_trimmed: Option<f64>,
 }
 
 #[derive(Debug, Clone, Serialize)]
@@ -419,9 +425,11 @@ fn run_method(
             .filter(|r| r.frame >= half || frames == 1)
             .filter_map(pick)
             .collect();
+        let n = v.len() as f64;
         (!v.is_empty()).then(|| Err2 {
-            mse: v.iter().map(|e| e.mse).sum::<f64>() / v.len() as f64,
-            rel_mse: v.iter().map(|e| e.rel_mse).sum::<f64>() / v.len() as f64,
+            mse: v.iter().map(|e| e.mse).sum::<f64>() / n,
+            rel_mse: v.iter().map(|e| e.rel_mse).sum::<f64>() / n,
+            rel_mse_trimmed: v.iter().map(|e| e.rel_mse_trimmed).sum::<f64>() / n,
         })
     };
     let frame_indirect = mean_err(|r| r.indirect);
@@ -591,9 +599,9 @@ fn equal_time_target(opts: &CompareOptions, runs: &[MethodRun]) -> Option<usize>
         .map(|(i, _)| i)
 }
 
-fn ratio(a: Option<Err2>, b: Option<Err2>) -> Option<f64> {
+fn ratio(a: Option<Err2>, b: Option<Err2>, pick: fn(&Err2) -> f64) -> Option<f64> {
     match (a, b) {
-        (Some(a), Some(b)) if b.rel_mse > 0.0 => Some(a.rel_mse / b.rel_mse),
+        (Some(a), Some(b)) if pick(&b) > 0.0 => Some(pick(&a) / pick(&b)),
         _ => None,
     }
 }
@@ -689,20 +697,40 @@ fn compare_scene(
                     &mut None,
                 )?
             };
-            let speedup = |e: Option<Err2>, te: Option<Err2>| -> Option<f64> {
+            let speedup = |e: Option<Err2>, te: Option<Err2>, pick: fn(&Err2) -> f64| {
                 let (e, te, ms) = (e?, te?, eq.ms_per_frame?);
-                (te.rel_mse > 0.0).then(|| ms * (e.rel_mse / te.rel_mse) / t_ms)
+                (pick(&te) > 0.0).then(|| ms * (pick(&e) / pick(&te)) / t_ms)
             };
+            let rel: fn(&Err2) -> f64 = |e| e.rel_mse;
+            let trim: fn(&Err2) -> f64 = |e| e.rel_mse_trimmed;
             entries.push(EqualTimeEntry {
                 method: run.method.clone(),
                 spp_per_frame: k,
                 ms_per_frame: eq.ms_per_frame,
                 frame_indirect: eq.frame_indirect,
                 frame_combined: eq.frame_combined,
-                rel_mse_ratio_indirect: ratio(eq.frame_indirect, target.frame_indirect),
-                rel_mse_ratio_combined: ratio(eq.frame_combined, target.frame_combined),
-                equal_error_speedup_indirect: speedup(eq.frame_indirect, target.frame_indirect),
-                equal_error_speedup_combined: speedup(eq.frame_combined, target.frame_combined),
+                rel_mse_ratio_indirect: ratio(eq.frame_indirect, target.frame_indirect, rel),
+                rel_mse_ratio_combined: ratio(eq.frame_combined, target.frame_combined, rel),
+                rel_mse_trimmed_ratio_indirect: ratio(
+                    eq.frame_indirect,
+                    target.frame_indirect,
+                    trim,
+                ),
+                equal_error_speedup_indirect: speedup(
+                    eq.frame_indirect,
+                    target.frame_indirect,
+                    rel,
+                ),
+                equal_error_speedup_combined: speedup(
+                    eq.frame_combined,
+                    target.frame_combined,
+                    rel,
+                ),
+                equal_error_speedup_indirect_trimmed: speedup(
+                    eq.frame_indirect,
+                    target.frame_indirect,
+                    trim,
+                ),
             });
         }
         equal_time = Some(EqualTime {
