@@ -30,9 +30,11 @@ fn self_estimate_predicts_actual_error() {
     let scene = builtin("cornell", &Default::default()).expect("cornell");
     let cam = scene.camera_or_default(SIDE, SIDE);
     let low = gpu_reference::render(ctx, &scene, &cam, &settings(64, 11), |_| {}).expect("64");
-    let high =
-        gpu_reference::render(ctx, &scene, &cam, &settings(1024, 12), |_| {}).expect("1024");
-    let (li, hi) = (low.indirect.as_ref().unwrap(), high.indirect.as_ref().unwrap());
+    let high = gpu_reference::render(ctx, &scene, &cam, &settings(1024, 12), |_| {}).expect("1024");
+    let (li, hi) = (
+        low.indirect.as_ref().unwrap(),
+        high.indirect.as_ref().unwrap(),
+    );
     let est = low.self_rel_mse.unwrap().1;
     let high_est = high.self_rel_mse.unwrap().1;
     let check = |img: &[[f32; 3]]| -> f64 {
