@@ -11,6 +11,8 @@ use restir_world::lights::Lights;
 use restir_world::scene::{self, Scene};
 use restir_world::{GpuContext, GpuTimer, gpu::buffers, image_io, reference, render};
 
+mod render_cmd;
+
 #[derive(Parser, Debug)]
 #[command(name = "restir-demo", version, about)]
 struct Cli {
@@ -69,6 +71,9 @@ enum MethodArg {
     /// CPU reference renderer: the nee estimator (or ris with --reference-ris), f64
     /// accumulation, all cores.
     CpuReference,
+    /// GPU: world-space spatiotemporal reservoir reuse (Boissé 2021) for the indirect light;
+    /// knobs below.
+    WorldRestir,
 }
 
 #[derive(clap::Args, Debug)]
@@ -119,6 +124,8 @@ struct RenderArgs {
     /// Worker threads of the CPU reference (0 = all cores).
     #[arg(long, default_value_t = 0)]
     threads: usize,
+    #[command(flatten)]
+    world: render_cmd::WorldArgs,
 }
 
 fn parse_size(s: &str) -> Result<(u32, u32), String> {
@@ -320,6 +327,19 @@ fn render(args: &RenderArgs) -> Result<()> {
             ("cpu-reference", out)
         }
         MethodArg::Nee | MethodArg::Ris => render_gpu(args, &scene, &camera, samples)?,
+        MethodArg::WorldRestir => (
+            "world-restir",
+            render_cmd::render_world_restir(
+                &args.world,
+                &scene,
+                &camera,
+                samples,
+                args.candidates,
+                args.seed,
+                &args.out,
+                &scene_tag,
+            )?,
+        ),
     };
     std::fs::create_dir_all(&args.out)
         .with_context(|| format!("creating {}", args.out.display()))?;

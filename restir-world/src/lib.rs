@@ -17,6 +17,7 @@ pub mod render;
 pub mod sampling;
 pub mod scene;
 pub mod trace;
+pub mod world_restir;
 
 pub use gpu::{GpuContext, GpuError, GpuTimer};
 
@@ -29,5 +30,6 @@ pub fn wgsl_modules() -> Vec<(String, String)> {
     ];
     modules.extend(trace::wgsl_modules());
     modules.extend(render::wgsl_modules());
+    modules.extend(world_restir::wgsl_modules());
     modules
 }

@@ -359,7 +359,7 @@ impl Renderer {
                 device,
                 "render_params",
                 &[params],
-                wgpu::BufferUsages::UNIFORM,
+                wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
             ),
             state: buffers::storage_zeroed(device, "render_state", size_of::<RenderState>() as u64),
             gbuffer: buffers::storage_zeroed(device, "render_gbuffer", gbytes),
@@ -475,6 +475,27 @@ impl Renderer {
             (&self.bvh_group, &self.layouts[1]),
             (&self.lights_group, &self.layouts[2]),
         ]
+    }
+
+    /// Moves the camera for the next submitted frame (same image size; the accumulation is not
+    /// reset). Used by camera animations.
+    pub fn set_camera(&mut self, queue: &wgpu::Queue, camera: &Camera) -> Result<(), RenderError> {
+        camera
+            .validate()
+            .map_err(|e| RenderError::Settings(e.to_string()))?;
+        if (camera.width, camera.height) != (self.camera.width, self.camera.height) {
+            return Err(RenderError::Settings(
+                "set_camera cannot change the image size".into(),
+            ));
+        }
+        // The camera is the first field of RenderParams.
+        queue.write_buffer(
+            &self.buffers.params,
+            0,
+            bytemuck::bytes_of(&CameraGpu::new(camera)),
+        );
+        self.camera = *camera;
+        Ok(())
     }
 
     /// Pixels per frame.

@@ -1,0 +1,30 @@
+// Pass "build" step 1 (paper Algorithm 2): find_or_insert the cell of each active secondary
+// vertex (adaptive size, tangent jitter) in this frame's table, count it in its slot and keep
+// (slot, index in slot) per vertex in wr_vertex_slot. A full bucket leaves the vertex out of the
+// grid (slot = HASH_FULL, counted by gpu-hash): it keeps its own reservoir.
+
+@compute @workgroup_size(WORKGROUP_SIZE)
+fn wr_insert(@builtin(global_invocation_id) gid: vec3<u32>,
+             @builtin(num_workgroups) groups: vec3<u32>) {
+    let i = gid.x + gid.y * groups.x * WORKGROUP_SIZE;
+    if i >= render_params.pixel_count {
+        return;
+    }
+    var entry = vec2<u32>(WR_NO_SLOT, 0u);
+    if wr_has_vertex(i) && wr_is_active(i, wr_params.gi_stride) {
+        let v = render_secondary[i];
+        var pos = v.position;
+        if wr_params.jitter != 0u {
+            var rng = wr_rng(i, WR_PASS_BUILD, 0u);
+            let u = vec2<f32>(rng_next_f32(&rng), rng_next_f32(&rng));
+            pos = hash_jitter(pos, v.normal, u, hash_cell_size(hash_params, pos));
+        }
+        let slot = hash_insert_position(pos);
+        if hash_is_slot(slot) {
+            entry = vec2<u32>(slot, hash_slot_append(slot));
+        } else {
+            entry = vec2<u32>(slot, 0u);
+        }
+    }
+    wr_vertex_slot[i] = entry;
+}

@@ -1,0 +1,24 @@
+// Pass "shade": one shadow ray for each vertex's selected sample; radiance leaving the
+// secondary vertex towards the primary = f(y) W; indirect at the primary = primary albedo x
+// that radiance (the cosine pdf of the GI ray cancels the primary's cosine and 1/pi).
+
+@compute @workgroup_size(WORKGROUP_SIZE)
+fn wr_shade(@builtin(global_invocation_id) gid: vec3<u32>,
+            @builtin(num_workgroups) groups: vec3<u32>) {
+    let i = gid.x + gid.y * groups.x * WORKGROUP_SIZE;
+    if i >= render_params.pixel_count {
+        return;
+    }
+    var c = vec3<f32>(0.0);
+    if wr_has_vertex(i) {
+        let res = wr_final[i];
+        if res.m > 0u && res.ucw > 0.0 {
+            let v = render_secondary[i];
+            let f = wr_contribution(v, wr_light_sample(res));
+            if any(f > vec3<f32>(0.0)) && render_visible(v.position, v.normal, res.light_position) {
+                c = render_gbuffer[i].albedo * f * res.ucw;
+            }
+        }
+    }
+    render_indirect_frame[i] = vec4<f32>(c, 1.0);
+}

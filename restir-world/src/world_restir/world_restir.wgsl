@@ -1,0 +1,84 @@
+// World-space ReSTIR GI library (Boisse 2021): the stored reservoir, the target function and the
+// shared helpers of the world-space passes. Structs and functions only. Needs the render
+// library (render::library: render_* bindings, lights, trace, rng), reservoir::wgsl() and the
+// constants header world_restir::constants_wgsl().
+
+// One vertex's reservoir as stored between passes (Rust twin: world_restir::WrReservoir).
+// The selected light sample is the payload; (ucw, m) is reservoir's PackedReservoir;
+// vertex_normal is the normal of the vertex that generated the reservoir (the paper's
+// bias-reduction test compares it with the receiver's normal).
+struct WrReservoir {
+    light_position: vec3<f32>,
+    ucw: f32,
+    light_normal: vec3<f32>,
+    m: u32,
+    light_emission: vec3<f32>,
+    _pad0: u32,
+    vertex_normal: vec3<f32>,
+    _pad1: u32,
+}
+
+// Knobs of a world-space ReSTIR renderer (Rust twin: world_restir::WrParams).
+struct WrParams {
+    candidates: u32,
+    max_count: u32,
+    normal_threshold: f32,
+    temporal_m_cap: u32,
+    jitter: u32,
+    visibility: u32,
+    gi_stride: u32,
+    debug_view: u32,
+}
+
+// Per reuse pass: `pass_index` mixes into the random stream, `temporal` = 1 for the pass that
+// reads last frame's grid (Rust twin: world_restir::WrPass).
+struct WrPass {
+    pass_index: u32,
+    temporal: u32,
+    _pad0: u32,
+    _pad1: u32,
+}
+
+fn wr_empty_stored() -> WrReservoir {
+    var r: WrReservoir;
+    return r;
+}
+
+// Whether pixel i has a secondary vertex (primary hit and GI hit).
+fn wr_has_vertex(i: u32) -> bool {
+    return render_gbuffer[i].prim != BVH_NO_HIT && render_secondary[i].prim != BVH_NO_HIT;
+}
+
+// Whether pixel i generates a reservoir and enters the grid this frame: with gi_stride s, one
+// pixel of each s x s block, rotating over frames (GI resolution scale 1/s).
+fn wr_is_active(i: u32, stride: u32) -> bool {
+    if stride <= 1u {
+        return true;
+    }
+    let w = render_params.camera.width;
+    let phase = render_state.frame % (stride * stride);
+    return (i % w) % stride == phase % stride && (i / w) % stride == phase / stride;
+}
+
+fn wr_light_sample(r: WrReservoir) -> LightSample {
+    var s: LightSample;
+    s.position = r.light_position;
+    s.normal = r.light_normal;
+    s.emission = r.light_emission;
+    s.pdf_area = 1.0;
+    return s;
+}
+
+// Unshadowed reflected radiance of the light sample at vertex v (the target's integrand).
+fn wr_contribution(v: GVertex, s: LightSample) -> vec3<f32> {
+    return render_light_contribution(v.position, v.normal, v.albedo, s);
+}
+
+// Target function p_hat: luminance of the unshadowed reflected radiance.
+fn wr_target(v: GVertex, s: LightSample) -> f32 {
+    return render_luminance(wr_contribution(v, s));
+}
+
+fn wr_rng(i: u32, pass_id: u32, salt: u32) -> u32 {
+    return rng_seed(i, render_state.frame, (render_params.seed * RENDER_PASS_COUNT + pass_id) ^ (salt << 20u));
+}

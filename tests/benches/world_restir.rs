@@ -1,0 +1,136 @@
+//! Per-stage GPU milliseconds per frame of world-space ReSTIR GI against the `ris` and `nee`
+//! baselines on many-lights, timed with GPU timestamp spans around every pass of a frame, plus
+//! the build's share of the frame and a vec4-copy floor over the frame's G-buffer bytes measured
+//! in the same run. Criterion times whole frames of each method (GPU time, `iter_custom`).
+//!
+//! Size: `WR_BENCH_SIZE` (default 128: the demo's default 256x256 takes too long per frame on
+//! lavapipe with 2 shared cores); table 100,000 x 32 (the paper's); many-lights with 10,000
+//! lights.
+
+use criterion::{Criterion, criterion_group, criterion_main};
+use restir_world::render::{Method, PassTimes, Renderer};
+use restir_world::scene::{BuiltinOptions, builtin};
+use restir_world::world_restir::{WorldRestir, WorldRestirConfig, add_times};
+use restir_world::{GpuContext, GpuTimer};
+use tests::{bench, buffers, floors::CopyKernel, gpu};
+
+const FRAMES: u32 = 6;
+
+fn ms(t: &PassTimes, names: &[&str]) -> f64 {
+    t.per_frame()
+        .iter()
+        .filter(|(n, _)| names.contains(&n.as_str()))
+        .map(|(_, v)| v)
+        .sum()
+}
+
+fn baseline_times(ctx: &GpuContext, r: &mut Renderer) -> PassTimes {
+    r.render(ctx, 1, |_| {}).expect("warm-up");
+    r.render(ctx, FRAMES, |_| {})
+        .expect("render")
+        .expect("benchmark needs GPU timestamps")
+}
+
+fn world_restir(c: &mut Criterion) {
+    let ctx = gpu::context();
+    let side: u32 = std::env::var("WR_BENCH_SIZE")
+        .ok()
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(128);
+    let opts = BuiltinOptions {
+        width: side,
+        height: side,
+        ..Default::default()
+    };
+    let scene = builtin("many-lights", &opts).expect("many-lights");
+    let cam = scene.camera_or_default(side, side);
+    let mut wr =
+        WorldRestir::new(ctx, &scene, &cam, WorldRestirConfig::default(), 1).expect("world-restir");
+    let mut ris = Renderer::new(ctx, &scene, &cam, Method::Ris { candidates: 16 }, 1).expect("ris");
+    let mut nee = Renderer::new(ctx, &scene, &cam, Method::Nee, 1).expect("nee");
+
+    let mut group = c.benchmark_group("world_restir_frame");
+    group.sample_size(10);
+    group.warm_up_time(std::time::Duration::from_secs(1));
+    group.measurement_time(std::time::Duration::from_secs(3));
+    group.bench_function(format!("world-restir_{side}"), |b| {
+        b.iter_custom(|iters| {
+            // One frame per submission (the frame writes its grid params through the queue).
+            let mut total = std::time::Duration::ZERO;
+            for _ in 0..iters {
+                total += bench::gpu_time(ctx, 1, |enc| {
+                    wr.encode_frame(&ctx.queue, enc, None).expect("frame")
+                });
+            }
+            total
+        })
+    });
+    for (name, r) in [("ris", &mut ris), ("nee", &mut nee)] {
+        group.bench_function(format!("{name}_{side}"), |b| {
+            b.iter_custom(|iters| bench::gpu_time(ctx, iters, |enc| r.encode_frame(enc, None)))
+        });
+    }
+    group.finish();
+
+    // Per-stage spans.
+    wr.render(ctx, 1, None, |_| {}).expect("warm-up");
+    let mut t_wr = PassTimes::default();
+    let mut timer = GpuTimer::new(ctx, 16);
+    for _ in 0..FRAMES {
+        timer.reset();
+        let mut enc = ctx.device.create_command_encoder(&Default::default());
+        wr.encode_frame(&ctx.queue, &mut enc, Some(&mut timer))
+            .expect("frame");
+        timer.resolve(&mut enc);
+        ctx.queue.submit([enc.finish()]);
+        add_times(&mut t_wr, &timer.read(ctx).expect("timestamps"));
+    }
+    let t_ris = baseline_times(ctx, &mut ris);
+    let t_nee = baseline_times(ctx, &mut nee);
+    let stats = wr.grid_stats(ctx).expect("stats");
+    eprintln!("world-restir per frame: {:?}", t_wr.per_frame());
+    eprintln!("ris per frame: {:?}", t_ris.per_frame());
+    eprintln!("nee per frame: {:?}", t_nee.per_frame());
+    eprintln!("grid: {stats:?}");
+
+    // Floor: a vec4 copy over the G-buffer's bytes.
+    let kernel = CopyKernel::new(&ctx.device);
+    let bytes = u64::from(side * side) * 64;
+    let src = buffers::storage_zeroed(&ctx.device, "src", bytes);
+    let dst = buffers::storage_zeroed(&ctx.device, "dst", bytes);
+    let floor_ms = bench::gpu_ms(ctx, 5, |enc| {
+        kernel.encode(&ctx.device, enc, &src, &dst, (bytes / 16) as u32)
+    });
+
+    let f = |x: f64| format!("{x:.3}");
+    let frame_wr = t_wr.total_ms() / f64::from(t_wr.frames.max(1));
+    let frame_ris = t_ris.total_ms() / f64::from(t_ris.frames.max(1));
+    let frame_nee = t_nee.total_ms() / f64::from(t_nee.frames.max(1));
+    let build = ms(&t_wr, &["build"]);
+    bench::print_result(
+        ctx,
+        "world-restir",
+        &[
+            ("scene", "many-lights".into()),
+            ("size", format!("{side}x{side}")),
+            ("generate_ms", f(ms(&t_wr, &["generate"]))),
+            ("build_ms", f(build)),
+            ("temporal_ms", f(ms(&t_wr, &["temporal"]))),
+            ("spatial_ms", f(ms(&t_wr, &["spatial"]))),
+            ("shade_ms", f(ms(&t_wr, &["shade"]))),
+            ("trace_ms", f(ms(&t_wr, &["primary", "gi"]))),
+            ("direct_ms", f(ms(&t_wr, &["shade_direct"]))),
+            ("frame_ms", f(frame_wr)),
+            ("build_share", format!("{:.3}", build / frame_wr)),
+            ("ris_frame_ms", f(frame_ris)),
+            ("ris_indirect_ms", f(ms(&t_ris, &["shade_indirect"]))),
+            ("nee_frame_ms", f(frame_nee)),
+            ("nee_indirect_ms", f(ms(&t_nee, &["shade_indirect"]))),
+            ("floor_copy_ms", format!("{floor_ms:.4}")),
+            ("overflows", stats.overflows.to_string()),
+        ],
+    );
+}
+
+criterion_group!(benches, world_restir);
+criterion_main!(benches);
