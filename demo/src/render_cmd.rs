@@ -53,7 +53,7 @@ pub struct WorldArgs {
     #[arg(long, default_value_t = WorldRestirConfig::default().spatial_passes)]
     spatial_passes: u32,
     /// Temporal reuse on/off.
-    #[arg(long, default_value = "on", value_parser = on_off)]
+    #[arg(long, default_value = "on", value_parser = on_off, action = clap::ArgAction::Set)]
     temporal: bool,
     /// Cap of reused previous M, as a multiple of --candidates.
     #[arg(long, default_value_t = WorldRestirConfig::default().temporal_m_cap)]
@@ -62,9 +62,9 @@ pub struct WorldArgs {
     min_cell_size: f32,
     #[arg(long, default_value_t = WorldRestirConfig::default().projected_size)]
     projected_size: f32,
-    #[arg(long, default_value = "on", value_parser = on_off)]
+    #[arg(long, default_value = "on", value_parser = on_off, action = clap::ArgAction::Set)]
     jitter: bool,
-    #[arg(long, default_value = "on", value_parser = on_off)]
+    #[arg(long, default_value = "on", value_parser = on_off, action = clap::ArgAction::Set)]
     adaptive_cell_size: bool,
     /// Cosine threshold between stored and receiver normals.
     #[arg(long, default_value_t = WorldRestirConfig::default().normal_threshold)]
@@ -73,10 +73,10 @@ pub struct WorldArgs {
     #[arg(long, default_value_t = WorldRestirConfig::default().gi_stride)]
     gi_stride: u32,
     /// Shadow ray for the selected candidate before it enters the grid.
-    #[arg(long, default_value = "off", value_parser = on_off)]
+    #[arg(long, default_value = "off", value_parser = on_off, action = clap::ArgAction::Set)]
     visibility: bool,
     /// Sort each cell's list (deterministic images).
-    #[arg(long, default_value = "on", value_parser = on_off)]
+    #[arg(long, default_value = "on", value_parser = on_off, action = clap::ArgAction::Set)]
     sort_cells: bool,
     /// Also write the debug views (cells, M heat map, overflow mask) of the last frame.
     #[arg(long)]

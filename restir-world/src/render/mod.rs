@@ -213,6 +213,7 @@ pub fn library() -> String {
         bindings_wgsl(0),
         trace::bindings_wgsl(1, 0),
         reservoir::rng::WGSL.to_string(),
+        reservoir::wgsl(),
         lights::composed_wgsl(2, 0),
         trace::WGSL.to_string(),
         WGSL.to_string(),

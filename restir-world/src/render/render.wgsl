@@ -132,42 +132,51 @@ fn render_nee_one(p: vec3<f32>, n: vec3<f32>, albedo: vec3<f32>, rng: ptr<functi
     return f / s.pdf_area;
 }
 
-// Reflected direct light by RIS over `candidates` light samples (target: luminance of the
-// unshadowed contribution), then one shadow ray for the selected sample.
-// Plain streaming RIS loop; to be replaced by the reservoir crate's helpers once they exist.
-fn render_nee_ris(p: vec3<f32>, n: vec3<f32>, albedo: vec3<f32>, candidates: u32,
-                  rng: ptr<function, u32>) -> vec3<f32> {
-    var w_sum = 0.0;
-    var chosen_f = vec3<f32>(0.0);
-    var chosen_p_hat = 0.0;
-    var chosen_pos = vec3<f32>(0.0);
+// Resampled importance sampling over `candidates` light samples at (p, n, albedo), target =
+// luminance of the unshadowed reflected radiance. The reservoir crate does the resampling; the
+// chosen light sample is the caller's payload. Shared by the `ris` baseline and world-space
+// ReSTIR's initial reservoirs.
+struct RisLightSample {
+    reservoir: Reservoir,
+    light: LightSample,
+    p_hat: f32,
+}
+
+fn render_ris_lights(p: vec3<f32>, n: vec3<f32>, albedo: vec3<f32>, candidates: u32,
+                     rng: ptr<function, u32>) -> RisLightSample {
+    // A whole local reservoir (not a pointer into a struct field): naga's SPIR-V backend
+    // rejects the latter as a function argument.
+    var r = reservoir_empty();
+    var out: RisLightSample;
+    out.p_hat = 0.0;
     for (var k = 0u; k < candidates; k++) {
         let s = lights_sample(render_rand4(rng));
         let u = rng_next_f32(rng);
-        if s.pdf_area <= 0.0 {
-            continue;
+        var w = 0.0;
+        var p_hat = 0.0;
+        if s.pdf_area > 0.0 {
+            p_hat = render_luminance(render_light_contribution(p, n, albedo, s));
+            w = p_hat / s.pdf_area;
         }
-        let f = render_light_contribution(p, n, albedo, s);
-        let p_hat = render_luminance(f);
-        let w = p_hat / s.pdf_area;
-        if w <= 0.0 {
-            continue;
-        }
-        w_sum += w;
-        if u * w_sum < w {
-            chosen_f = f;
-            chosen_p_hat = p_hat;
-            chosen_pos = s.position;
+        if reservoir_update(&r, w, u) {
+            out.light = s;
+            out.p_hat = p_hat;
         }
     }
-    if w_sum <= 0.0 || chosen_p_hat <= 0.0 {
+    reservoir_finalize(&r, out.p_hat);
+    out.reservoir = r;
+    return out;
+}
+
+// Reflected direct light by RIS over `candidates` light samples, then one shadow ray for the
+// selected sample.
+fn render_nee_ris(p: vec3<f32>, n: vec3<f32>, albedo: vec3<f32>, candidates: u32,
+                  rng: ptr<function, u32>) -> vec3<f32> {
+    let ris = render_ris_lights(p, n, albedo, candidates, rng);
+    if ris.reservoir.ucw <= 0.0 || !render_visible(p, n, ris.light.position) {
         return vec3<f32>(0.0);
     }
-    if !render_visible(p, n, chosen_pos) {
-        return vec3<f32>(0.0);
-    }
-    let big_w = w_sum / (f32(candidates) * chosen_p_hat);
-    return chosen_f * big_w;
+    return render_light_contribution(p, n, albedo, ris.light) * ris.reservoir.ucw;
 }
 
 // Reflected direct light at a surface vertex with the render's method.

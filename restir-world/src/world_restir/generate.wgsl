@@ -17,24 +17,9 @@ fn wr_generate(@builtin(global_invocation_id) gid: vec3<u32>,
     let v = render_secondary[i];
     out.vertex_normal = v.normal;
     var rng = wr_rng(i, WR_PASS_GENERATE, 0u);
-    var r = reservoir_empty();
-    var chosen: LightSample;
-    var chosen_p_hat = 0.0;
-    for (var k = 0u; k < wr_params.candidates; k++) {
-        let s = lights_sample(render_rand4(&rng));
-        let u = rng_next_f32(&rng);
-        var w = 0.0;
-        var p_hat = 0.0;
-        if s.pdf_area > 0.0 {
-            p_hat = wr_target(v, s);
-            w = p_hat / s.pdf_area;
-        }
-        if reservoir_update(&r, w, u) {
-            chosen = s;
-            chosen_p_hat = p_hat;
-        }
-    }
-    reservoir_finalize(&r, chosen_p_hat);
+    let ris = render_ris_lights(v.position, v.normal, v.albedo, wr_params.candidates, &rng);
+    var r = ris.reservoir;
+    let chosen = ris.light;
     if wr_params.visibility != 0u && r.ucw > 0.0
         && !render_visible(v.position, v.normal, chosen.position) {
         r.ucw = 0.0;

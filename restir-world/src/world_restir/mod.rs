@@ -20,7 +20,7 @@
 //! frame's grid with last frame's eye (each table's own params uniform).
 //!
 //! Composition: every kernel module is `render::library()` (render buffers in group 0, BVH in 1,
-//! lights in 2) + `reservoir::wgsl()` + (for the grid passes) `gpu_hash::wgsl::compose(..)` in the
+//! lights in 2; it carries the rng and reservoir WGSL) + (for the grid passes) `gpu_hash::wgsl::compose(..)` in the
 //! table role (insert) or the lookup role (reuse) + this module's constants and group-3 header +
 //! `world_restir.wgsl` + the kernel file. No scan, hash or reservoir math is written here.
 
@@ -397,7 +397,7 @@ impl Kernel {
             group: GROUP,
             first_binding: self.hash_first(),
         };
-        let mut parts = vec![render::library(), reservoir::wgsl()];
+        let mut parts = vec![render::library()];
         if self.hash_table || self.hash_lookup {
             parts.push(gpu_hash::wgsl::compose(
                 self.hash_table.then_some(at),
