@@ -87,7 +87,13 @@ pub fn svg(report: &Report) -> Result<String> {
                     } else {
                         "relMSE of the frame"
                     })
-                    .x_label_formatter(&|v| format!("{v:.3}"))
+                    .x_label_formatter(&|v| {
+                        if *v >= 100.0 {
+                            format!("{v:.0}")
+                        } else {
+                            format!("{v:.3}")
+                        }
+                    })
                     .y_label_formatter(&|v| format!("{v:.1e}"))
                     .draw()
                     .map_err(e)?;
