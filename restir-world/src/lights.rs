@@ -246,16 +246,7 @@ pub fn bindings_wgsl(group: u32, first_binding: u32) -> String {
 
 /// Layout entries (compute stage) matching [`bindings_wgsl`].
 pub fn bind_group_layout_entries(first_binding: u32) -> Vec<wgpu::BindGroupLayoutEntry> {
-    let storage = |binding| wgpu::BindGroupLayoutEntry {
-        binding,
-        visibility: wgpu::ShaderStages::COMPUTE,
-        ty: wgpu::BindingType::Buffer {
-            ty: wgpu::BufferBindingType::Storage { read_only: true },
-            has_dynamic_offset: false,
-            min_binding_size: None,
-        },
-        count: None,
-    };
+    let storage = |binding| crate::gpu::buffers::storage_entry(binding, true);
     vec![
         storage(first_binding),
         storage(first_binding + 1),

@@ -83,16 +83,7 @@ impl MergeBench {
                 label: Some("reservoir bench"),
                 source: wgpu::ShaderSource::Wgsl(source.into()),
             });
-        let buffer = |binding: u32, ty: wgpu::BufferBindingType| wgpu::BindGroupLayoutEntry {
-            binding,
-            visibility: wgpu::ShaderStages::COMPUTE,
-            ty: wgpu::BindingType::Buffer {
-                ty,
-                has_dynamic_offset: false,
-                min_binding_size: None,
-            },
-            count: None,
-        };
+        let buffer = tests::buffers::layout_entry;
         let layout = ctx
             .device
             .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {

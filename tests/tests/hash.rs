@@ -765,16 +765,7 @@ fn previous_frame_lookup_while_building_the_current_frame() {
         label: Some("consumer"),
         source: wgpu::ShaderSource::Wgsl(source.into()),
     });
-    let io_entry = |binding, read_only| wgpu::BindGroupLayoutEntry {
-        binding,
-        visibility: wgpu::ShaderStages::COMPUTE,
-        ty: wgpu::BindingType::Buffer {
-            ty: wgpu::BufferBindingType::Storage { read_only },
-            has_dynamic_offset: false,
-            min_binding_size: None,
-        },
-        count: None,
-    };
+    let io_entry = tests::buffers::storage_entry;
     let l0 = d.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
         label: None,
         entries: &gpu_hash::bind_group_layout_entries(0),

@@ -76,16 +76,7 @@ fn run_kernel(l: &Lights, cam: &CameraGpu, n: u32) -> Vec<[f32; 4]> {
         (3, wgpu::BufferBindingType::Storage { read_only: false }),
         (4, wgpu::BufferBindingType::Uniform),
     ] {
-        entries.push(wgpu::BindGroupLayoutEntry {
-            binding,
-            visibility: wgpu::ShaderStages::COMPUTE,
-            ty: wgpu::BindingType::Buffer {
-                ty,
-                has_dynamic_offset: false,
-                min_binding_size: None,
-            },
-            count: None,
-        });
+        entries.push(tests::buffers::layout_entry(binding, ty));
     }
     let bgl = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
         label: Some("lights test"),

@@ -42,16 +42,7 @@ impl Kernel {
                 source: wgpu::ShaderSource::Wgsl(source.into()),
             });
         let layout_entries: Vec<wgpu::BindGroupLayoutEntry> = (0..bindings)
-            .map(|binding| wgpu::BindGroupLayoutEntry {
-                binding,
-                visibility: wgpu::ShaderStages::COMPUTE,
-                ty: wgpu::BindingType::Buffer {
-                    ty: wgpu::BufferBindingType::Storage { read_only: false },
-                    has_dynamic_offset: false,
-                    min_binding_size: None,
-                },
-                count: None,
-            })
+            .map(|binding| tests::buffers::storage_entry(binding, false))
             .collect();
         let layout = ctx
             .device

@@ -103,3 +103,23 @@ pub fn read_range<T: bytemuck::Pod>(
     staging.unmap();
     Ok(out)
 }
+
+/// A compute-stage bind group layout entry for a whole buffer of type `ty`: the one place
+/// that spells this struct out for the renderer, the tests and the benches.
+pub fn layout_entry(binding: u32, ty: wgpu::BufferBindingType) -> wgpu::BindGroupLayoutEntry {
+    wgpu::BindGroupLayoutEntry {
+        binding,
+        visibility: wgpu::ShaderStages::COMPUTE,
+        ty: wgpu::BindingType::Buffer {
+            ty,
+            has_dynamic_offset: false,
+            min_binding_size: None,
+        },
+        count: None,
+    }
+}
+
+/// [`layout_entry`] for a storage buffer.
+pub fn storage_entry(binding: u32, read_only: bool) -> wgpu::BindGroupLayoutEntry {
+    layout_entry(binding, wgpu::BufferBindingType::Storage { read_only })
+}

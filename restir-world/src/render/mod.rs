@@ -184,21 +184,17 @@ pub fn bindings_wgsl(group: u32) -> String {
 pub fn bind_group_layout_entries() -> Vec<wgpu::BindGroupLayoutEntry> {
     BINDINGS
         .iter()
-        .map(|(b, _, _, access)| wgpu::BindGroupLayoutEntry {
-            binding: *b,
-            visibility: wgpu::ShaderStages::COMPUTE,
-            ty: wgpu::BindingType::Buffer {
-                ty: if *access == "uniform" {
+        .map(|(b, _, _, access)| {
+            crate::gpu::buffers::layout_entry(
+                *b,
+                if *access == "uniform" {
                     wgpu::BufferBindingType::Uniform
                 } else {
                     wgpu::BufferBindingType::Storage {
                         read_only: *access == "storage, read",
                     }
                 },
-                has_dynamic_offset: false,
-                min_binding_size: None,
-            },
-            count: None,
+            )
         })
         .collect()
 }

@@ -146,16 +146,7 @@ pub fn bindings_wgsl(group: u32, first_binding: u32) -> String {
 /// Layout entries matching [`bindings_wgsl`] (visible to compute).
 pub fn bind_group_layout_entries(first_binding: u32) -> Vec<wgpu::BindGroupLayoutEntry> {
     (0..2)
-        .map(|i| wgpu::BindGroupLayoutEntry {
-            binding: first_binding + i,
-            visibility: wgpu::ShaderStages::COMPUTE,
-            ty: wgpu::BindingType::Buffer {
-                ty: wgpu::BufferBindingType::Storage { read_only: true },
-                has_dynamic_offset: false,
-                min_binding_size: None,
-            },
-            count: None,
-        })
+        .map(|i| crate::gpu::buffers::storage_entry(first_binding + i, true))
         .collect()
 }
 
@@ -409,16 +400,7 @@ impl TraceKernel {
             label: Some("trace_rays"),
             source: wgpu::ShaderSource::Wgsl(kernel_source().into()),
         });
-        let storage = |binding, read_only| wgpu::BindGroupLayoutEntry {
-            binding,
-            visibility: wgpu::ShaderStages::COMPUTE,
-            ty: wgpu::BindingType::Buffer {
-                ty: wgpu::BufferBindingType::Storage { read_only },
-                has_dynamic_offset: false,
-                min_binding_size: None,
-            },
-            count: None,
-        };
+        let storage = crate::gpu::buffers::storage_entry;
         let params_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("trace_rays io"),
             entries: &[

@@ -416,19 +416,15 @@ impl Kernel {
             .own
             .iter()
             .enumerate()
-            .map(|(b, (_, _, access))| wgpu::BindGroupLayoutEntry {
-                binding: b as u32,
-                visibility: wgpu::ShaderStages::COMPUTE,
-                ty: wgpu::BindingType::Buffer {
-                    ty: match access {
+            .map(|(b, (_, _, access))| {
+                crate::gpu::buffers::layout_entry(
+                    b as u32,
+                    match access {
                         Access::Uniform => wgpu::BufferBindingType::Uniform,
                         Access::Read => wgpu::BufferBindingType::Storage { read_only: true },
                         Access::ReadWrite => wgpu::BufferBindingType::Storage { read_only: false },
                     },
-                    has_dynamic_offset: false,
-                    min_binding_size: None,
-                },
-                count: None,
+                )
             })
             .collect();
         if self.hash_table {
