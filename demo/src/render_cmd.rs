@@ -11,7 +11,7 @@ use restir_world::image_io::{Image, write_png};
 use restir_world::reference::Rendered;
 use restir_world::render::PassTimes;
 use restir_world::scene::{Camera, Scene};
-use restir_world::world_restir::{CameraPath, DebugView, WorldRestir, WorldRestirConfig};
+use restir_world::world_restir::{CameraPath, Combine, DebugView, WorldRestir, WorldRestirConfig};
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
 pub enum Animation {
@@ -44,8 +44,9 @@ pub struct WorldArgs {
     #[arg(long, default_value_t = 0.3)]
     dolly_fraction: f32,
     // World-restir knobs.
-    #[arg(long, default_value_t = WorldRestirConfig::default().buckets)]
-    buckets: u32,
+    /// Hash-grid buckets (default: sized to the frame; the paper's is 100000).
+    #[arg(long)]
+    buckets: Option<u32>,
     #[arg(long, default_value_t = WorldRestirConfig::default().slots)]
     slots: u32,
     #[arg(long, default_value_t = WorldRestirConfig::default().max_count)]
@@ -72,9 +73,10 @@ pub struct WorldArgs {
     /// GI resolution scale as a stride: 1 = full, 2 = half resolution (one pixel per 2x2 block).
     #[arg(long, default_value_t = WorldRestirConfig::default().gi_stride)]
     gi_stride: u32,
-    /// Shadow ray for the selected candidate before it enters the grid.
-    #[arg(long, default_value = "off", value_parser = on_off, action = clap::ArgAction::Set)]
-    visibility: bool,
+    /// Combination weights of reuse: pairwise (MIS, unbiased), one-over-z (unbiased) or biased
+    /// (the paper's 1/M).
+    #[arg(long, default_value = "pairwise")]
+    combine: Combine,
     /// Sort each cell's list (deterministic images).
     #[arg(long, default_value = "on", value_parser = on_off, action = clap::ArgAction::Set)]
     sort_cells: bool,
@@ -99,7 +101,7 @@ impl WorldArgs {
             adaptive_cell_size: self.adaptive_cell_size,
             normal_threshold: self.normal_threshold,
             gi_stride: self.gi_stride,
-            visibility: self.visibility,
+            combine: self.combine,
             sort_cells: self.sort_cells,
         }
     }

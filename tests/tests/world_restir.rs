@@ -18,12 +18,9 @@ fn scene(name: &str, w: u32, h: u32) -> Scene {
     builtin(name, &opts).expect("scene")
 }
 
-/// A small table keeps the per-frame clear + scan cheap on lavapipe (4096 x 32 slots).
+/// The shipped defaults (the table is sized to the frame).
 fn small() -> WorldRestirConfig {
-    WorldRestirConfig {
-        buckets: 4096,
-        ..Default::default()
-    }
+    WorldRestirConfig::default()
 }
 
 fn luminance(c: &[f32; 3]) -> f64 {
@@ -62,7 +59,7 @@ fn layouts_match_wgsl() {
             normal_threshold,
             temporal_m_cap,
             jitter,
-            visibility,
+            combine,
             gi_stride,
             debug_view
         ]
@@ -181,7 +178,7 @@ fn reuse_off_equals_ris_in_expectation() {
             &s,
             &cam,
             WorldRestirConfig {
-                buckets: 4096,
+                buckets: Some(4096),
                 ..WorldRestirConfig::no_reuse()
             },
             11,
@@ -240,7 +237,7 @@ fn no_nan_over_many_frames_overflow_and_camera_cut() {
         let s = scene(name, w, h);
         let cam = s.camera_or_default(w, h);
         let tiny = WorldRestirConfig {
-            buckets: 4,
+            buckets: Some(4),
             slots: 2,
             ..Default::default()
         };
@@ -305,7 +302,7 @@ fn orbit_and_debug_views() {
 }
 
 /// The other knobs produce finite, non-black indirect images: half-resolution GI (gi_stride 2),
-/// visibility for the selected candidate, no jitter, no adaptive cell size (2 cm cells), unsorted
+/// the paper's biased 1/M weights, no jitter, no adaptive cell size (2 cm cells), unsorted
 /// cells, a single spatial pass without temporal reuse.
 #[test]
 fn other_knobs_render_finite_non_black() {
@@ -318,7 +315,7 @@ fn other_knobs_render_finite_non_black() {
             ..small()
         },
         WorldRestirConfig {
-            visibility: true,
+            combine: world_restir::Combine::Biased,
             ..small()
         },
         WorldRestirConfig {
@@ -355,7 +352,7 @@ fn five_hundred_frames_every_scene_overflowing_with_cut() {
         let s = scene(name, w, h);
         let cam = s.camera_or_default(w, h);
         let tiny = WorldRestirConfig {
-            buckets: 4,
+            buckets: Some(4),
             slots: 2,
             projected_size: 2.0,
             ..Default::default()

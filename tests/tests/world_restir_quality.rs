@@ -35,7 +35,7 @@ fn scene(name: &str, side: u32) -> (Scene, Camera) {
 /// env var WR_PROJECTED, in pixels, to explore).
 fn config(side: u32) -> WorldRestirConfig {
     WorldRestirConfig {
-        buckets: 4096,
+        buckets: Some(4096),
         projected_size: projected_size(side),
         ..Default::default()
     }

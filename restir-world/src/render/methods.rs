@@ -8,7 +8,7 @@ use std::fmt;
 
 use super::{Method, RenderError, Renderer};
 use crate::scene::{Camera, Scene};
-use crate::world_restir::{WorldRestir, WorldRestirConfig, WorldRestirError};
+use crate::world_restir::{Combine, WorldRestir, WorldRestirConfig, WorldRestirError};
 use crate::{GpuContext, GpuTimer};
 
 /// What can go wrong building or running a method.
@@ -119,14 +119,25 @@ impl FrameMethod for WorldRestirMethod {
 }
 
 /// The variants of `world-restir`, each isolating what one part buys.
-pub const WORLD_RESTIR_VARIANTS: [(&str, &str); 7] = [
+pub const WORLD_RESTIR_VARIANTS: [(&str, &str); 9] = [
     ("both", "temporal + spatial reuse (the default)"),
     ("no-reuse", "no temporal, no spatial reuse"),
     ("temporal", "temporal reuse only"),
     ("spatial", "spatial reuse only"),
     ("no-adaptive", "fixed cell size (adaptive cell size off)"),
     ("no-jitter", "no tangent jitter of the lookups"),
-    ("visibility", "shadow-tested target in reuse"),
+    (
+        "biased",
+        "the paper's 1/M combination weights instead of pairwise MIS",
+    ),
+    (
+        "one-over-z",
+        "1/Z combination weights instead of pairwise MIS",
+    ),
+    (
+        "paper-grid",
+        "the paper's fixed 100,000 x 32 table instead of one sized to the frame",
+    ),
 ];
 
 /// The configuration of a `world-restir` variant.
@@ -148,8 +159,16 @@ pub fn world_restir_config(variant: Option<&str>) -> Result<WorldRestirConfig, M
             ..d
         },
         "no-jitter" => WorldRestirConfig { jitter: false, ..d },
-        "visibility" => WorldRestirConfig {
-            visibility: true,
+        "biased" => WorldRestirConfig {
+            combine: Combine::Biased,
+            ..d
+        },
+        "one-over-z" => WorldRestirConfig {
+            combine: Combine::OneOverZ,
+            ..d
+        },
+        "paper-grid" => WorldRestirConfig {
+            buckets: Some(100_000),
             ..d
         },
         other => {
@@ -278,7 +297,7 @@ pub fn registry() -> &'static [MethodEntry] {
         MethodEntry {
             name: "world-restir",
             about: "world-space ReSTIR GI: RIS + hash-grid temporal and spatial reuse",
-            variants: "both, no-reuse, temporal, spatial, no-adaptive, no-jitter, visibility",
+            variants: "both, no-reuse, temporal, spatial, no-adaptive, no-jitter, biased, one-over-z, paper-grid",
             equal_time_target: true,
             build: build_world_restir,
         },

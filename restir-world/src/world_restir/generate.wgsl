@@ -1,6 +1,5 @@
 // Pass "generate" (paper Algorithm 1): RIS over wr_params.candidates light samples at each
-// secondary vertex, target = luminance of the unshadowed reflected radiance; optionally one
-// shadow ray for the selected candidate (W = 0 when occluded). Writes wr_out.
+// secondary vertex, target = luminance of the unshadowed reflected radiance. Writes wr_out.
 
 @compute @workgroup_size(WORKGROUP_SIZE)
 fn wr_generate(@builtin(global_invocation_id) gid: vec3<u32>,
@@ -18,13 +17,8 @@ fn wr_generate(@builtin(global_invocation_id) gid: vec3<u32>,
     out.vertex_normal = v.normal;
     var rng = wr_rng(i, WR_PASS_GENERATE, 0u);
     let ris = render_ris_lights(v.position, v.normal, v.albedo, wr_params.candidates, &rng);
-    var r = ris.reservoir;
     let chosen = ris.light;
-    if wr_params.visibility != 0u && r.ucw > 0.0
-        && !render_visible(v.position, v.normal, chosen.position) {
-        r.ucw = 0.0;
-    }
-    let packed = reservoir_pack(r);
+    let packed = reservoir_pack(ris.reservoir);
     out.ucw = packed.ucw;
     out.m = packed.m;
     out.light_position = chosen.position;

@@ -67,12 +67,57 @@ pub enum WorldRestirError {
     Config(String),
 }
 
+/// Combination (MIS) weights of the reuse passes (reuse.wgsl has the formulas).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Combine {
+    /// The paper's 1/M: biased (darker) where a neighbour's target is 0 at a sample the
+    /// receiver can use.
+    Biased = 0,
+    /// 1/Z (Bitterli et al. 2020): unbiased; Z counts the merged reservoirs that could have
+    /// produced the selected sample.
+    OneOverZ = 1,
+    /// Pairwise MIS with confidence weights: unbiased, and robust to samples whose target is
+    /// far larger at the receiver than where they were drawn.
+    Pairwise = 2,
+}
+
+impl Combine {
+    /// Every mode with its command-line name.
+    pub const ALL: [(Combine, &'static str); 3] = [
+        (Combine::Biased, "biased"),
+        (Combine::OneOverZ, "one-over-z"),
+        (Combine::Pairwise, "pairwise"),
+    ];
+
+    /// The command-line name.
+    pub fn name(self) -> &'static str {
+        Self::ALL
+            .iter()
+            .find(|(c, _)| *c == self)
+            .map_or("", |(_, n)| n)
+    }
+}
+
+impl std::str::FromStr for Combine {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        Self::ALL
+            .iter()
+            .find(|(_, n)| *n == s)
+            .map(|(c, _)| *c)
+            .ok_or_else(|| {
+                format!("unknown combination {s:?}; known: biased, one-over-z, pairwise")
+            })
+    }
+}
+
 /// Every knob of world-space ReSTIR, with the paper's defaults (Boissé 2021, section 5, and
 /// AMD's public implementation where the paper is silent).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct WorldRestirConfig {
-    /// Hash-grid buckets (default 100,000, the paper's).
-    pub buckets: u32,
+    /// Hash-grid buckets. `None` (the default): sized to the frame by [`auto_buckets`] from the
+    /// number of vertices that can enter the grid; `Some(100_000)` is the paper's fixed table.
+    pub buckets: Option<u32>,
     /// Slots per bucket, i.e. linear-probing length (default 32, the paper's).
     pub slots: u32,
     /// RIS light candidates per vertex, the initial M (default 16, the paper's).
@@ -107,9 +152,8 @@ pub struct WorldRestirConfig {
     /// resolution). Every pixel still looks the grid up and shades; GI rays are traced for every
     /// pixel by the shared `gi` pass. Needs reuse on (with no reuse the other pixels stay black).
     pub gi_stride: u32,
-    /// Trace a shadow ray for the selected candidate before it enters the grid; occluded
-    /// samples get W = 0 (default off, as in the paper).
-    pub visibility: bool,
+    /// How reused reservoirs are weighted (default [`Combine::Pairwise`], unbiased).
+    pub combine: Combine,
     /// Order each cell's vertex list by index after the scatter, so images do not depend on
     /// the order atomics ran in (default on; not in the paper, which accepts the race).
     pub sort_cells: bool,
@@ -118,7 +162,7 @@ pub struct WorldRestirConfig {
 impl Default for WorldRestirConfig {
     fn default() -> Self {
         Self {
-            buckets: 100_000,
+            buckets: None,
             slots: 32,
             candidates: render::DEFAULT_CANDIDATES,
             max_count: 4,
@@ -131,7 +175,7 @@ impl Default for WorldRestirConfig {
             adaptive_cell_size: true,
             normal_threshold: 0.840_896_4,
             gi_stride: 1,
-            visibility: false,
+            combine: Combine::Pairwise,
             sort_cells: true,
         }
     }
@@ -147,10 +191,19 @@ impl WorldRestirConfig {
         }
     }
 
-    /// The hash table's dimensions.
-    pub fn table(&self) -> TableConfig {
+    /// Most vertices that enter the grid in one frame at `width` x `height`: one per pixel of
+    /// each `gi_stride` x `gi_stride` block.
+    pub fn max_vertices(&self, width: u32, height: u32) -> u32 {
+        width.div_ceil(self.gi_stride.max(1)) * height.div_ceil(self.gi_stride.max(1))
+    }
+
+    /// The hash table's dimensions for frames of `width` x `height`.
+    pub fn table(&self, width: u32, height: u32) -> TableConfig {
+        let vertices = self.max_vertices(width, height);
         TableConfig {
-            num_buckets: self.buckets,
+            num_buckets: self
+                .buckets
+                .unwrap_or_else(|| auto_buckets(vertices, self.slots)),
             slots_per_bucket: self.slots,
             probe_buckets: 1,
         }
@@ -195,9 +248,22 @@ impl WorldRestirConfig {
         if self.temporal_m_cap == 0 {
             return bad("temporal_m_cap must be at least 1".into());
         }
-        self.table().validate()?;
+        if self.buckets == Some(0) {
+            return bad("buckets must be at least 1 (or left to size with the frame)".into());
+        }
+        self.table(1, 1).validate()?;
         Ok(())
     }
+}
+
+/// Buckets of a table sized to the frame: twice as many slots as vertices, so the table's load
+/// stays at most 1/2 even when every vertex has a cell of its own (a bucket of 32 slots then
+/// overflows with Poisson(16) probability 1e-4; cells hold about 4 vertices at the default
+/// projected size, a load near 1/8), and at least 64 buckets.
+pub fn auto_buckets(vertices: u32, slots_per_bucket: u32) -> u32 {
+    let slots = u64::from(vertices) * 2;
+    let buckets = slots.div_ceil(u64::from(slots_per_bucket.max(1)));
+    buckets.clamp(64, u64::from(u32::MAX)) as u32
 }
 
 /// A vertex's stored reservoir (WGSL `WrReservoir`): the selected light sample, reservoir's
@@ -225,7 +291,8 @@ pub struct WrParams {
     /// Absolute cap: `temporal_m_cap x candidates`.
     pub temporal_m_cap: u32,
     pub jitter: u32,
-    pub visibility: u32,
+    /// [`Combine`] as u32.
+    pub combine: u32,
     pub gi_stride: u32,
     pub debug_view: u32,
 }
@@ -258,13 +325,18 @@ pub fn constants_wgsl() -> String {
          const WR_PASS_TEMPORAL: u32 = {PASS_TEMPORAL}u;\nconst WR_PASS_SPATIAL: u32 = {PASS_SPATIAL}u;\n\
          const WR_NO_SLOT: u32 = {:#x}u;\nconst WR_FULL: u32 = {:#x}u;\n\
          const WR_FIRST_SENTINEL: u32 = {:#x}u;\nconst WR_VIEW_CELLS: u32 = {}u;\n\
-         const WR_VIEW_M: u32 = {}u;\noverride WORKGROUP_SIZE: u32 = {}u;\n",
+         const WR_VIEW_M: u32 = {}u;\noverride WORKGROUP_SIZE: u32 = {}u;\n\
+         const WR_COMBINE_BIASED: u32 = {}u;\nconst WR_COMBINE_ONE_OVER_Z: u32 = {}u;\n\
+         const WR_COMBINE_PAIRWISE: u32 = {}u;\n",
         gpu_hash::HASH_NOT_FOUND,
         gpu_hash::HASH_FULL,
         gpu_hash::HASH_FIRST_SENTINEL,
         DebugView::Cells as u32,
         DebugView::M as u32,
         render::WORKGROUP_SIZE,
+        Combine::Biased as u32,
+        Combine::OneOverZ as u32,
+        Combine::Pairwise as u32,
     )
 }
 
@@ -334,6 +406,7 @@ const KERNELS: [Kernel; 6] = [
             ("wr_out", RES, Access::ReadWrite),
             ("wr_lookup_offsets", "array<u32>", Access::Read),
             ("wr_lookup_cells", "array<u32>", Access::Read),
+            ("wr_prev_vertices", "array<GVertex>", Access::Read),
         ],
         hash_table: false,
         hash_lookup: true,
@@ -575,6 +648,10 @@ pub struct WorldRestir {
     vertex_slot: wgpu::Buffer,
     reservoirs: [wgpu::Buffer; 2],
     prev_reservoirs: wgpu::Buffer,
+    /// Last frame's secondary vertices (the temporal pass's 1/Z test).
+    prev_vertices: wgpu::Buffer,
+    /// Slots of each hash table (what is cleared and scanned).
+    slots: u32,
     params: wgpu::Buffer,
     debug: wgpu::Buffer,
     scan: Scan,
@@ -614,12 +691,13 @@ impl WorldRestir {
         )?;
         let device = &ctx.device;
         let limits = ctx.limits();
-        let grid_params = HashGridParams::new(&config.table(), &config.sizing(camera), camera.eye)?;
+        let table = config.table(camera.width, camera.height);
+        let grid_params = HashGridParams::new(&table, &config.sizing(camera), camera.eye)?;
         let tables = [
             HashTable::new(device, &ctx.queue, &grid_params)?,
             HashTable::new(device, &ctx.queue, &grid_params)?,
         ];
-        let slots = config.table().num_slots();
+        let slots = table.num_slots();
         let slots_u32 = u32::try_from(slots)
             .map_err(|_| WorldRestirError::Config(format!("{slots} slots do not fit u32")))?;
         let px = u64::from(renderer.pixels());
@@ -646,6 +724,7 @@ impl WorldRestir {
             zeroed("wr reservoirs 1", res_bytes),
         ];
         let prev_reservoirs = zeroed("wr prev reservoirs", res_bytes);
+        let prev_vertices = zeroed("wr prev vertices", renderer.buffers.secondary.size());
         let debug = zeroed("wr debug", px * 16);
         let wr_params = WrParams {
             candidates: config.candidates,
@@ -653,7 +732,7 @@ impl WorldRestir {
             normal_threshold: config.normal_threshold,
             temporal_m_cap: config.temporal_m_cap.saturating_mul(config.candidates),
             jitter: u32::from(config.jitter),
-            visibility: u32::from(config.visibility),
+            combine: config.combine as u32,
             gi_stride: config.gi_stride,
             debug_view: 0,
         };
@@ -773,6 +852,7 @@ impl WorldRestir {
                         &reservoirs[1],
                         &offsets[prev],
                         &cells[prev],
+                        &prev_vertices,
                     ],
                     tables[prev].lookup_bind_group_entries(reuse_first),
                 )
@@ -796,6 +876,7 @@ impl WorldRestir {
                         &reservoirs[1 - cur],
                         &offsets[p],
                         &cells[p],
+                        &prev_vertices,
                     ],
                     tables[p].lookup_bind_group_entries(reuse_first),
                 ));
@@ -819,6 +900,8 @@ impl WorldRestir {
             vertex_slot,
             reservoirs,
             prev_reservoirs,
+            prev_vertices,
+            slots: slots_u32,
             params,
             debug,
             scan,
@@ -907,7 +990,7 @@ impl WorldRestir {
                 &self.generate_group,
             )
         });
-        let slots = self.config.table().num_slots() as u32;
+        let slots = self.slots;
         Self::span(
             &mut timer,
             encoder,
@@ -975,7 +1058,14 @@ impl WorldRestir {
                     &self.prev_reservoirs,
                     0,
                     None,
-                )
+                );
+                enc.copy_buffer_to_buffer(
+                    &self.renderer.buffers.secondary,
+                    0,
+                    &self.prev_vertices,
+                    0,
+                    None,
+                );
             });
         }
         self.renderer.encode_accumulate(encoder, timer);
@@ -1079,8 +1169,11 @@ impl WorldRestir {
         ctx: &GpuContext,
         view: DebugView,
     ) -> Result<Vec<[f32; 3]>, GpuError> {
-        ctx.queue
-            .write_buffer(&self.params, 28, bytemuck::bytes_of(&(view as u32)));
+        ctx.queue.write_buffer(
+            &self.params,
+            std::mem::offset_of!(WrParams, debug_view) as u64,
+            bytemuck::bytes_of(&(view as u32)),
+        );
         let mut encoder = ctx.device.create_command_encoder(&Default::default());
         self.dispatch(
             &mut encoder,
@@ -1109,7 +1202,11 @@ mod tests {
     #[test]
     fn defaults_are_the_papers() {
         let c = WorldRestirConfig::default();
-        assert_eq!((c.buckets, c.slots, c.candidates), (100_000, 32, 16));
+        assert_eq!((c.buckets, c.slots, c.candidates), (None, 32, 16));
+        assert_eq!(c.combine, Combine::Pairwise);
+        for (mode, name) in Combine::ALL {
+            assert_eq!(name.parse::<Combine>(), Ok(mode));
+        }
         assert_eq!(
             (c.max_count, c.spatial_passes, c.temporal_m_cap),
             (4, 4, 20)
@@ -1127,7 +1224,7 @@ mod tests {
                 ..Default::default()
             },
             WorldRestirConfig {
-                buckets: 0,
+                buckets: Some(0),
                 ..Default::default()
             },
             WorldRestirConfig {
@@ -1141,6 +1238,23 @@ mod tests {
         ] {
             assert!(c.validate().is_err(), "{c:?}");
         }
+    }
+
+    #[test]
+    fn auto_buckets_keep_load_at_most_half() {
+        assert_eq!(auto_buckets(9216, 32), 576);
+        assert_eq!(auto_buckets(0, 32), 64);
+        for v in [1u32, 1000, 9216, 65_536, 1 << 20] {
+            let b = auto_buckets(v, 32);
+            assert!(u64::from(b) * 32 >= 2 * u64::from(v), "{v}");
+        }
+        let c = WorldRestirConfig::default();
+        assert_eq!(c.table(96, 96).num_buckets, 576);
+        let paper = WorldRestirConfig {
+            buckets: Some(100_000),
+            ..c
+        };
+        assert_eq!(paper.table(96, 96).num_buckets, 100_000);
     }
 
     #[test]

@@ -25,7 +25,7 @@ struct WrParams {
     normal_threshold: f32,
     temporal_m_cap: u32,
     jitter: u32,
-    visibility: u32,
+    combine: u32,
     gi_stride: u32,
     debug_view: u32,
 }
