@@ -113,7 +113,14 @@ pub struct FrameRecord {
     /// relMSE of the running average of frames 0..=frame (static camera only).
     pub accumulated_rel_mse_indirect: Option<f64>,
     pub accumulated_rel_mse_combined: Option<f64>,
+    /// Vertices left out of this frame's hash grid (methods with a grid).
+    pub grid_overflows: Option<u32>,
 }
+
+/// Frames left out of the timing at the start of each run: the first holds pipeline
+/// compilation and first-use costs (1369 ms against 77 ms for world-restir's later frames on
+/// llvmpipe), the second still some first-use costs.
+pub const TIMING_WARMUP_FRAMES: u32 = 2;
 
 #[derive(Debug, Clone, Serialize)]
 pub struct MethodRun {
@@ -123,9 +130,21 @@ pub struct MethodRun {
     /// A planted multiplicative bias on the indirect image (negative control), if any.
     pub planted_bias: Option<f32>,
     pub frames: u32,
-    /// Mean GPU milliseconds per frame, total and by stage (null without timestamps).
+    /// Frames the times are taken over: all but the first [`TIMING_WARMUP_FRAMES`] (all but
+    /// the first when the run is that short).
+    pub timed_frames: u32,
+    /// Mean and median GPU milliseconds per timed frame, total and by stage (null without
+    /// timestamps). Equal-time budgets use the median.
     pub ms_per_frame: Option<f64>,
+    pub ms_per_frame_median: Option<f64>,
     pub ms_per_frame_by_stage: Vec<Stage>,
+    pub ms_per_frame_by_stage_median: Vec<Stage>,
+    /// Mean of the method's images over the reference's, per channel, summed over the
+    /// evaluated frames (1 = no bias in the mean).
+    pub bias_indirect: Option<[f64; 3]>,
+    pub bias_combined: Option<[f64; 3]>,
+    /// Most vertices left out of a frame's hash grid (methods with a grid).
+    pub max_grid_overflows: Option<u32>,
     /// Mean per-frame error over the evaluated frames of the second half of the run
     /// (after warm-up for methods with temporal reuse).
     pub frame_indirect: Option<Err2>,
@@ -179,8 +198,6 @@ pub struct ReferenceInfo {
     /// Estimated relMSE of the reference itself (from two independent halves).
     pub self_rel_mse_combined: Option<f64>,
     pub self_rel_mse_indirect: Option<f64>,
-    /// Error of the reference against itself (must be 0).
-    pub against_itself: Err2,
     pub key: String,
     /// References rendered for an animated camera (one per evaluated frame).
     pub count: u32,
@@ -303,9 +320,11 @@ fn run_method(
     let mut acc_dir = vec![[0f64; 3]; pixels];
     let mut cumulative = 0.0f64;
     let mut records = Vec::with_capacity(frames as usize);
-    let mut stage_totals: Vec<Stage> = Vec::new();
     // (indirect, combined, frame) of the last frame with a reference.
     let mut last_eval: Option<(Rgb, Rgb, u32)> = None;
+    // Per channel: sums of the method's and the reference's pixels over the evaluated frames.
+    let mut sums_indirect: Option<[[f64; 3]; 2]> = None;
+    let mut sums_combined: Option<[[f64; 3]; 2]> = None;
     for f in 0..frames {
         if !static_camera {
             m.set_camera(ctx, &camera_at(base, opts.camera, opts.frames, f))?;
@@ -343,12 +362,6 @@ fn run_method(
                 }
             }
         }
-        for s in &stages {
-            match stage_totals.iter_mut().find(|t| t.name == s.name) {
-                Some(t) => t.ms += s.ms,
-                None => stage_totals.push(s.clone()),
-            }
-        }
         let gpu_ms = frame_ms;
         if let Some(ms) = gpu_ms {
             cumulative += ms;
@@ -382,8 +395,13 @@ fn run_method(
             combined: None,
             accumulated_rel_mse_indirect: None,
             accumulated_rel_mse_combined: None,
+            grid_overflows: m.grid_overflows(ctx)?,
         };
         if let Some(r) = refs.get(f) {
+            add_channel_sums(&mut sums_combined, &combined, &r.combined);
+            if let Some(ri) = &r.indirect {
+                add_channel_sums(&mut sums_indirect, &indirect, ri);
+            }
             rec.combined = Some(metrics::errors(&combined, &r.combined)?.into());
             if let Some(ri) = &r.indirect {
                 rec.indirect = Some(metrics::errors(&indirect, ri)?.into());
@@ -434,22 +452,22 @@ fn run_method(
     };
     let frame_indirect = mean_err(|r| r.indirect);
     let frame_combined = mean_err(|r| r.combined);
+    let timed = &records[TIMING_WARMUP_FRAMES.min(frames.saturating_sub(1)) as usize..];
+    let times = TimeSummary::of(timed, timer.is_available());
     let mut run = MethodRun {
         method: spec.to_owned(),
         about: entry.about.to_owned(),
         spp_per_frame: spp,
         planted_bias: bias,
         frames,
-        ms_per_frame: timer
-            .is_available()
-            .then(|| stage_totals.iter().map(|s| s.ms).sum::<f64>() / f64::from(frames)),
-        ms_per_frame_by_stage: stage_totals
-            .into_iter()
-            .map(|s| Stage {
-                name: s.name,
-                ms: s.ms / f64::from(frames),
-            })
-            .collect(),
+        timed_frames: timed.len() as u32,
+        ms_per_frame: times.mean,
+        ms_per_frame_median: times.median,
+        ms_per_frame_by_stage: times.stage_means,
+        ms_per_frame_by_stage_median: times.stage_medians,
+        bias_indirect: sums_indirect.map(channel_ratio),
+        bias_combined: sums_combined.map(channel_ratio),
+        max_grid_overflows: records.iter().filter_map(|r| r.grid_overflows).max(),
         frame_indirect,
         frame_combined,
         frame_flip_combined: None,
@@ -490,6 +508,92 @@ fn run_method(
     Ok(run)
 }
 
+/// Adds the per-channel sums of `img` and `reference` to `sums`.
+fn add_channel_sums(sums: &mut Option<[[f64; 3]; 2]>, img: &[[f32; 3]], reference: &[[f32; 3]]) {
+    let s = sums.get_or_insert([[0.0; 3]; 2]);
+    for (a, r) in img.iter().zip(reference) {
+        for c in 0..3 {
+            s[0][c] += f64::from(a[c]);
+            s[1][c] += f64::from(r[c]);
+        }
+    }
+}
+
+/// Method sum over reference sum, per channel (NaN where the reference is 0).
+fn channel_ratio(sums: [[f64; 3]; 2]) -> [f64; 3] {
+    [0, 1, 2].map(|c| sums[0][c] / sums[1][c])
+}
+
+fn median(mut v: Vec<f64>) -> Option<f64> {
+    if v.is_empty() {
+        return None;
+    }
+    v.sort_by(f64::total_cmp);
+    let n = v.len();
+    Some(if n % 2 == 1 {
+        v[n / 2]
+    } else {
+        0.5 * (v[n / 2 - 1] + v[n / 2])
+    })
+}
+
+/// Mean and median GPU time per frame, total and by stage, over some frames.
+struct TimeSummary {
+    mean: Option<f64>,
+    median: Option<f64>,
+    stage_means: Vec<Stage>,
+    stage_medians: Vec<Stage>,
+}
+
+impl TimeSummary {
+    fn of(frames: &[FrameRecord], timestamps: bool) -> Self {
+        let totals: Vec<f64> = frames.iter().filter_map(|r| r.gpu_ms).collect();
+        if !timestamps || totals.is_empty() {
+            return Self {
+                mean: None,
+                median: None,
+                stage_means: Vec::new(),
+                stage_medians: Vec::new(),
+            };
+        }
+        let n = totals.len() as f64;
+        let mut names: Vec<&str> = Vec::new();
+        for st in frames.iter().flat_map(|r| &r.stages) {
+            if !names.contains(&st.name.as_str()) {
+                names.push(&st.name);
+            }
+        }
+        let per_stage = |name: &str| -> Vec<f64> {
+            frames
+                .iter()
+                .map(|r| {
+                    r.stages
+                        .iter()
+                        .filter(|s| s.name == name)
+                        .map(|s| s.ms)
+                        .sum()
+                })
+                .collect()
+        };
+        let stage = |name: &str, ms: f64| Stage {
+            name: name.to_owned(),
+            ms,
+        };
+        Self {
+            mean: Some(totals.iter().sum::<f64>() / n),
+            median: median(totals),
+            stage_means: names
+                .iter()
+                .map(|&name| stage(name, per_stage(name).iter().sum::<f64>() / n))
+                .collect(),
+            stage_medians: names
+                .iter()
+                .map(|&name| stage(name, median(per_stage(name)).unwrap_or(0.0)))
+                .collect(),
+        }
+    }
+}
+
 fn make_references(
     ctx: &GpuContext,
     scene: &Scene,
@@ -513,7 +617,6 @@ fn make_references(
             samples: 0,
             self_rel_mse_combined: None,
             self_rel_mse_indirect: None,
-            against_itself: metrics::errors(&r.combined, &r.combined)?.into(),
             key: String::new(),
             count: 1,
         };
@@ -566,7 +669,6 @@ fn make_references(
         samples: first.samples,
         self_rel_mse_combined: mean(|r| r.self_rel_mse.map(|x| x.0)),
         self_rel_mse_indirect: mean(|r| r.self_rel_mse.map(|x| x.1)),
-        against_itself: metrics::errors(&first.combined, &first.combined)?.into(),
         key: first.key.clone(),
         count: by_frame.len() as u32,
     };
@@ -594,7 +696,7 @@ fn equal_time_target(opts: &CompareOptions, runs: &[MethodRun]) -> Option<usize>
     runs.iter()
         .enumerate()
         .filter(|(_, r)| r.planted_bias.is_none())
-        .filter_map(|(i, r)| r.ms_per_frame.map(|ms| (i, ms)))
+        .filter_map(|(i, r)| r.ms_per_frame_median.map(|ms| (i, ms)))
         .max_by(|a, b| a.1.total_cmp(&b.1))
         .map(|(i, _)| i)
 }
@@ -665,7 +767,7 @@ fn compare_scene(
     // Equal time: each other method at the spp that fits the target's GPU time per frame.
     let mut equal_time = None;
     if let Some(t) = equal_time_target(opts, &runs)
-        && let Some(t_ms) = runs[t].ms_per_frame
+        && let Some(t_ms) = runs[t].ms_per_frame_median
     {
         let target = runs[t].clone();
         let mut entries = Vec::new();
@@ -673,7 +775,7 @@ fn compare_scene(
             if i == t || run.planted_bias.is_some() {
                 continue;
             }
-            let Some(ms1) = run.ms_per_frame else {
+            let Some(ms1) = run.ms_per_frame_median else {
                 continue;
             };
             let k = ((t_ms / ms1.max(1e-9)).floor() as u32).clamp(1, 4096);
@@ -698,7 +800,7 @@ fn compare_scene(
                 )?
             };
             let speedup = |e: Option<Err2>, te: Option<Err2>, pick: fn(&Err2) -> f64| {
-                let (e, te, ms) = (e?, te?, eq.ms_per_frame?);
+                let (e, te, ms) = (e?, te?, eq.ms_per_frame_median?);
                 (pick(&te) > 0.0).then(|| ms * (pick(&e) / pick(&te)) / t_ms)
             };
             let rel: fn(&Err2) -> f64 = |e| e.rel_mse;
@@ -706,7 +808,7 @@ fn compare_scene(
             entries.push(EqualTimeEntry {
                 method: run.method.clone(),
                 spp_per_frame: k,
-                ms_per_frame: eq.ms_per_frame,
+                ms_per_frame: eq.ms_per_frame_median,
                 frame_indirect: eq.frame_indirect,
                 frame_combined: eq.frame_combined,
                 rel_mse_ratio_indirect: ratio(eq.frame_indirect, target.frame_indirect, rel),

@@ -109,6 +109,14 @@ fn sci(v: Option<f64>) -> String {
     }
 }
 
+/// Three ratios as `r/g/b` with three decimals, or `-`.
+fn rgb(v: Option<[f64; 3]>) -> String {
+    v.map_or_else(
+        || "-".to_owned(),
+        |v| format!("{:.3}/{:.3}/{:.3}", v[0], v[1], v[2]),
+    )
+}
+
 fn rel(e: Option<Err2>) -> Option<f64> {
     e.map(|e| e.rel_mse)
 }
@@ -155,11 +163,15 @@ fn markdown(r: &Report, strip: &[StripRow]) -> String {
          channel; FLIP (mean, NVIDIA's implementation via `nv-flip`) on images tone-mapped with \
          the exposure that maps the reference's 99th-percentile luminance to 1. *Frame* errors \
          are single frames (the mean over the evaluated frames of the second half of the run); \
-         *accumulated* errors are of the average of all frames (static camera only). *Trimmed* \
+         *accumulated* errors are of the average of all frames (static camera only). GPU \
+         times leave out the first {} frames of each run (pipeline compilation and first-use \
+         costs); equal-time budgets use the median. *Bias* is the mean of the method's images \
+         over the reference's, per channel, over the evaluated frames. *Trimmed* \
          relMSE leaves out the 0.1% of pixels with the largest error: with many small lights \
          the estimators are heavy-tailed (1/d^2 next to a light) and a handful of fireflies can \
          decide the plain mean, and so which method looks better.\n",
-        r.rel_mse_eps
+        r.rel_mse_eps,
+        super::TIMING_WARMUP_FRAMES,
     );
     for sc in &r.scenes {
         let _ = writeln!(
@@ -176,8 +188,7 @@ fn markdown(r: &Report, strip: &[StripRow]) -> String {
         let rf = &sc.reference;
         let _ = writeln!(
             s,
-            "Reference: {} ({}, {} spp{}); its own estimated relMSE: combined {}, indirect {}; \
-             against itself: relMSE {}, MSE {}.\n",
+            "Reference: {} ({}, {} spp{}); its own estimated relMSE: combined {}, indirect {}.\n",
             rf.source,
             rf.estimator,
             rf.samples,
@@ -188,31 +199,34 @@ fn markdown(r: &Report, strip: &[StripRow]) -> String {
             },
             sci(rf.self_rel_mse_combined),
             sci(rf.self_rel_mse_indirect),
-            sci(Some(rf.against_itself.rel_mse)),
-            sci(Some(rf.against_itself.mse)),
         );
         let _ = writeln!(
             s,
-            "| method | spp/frame | ms/frame | ms by stage | frame relMSE indirect | frame relMSE \
-             indirect, 0.1% trimmed | frame relMSE combined | frame MSE indirect | frame MSE \
-             combined | frame FLIP combined | accum. relMSE indirect | accum. relMSE combined | \
-             accum. FLIP combined |"
+            "| method | spp/frame | ms/frame median (mean) | median ms by stage | frame relMSE \
+             indirect | frame relMSE indirect, 0.1% trimmed | frame relMSE combined | frame MSE \
+             indirect | frame MSE combined | frame FLIP combined | accum. relMSE indirect | \
+             accum. relMSE combined | accum. FLIP combined | bias indirect (mean / reference, \
+             RGB) | bias combined | grid overflows (most in a frame) |"
         );
-        let _ = writeln!(s, "|---|---|---|---|---|---|---|---|---|---|---|---|---|");
+        let _ = writeln!(
+            s,
+            "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"
+        );
         for m in &sc.methods {
             let stages: Vec<String> = m
-                .ms_per_frame_by_stage
+                .ms_per_frame_by_stage_median
                 .iter()
                 .map(|st| format!("{} {}", st.name, sci(Some(st.ms))))
                 .collect();
             let _ = writeln!(
                 s,
-                "| {}{} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} |",
+                "| {}{} | {} | {} ({}) | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} |",
                 m.method,
                 m.planted_bias
                     .map(|b| format!(" (planted bias x{b})"))
                     .unwrap_or_default(),
                 m.spp_per_frame,
+                sci(m.ms_per_frame_median),
                 sci(m.ms_per_frame),
                 stages.join(", "),
                 sci(rel(m.frame_indirect)),
@@ -224,6 +238,10 @@ fn markdown(r: &Report, strip: &[StripRow]) -> String {
                 sci(rel(m.accumulated_indirect)),
                 sci(rel(m.accumulated_combined)),
                 sci(m.accumulated_flip_combined),
+                rgb(m.bias_indirect),
+                rgb(m.bias_combined),
+                m.max_grid_overflows
+                    .map_or_else(|| "-".to_owned(), |o| o.to_string()),
             );
         }
         s.push('\n');

@@ -50,6 +50,10 @@ pub trait FrameMethod: fmt::Debug {
     }
     /// Moves the camera for the next frames (same image size).
     fn set_camera(&mut self, ctx: &GpuContext, camera: &Camera) -> Result<(), MethodError>;
+    /// Vertices left out of the last frame's hash grid (bucket full), for methods with one.
+    fn grid_overflows(&self, _ctx: &GpuContext) -> Result<Option<u32>, MethodError> {
+        Ok(None)
+    }
 }
 
 /// A baseline (`nee`, `ris`): the renderer itself.
@@ -115,6 +119,13 @@ impl FrameMethod for WorldRestirMethod {
     }
     fn set_camera(&mut self, ctx: &GpuContext, camera: &Camera) -> Result<(), MethodError> {
         Ok(self.inner.set_camera(&ctx.queue, camera)?)
+    }
+    fn grid_overflows(&self, ctx: &GpuContext) -> Result<Option<u32>, MethodError> {
+        let stats = self
+            .inner
+            .grid_stats(ctx)
+            .map_err(|e| MethodError::WorldRestir(e.into()))?;
+        Ok(Some(stats.overflows))
     }
 }
 
