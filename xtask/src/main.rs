@@ -47,18 +47,20 @@ fn test(args: &[String]) -> Result<(), String> {
     cargo(&test_args)
 }
 
-/// The default demo: a compare on many-lights and cornell small enough for a few minutes on
-/// two CPU cores with lavapipe.
-const DEMO_COMPARE: [&str; 12] = [
+/// The default demo: a compare of nee, ris and world-restir on many-lights and cornell at
+/// 256x256, small enough for a few minutes on two CPU cores with lavapipe.
+const DEMO_COMPARE: [&str; 14] = [
     "compare",
     "--scene",
     "many-lights,cornell",
+    "--methods",
+    "nee,ris,world-restir",
     "--size",
-    "96x96",
+    "256x256",
     "--frames",
     "16",
     "--reference-spp",
-    "256",
+    "128",
     "--out",
     "out/compare",
     "--no-exr",
@@ -70,14 +72,14 @@ const RESULTS_COMPARE: [&str; 16] = [
     "--scene",
     "many-lights,cornell",
     "--methods",
-    "nee,ris,world-restir,world-restir:no-reuse,world-restir:temporal,world-restir:spatial,\
-     world-restir:no-adaptive,world-restir:no-jitter",
+    "nee,ris,world-restir,world-restir:biased,world-restir:one-over-z,world-restir:paper-grid,\
+     world-restir:no-reuse",
     "--size",
-    "96x96",
+    "256x256",
     "--frames",
-    "16",
+    "18",
     "--reference-spp",
-    "512",
+    "256",
     "--out",
     "docs/results",
     "--no-exr",
@@ -85,15 +87,16 @@ const RESULTS_COMPARE: [&str; 16] = [
     "out/cache",
 ];
 
-/// Default renders of `cargo xtask demo` (no arguments): each finishes in well under a minute in
-/// release on a 2-core lavapipe machine; the images land in `out/<scene>/`.
+/// Default renders of `cargo xtask demo` (no arguments): world-restir at 256x256 on both scenes,
+/// each well under a minute in release on a 2-core lavapipe machine; the images land in
+/// `out/<scene>/`.
 const DEFAULT_RENDERS: [&[&str]; 2] = [
     &[
         "render",
         "--scene",
         "cornell",
         "--method",
-        "ris",
+        "world-restir",
         "--size",
         "256x256",
         "--spp",
@@ -110,13 +113,13 @@ const DEFAULT_RENDERS: [&[&str]; 2] = [
         "--scene",
         "many-lights",
         "--method",
-        "ris",
+        "world-restir",
         "--size",
-        "192x192",
+        "256x256",
         "--spp",
         "1",
         "--frames",
-        "8",
+        "16",
         "--seed",
         "1",
         "--out",
