@@ -151,12 +151,37 @@ pub const WORLD_RESTIR_VARIANTS: [(&str, &str); 9] = [
     ),
 ];
 
-/// The configuration of a `world-restir` variant.
+/// The configuration of a `world-restir` variant: a named variant, knobs `key=value` (see
+/// [`WorldRestirConfig::set`]), or several of them joined by `+`, applied in order (e.g.
+/// `biased+spatial-passes=2`).
 pub fn world_restir_config(variant: Option<&str>) -> Result<WorldRestirConfig, MethodError> {
-    let d = WorldRestirConfig::default();
-    Ok(match variant.unwrap_or("both") {
+    let mut config = WorldRestirConfig::default();
+    for part in variant.unwrap_or("both").split('+') {
+        config = match part.split_once('=') {
+            Some((key, value)) => {
+                let mut c = config;
+                c.set(key, value).map_err(|e| MethodError::Variant {
+                    method: "world-restir".into(),
+                    msg: e.to_string(),
+                })?;
+                c
+            }
+            None => named_variant(config, part)?,
+        };
+    }
+    config.validate()?;
+    Ok(config)
+}
+
+/// `d` changed as the named variant says.
+fn named_variant(d: WorldRestirConfig, name: &str) -> Result<WorldRestirConfig, MethodError> {
+    Ok(match name {
         "both" => d,
-        "no-reuse" => WorldRestirConfig::no_reuse(),
+        "no-reuse" => WorldRestirConfig {
+            temporal: false,
+            spatial_passes: 0,
+            ..d
+        },
         "temporal" => WorldRestirConfig {
             spatial_passes: 0,
             ..d
@@ -308,7 +333,8 @@ pub fn registry() -> &'static [MethodEntry] {
         MethodEntry {
             name: "world-restir",
             about: "world-space ReSTIR GI: RIS + hash-grid temporal and spatial reuse",
-            variants: "both, no-reuse, temporal, spatial, no-adaptive, no-jitter, biased, one-over-z, paper-grid",
+            variants: "both, no-reuse, temporal, spatial, no-adaptive, no-jitter, biased, one-over-z, \
+                       paper-grid, or knobs key=value (e.g. spatial-passes=2), joined by +",
             equal_time_target: true,
             build: build_world_restir,
         },
@@ -372,5 +398,18 @@ mod tests {
                 .adaptive_cell_size
         );
         assert!(world_restir_config(Some("bogus")).is_err());
+        let k = world_restir_config(Some("biased+spatial-passes=2+max_count=8")).unwrap();
+        assert_eq!(
+            (k.combine, k.spatial_passes, k.max_count),
+            (Combine::Biased, 2, 8)
+        );
+        for bad in [
+            "spatial-passes=x",
+            "nosuch=1",
+            "candidates=0",
+            "temporal+bogus",
+        ] {
+            assert!(world_restir_config(Some(bad)).is_err(), "{bad}");
+        }
     }
 }

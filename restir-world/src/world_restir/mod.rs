@@ -221,6 +221,76 @@ impl WorldRestirConfig {
         }
     }
 
+    /// Sets one knob from its name (the field's, with `-` or `_`) and a value: numbers, `on` /
+    /// `off` for switches, `auto` or a count for `buckets`, a [`Combine`] name for `combine`.
+    pub fn set(&mut self, key: &str, value: &str) -> Result<(), WorldRestirError> {
+        fn parse<T: std::str::FromStr>(key: &str, value: &str) -> Result<T, WorldRestirError> {
+            value
+                .parse()
+                .map_err(|_| WorldRestirError::Config(format!("{key}: cannot parse {value:?}")))
+        }
+        fn switch(key: &str, value: &str) -> Result<bool, WorldRestirError> {
+            match value {
+                "on" | "true" | "1" => Ok(true),
+                "off" | "false" | "0" => Ok(false),
+                _ => Err(WorldRestirError::Config(format!(
+                    "{key}: expected on or off, got {value:?}"
+                ))),
+            }
+        }
+        match key.replace('-', "_").as_str() {
+            "buckets" => {
+                self.buckets = if value == "auto" {
+                    None
+                } else {
+                    Some(parse(key, value)?)
+                }
+            }
+            "slots" => self.slots = parse(key, value)?,
+            "candidates" => self.candidates = parse(key, value)?,
+            "max_count" => self.max_count = parse(key, value)?,
+            "spatial_passes" => self.spatial_passes = parse(key, value)?,
+            "temporal" => self.temporal = switch(key, value)?,
+            "temporal_m_cap" => self.temporal_m_cap = parse(key, value)?,
+            "min_cell_size" => self.min_cell_size = parse(key, value)?,
+            "projected_size" => self.projected_size = parse(key, value)?,
+            "jitter" => self.jitter = switch(key, value)?,
+            "adaptive_cell_size" => self.adaptive_cell_size = switch(key, value)?,
+            "normal_threshold" => self.normal_threshold = parse(key, value)?,
+            "gi_stride" => self.gi_stride = parse(key, value)?,
+            "combine" => {
+                self.combine = value.parse().map_err(WorldRestirError::Config)?;
+            }
+            "sort_cells" => self.sort_cells = switch(key, value)?,
+            _ => {
+                return Err(WorldRestirError::Config(format!(
+                    "unknown knob {key:?}; known: {}",
+                    Self::KNOBS.join(", ")
+                )));
+            }
+        }
+        Ok(())
+    }
+
+    /// The knob names [`WorldRestirConfig::set`] takes.
+    pub const KNOBS: [&'static str; 15] = [
+        "buckets",
+        "slots",
+        "candidates",
+        "max-count",
+        "spatial-passes",
+        "temporal",
+        "temporal-m-cap",
+        "min-cell-size",
+        "projected-size",
+        "jitter",
+        "adaptive-cell-size",
+        "normal-threshold",
+        "gi-stride",
+        "combine",
+        "sort-cells",
+    ];
+
     /// Checks every knob.
     pub fn validate(&self) -> Result<(), WorldRestirError> {
         let bad = |m: String| Err(WorldRestirError::Config(m));
@@ -1237,6 +1307,55 @@ mod tests {
             },
         ] {
             assert!(c.validate().is_err(), "{c:?}");
+        }
+    }
+
+    #[test]
+    fn every_knob_can_be_set_by_name() {
+        let mut c = WorldRestirConfig::default();
+        for (key, value) in [
+            ("buckets", "100000"),
+            ("slots", "16"),
+            ("candidates", "8"),
+            ("max-count", "8"),
+            ("spatial-passes", "2"),
+            ("temporal", "off"),
+            ("temporal-m-cap", "10"),
+            ("min-cell-size", "0.02"),
+            ("projected-size", "8"),
+            ("jitter", "off"),
+            ("adaptive-cell-size", "off"),
+            ("normal-threshold", "0.5"),
+            ("gi-stride", "2"),
+            ("combine", "one-over-z"),
+            ("sort-cells", "off"),
+        ] {
+            c.set(key, value).unwrap_or_else(|e| panic!("{key}: {e}"));
+        }
+        assert_eq!(
+            c,
+            WorldRestirConfig {
+                buckets: Some(100_000),
+                slots: 16,
+                candidates: 8,
+                max_count: 8,
+                spatial_passes: 2,
+                temporal: false,
+                temporal_m_cap: 10,
+                min_cell_size: 0.02,
+                projected_size: 8.0,
+                jitter: false,
+                adaptive_cell_size: false,
+                normal_threshold: 0.5,
+                gi_stride: 2,
+                combine: Combine::OneOverZ,
+                sort_cells: false,
+            }
+        );
+        c.set("buckets", "auto").unwrap();
+        assert_eq!(c.buckets, None);
+        for (key, value) in [("nosuch", "1"), ("slots", "x"), ("jitter", "maybe")] {
+            assert!(c.set(key, value).is_err(), "{key}={value}");
         }
     }
 
