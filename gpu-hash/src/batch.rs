@@ -82,8 +82,44 @@ impl Kernel {
     }
 }
 
+/// Storage buffers the insert kernels bind in one stage: the table role's checksums, counters
+/// and stats, plus the batch's input and output.
+pub const BATCH_STORAGE_BUFFERS_PER_STAGE: u32 = 5;
+
+/// Checks the device limits the batch kernels need (the README's device requirements table).
+pub(crate) fn check_batch_limits(limits: &wgpu::Limits) -> Result<(), HashError> {
+    let what = "HashBatch";
+    let checks = [
+        (
+            "max_storage_buffers_per_shader_stage",
+            BATCH_STORAGE_BUFFERS_PER_STAGE,
+            limits.max_storage_buffers_per_shader_stage,
+        ),
+        (
+            "max_uniform_buffers_per_shader_stage",
+            2,
+            limits.max_uniform_buffers_per_shader_stage,
+        ),
+        ("max_bind_groups", 2, limits.max_bind_groups),
+        (
+            "max_compute_invocations_per_workgroup",
+            WORKGROUP_SIZE,
+            limits.max_compute_invocations_per_workgroup,
+        ),
+        (
+            "max_compute_workgroup_size_x",
+            WORKGROUP_SIZE,
+            limits.max_compute_workgroup_size_x,
+        ),
+    ];
+    crate::check_limits(what, &checks)
+}
+
 impl HashBatch {
-    pub fn new(device: &wgpu::Device) -> Self {
+    /// Builds the batch pipelines, after checking the device limits they need
+    /// ([`HashError::DeviceLimit`] otherwise).
+    pub fn new(device: &wgpu::Device) -> Result<Self, HashError> {
+        check_batch_limits(&device.limits())?;
         let layout = |label: &str, entries: &[wgpu::BindGroupLayoutEntry]| {
             device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
                 label: Some(label),
@@ -148,7 +184,7 @@ impl HashBatch {
                 cache: None,
             })
         };
-        Self {
+        Ok(Self {
             insert_keys: pipeline(&insert_layout, &insert_module, "insert_keys"),
             insert_points: pipeline(&insert_layout, &insert_module, "insert_points"),
             table_stats: pipeline(&stats_layout, &insert_module, "table_stats"),
@@ -160,7 +196,7 @@ impl HashBatch {
             io_layout,
             table_layout,
             lookup_layout,
-        }
+        })
     }
 
     fn pipeline(&self, kernel: Kernel) -> (&wgpu::ComputePipeline, bool) {
@@ -205,6 +241,14 @@ impl HashBatch {
         if n == 0 {
             return Ok(());
         }
+        // Bind exactly the ranges the kernel reads and writes, so a caller's buffer may be
+        // larger than one binding; a range that itself exceeds the limit is an error here.
+        let limit = device.limits().max_storage_buffer_binding_size;
+        for (name, bytes) in [("input", need_in), ("output", need_out)] {
+            if bytes > limit {
+                return Err(HashError::BindingTooLarge { name, bytes, limit });
+            }
+        }
         let (pipeline, writes_table) = self.pipeline(kernel);
         let role = if writes_table {
             device.create_bind_group(&wgpu::BindGroupDescriptor {
@@ -234,11 +278,19 @@ impl HashBatch {
                 },
                 wgpu::BindGroupEntry {
                     binding: 1,
-                    resource: input.as_entire_binding(),
+                    resource: wgpu::BindingResource::Buffer(wgpu::BufferBinding {
+                        buffer: input,
+                        offset: 0,
+                        size: wgpu::BufferSize::new(need_in),
+                    }),
                 },
                 wgpu::BindGroupEntry {
                     binding: 2,
-                    resource: output.as_entire_binding(),
+                    resource: wgpu::BindingResource::Buffer(wgpu::BufferBinding {
+                        buffer: output,
+                        offset: 0,
+                        size: wgpu::BufferSize::new(need_out),
+                    }),
                 },
             ],
         });

@@ -90,9 +90,50 @@ pub enum HashError {
         have: u64,
         need: u64,
     },
+    /// A device limit is below what a kernel or binding role needs (see the crate README's
+    /// device requirements table).
+    #[error("{what} needs {limit} >= {needed}, the device has {available}")]
+    DeviceLimit {
+        /// What needs it (a kernel or binding role).
+        what: &'static str,
+        /// The field of [`wgpu::Limits`].
+        limit: &'static str,
+        needed: u64,
+        available: u64,
+    },
+    /// A caller's buffer range would exceed the device's storage binding limit.
+    #[error(
+        "buffer `{name}` would be bound with {bytes} bytes, above the device's max storage binding of {limit} bytes"
+    )]
+    BindingTooLarge {
+        name: &'static str,
+        bytes: u64,
+        limit: u64,
+    },
     /// Reading the stats back failed.
     #[error("reading back hash table stats failed: {0}")]
     Readback(String),
+}
+
+/// Storage buffers the table role ([`bindings_wgsl`]) binds: checksums, counters, stats.
+pub const TABLE_STORAGE_BUFFERS: u32 = 3;
+
+/// Checks `(limit name, needed, available)` triples for `what`.
+pub(crate) fn check_limits(
+    what: &'static str,
+    checks: &[(&'static str, u32, u32)],
+) -> Result<(), HashError> {
+    for &(limit, needed, available) in checks {
+        if available < needed {
+            return Err(HashError::DeviceLimit {
+                what,
+                limit,
+                needed: u64::from(needed),
+                available: u64::from(available),
+            });
+        }
+    }
+    Ok(())
 }
 
 /// Every WGSL module this crate ships, composed as it is used, as `(name, source)`: the

@@ -219,6 +219,22 @@ impl HashTable {
             probe_buckets: params.probe_buckets,
         };
         config.validate()?;
+        let limits = device.limits();
+        crate::check_limits(
+            "HashTable (table role)",
+            &[
+                (
+                    "max_storage_buffers_per_shader_stage",
+                    crate::TABLE_STORAGE_BUFFERS,
+                    limits.max_storage_buffers_per_shader_stage,
+                ),
+                (
+                    "max_uniform_buffers_per_shader_stage",
+                    1,
+                    limits.max_uniform_buffers_per_shader_stage,
+                ),
+            ],
+        )?;
         let bytes = config.num_slots() * 4;
         let limit = device
             .limits()

@@ -95,6 +95,20 @@ pub enum ScanError {
     /// The device's compute limits cannot hold the kernel's workgroup.
     #[error("the device's compute limits cannot run the scan kernel: {0}")]
     UnsupportedLimits(String),
+    /// A device limit is below what the scan kernel needs (see the crate README's device
+    /// requirements table).
+    #[error("the scan needs {limit} >= {needed}, the device has {available}")]
+    DeviceLimit {
+        /// The field of [`wgpu::Limits`].
+        limit: &'static str,
+        needed: u64,
+        available: u64,
+    },
+    /// `items_per_thread` is not one of the supported values.
+    #[error(
+        "items_per_thread {0} is not supported (use 4, 8, 12, 16, ...: a non-zero multiple of 4)"
+    )]
+    InvalidItemsPerThread(u32),
     /// `n` is larger than the scan's `max_len` (which never exceeds the binding limit).
     #[error("n = {n} exceeds this scan's max_len of {max_len} elements")]
     TooLong { n: u32, max_len: u32 },
@@ -235,6 +249,12 @@ impl Scan {
         if desc.use_subgroups && !device.features().contains(wgpu::Features::SUBGROUP) {
             return Err(ScanError::SubgroupsUnavailable);
         }
+        check_device_limits(&limits)?;
+        if let Some(items) = desc.items_per_thread {
+            if items == 0 || items % 4 != 0 {
+                return Err(ScanError::InvalidItemsPerThread(items));
+            }
+        }
         let max_threads = limits
             .max_compute_invocations_per_workgroup
             .min(limits.max_compute_workgroup_size_x)
@@ -255,14 +275,9 @@ impl Scan {
             subgroups: desc.use_subgroups,
         };
         let candidates: Vec<u32> = match desc.items_per_thread {
-            Some(items) => vec![items.max(4)],
+            Some(items) => vec![items],
             None => vec![16, 8, 4],
         };
-        if candidates.iter().any(|i| i % 4 != 0) {
-            return Err(ScanError::UnsupportedLimits(
-                "items_per_thread must be a multiple of 4 (vec4 loads)".into(),
-            ));
-        }
         let items = candidates.into_iter().find(|&items| {
             let c = KernelConfig {
                 items_per_thread: items,
@@ -633,6 +648,48 @@ struct Views<'a> {
     output: (&'a wgpu::Buffer, Option<u64>),
     input4: (&'a wgpu::Buffer, Option<u64>),
     output4: (&'a wgpu::Buffer, Option<u64>),
+}
+
+/// Storage buffers the scan kernel binds in its one compute stage.
+pub const STORAGE_BUFFERS_PER_STAGE: u32 = 8;
+
+/// The device limits every scan needs, whatever its descriptor (the README's device
+/// requirements table): checked by [`Scan::new`] before anything is created, so a device that
+/// falls short gets a [`ScanError::DeviceLimit`] instead of a wgpu validation error.
+pub fn check_device_limits(limits: &wgpu::Limits) -> Result<(), ScanError> {
+    let checks = [
+        (
+            "max_storage_buffers_per_shader_stage",
+            STORAGE_BUFFERS_PER_STAGE,
+            limits.max_storage_buffers_per_shader_stage,
+        ),
+        ("max_bind_groups", 1, limits.max_bind_groups),
+        (
+            "max_bindings_per_bind_group",
+            STORAGE_BUFFERS_PER_STAGE,
+            limits.max_bindings_per_bind_group,
+        ),
+        (
+            "max_compute_invocations_per_workgroup",
+            32,
+            limits.max_compute_invocations_per_workgroup,
+        ),
+        (
+            "max_compute_workgroup_size_x",
+            32,
+            limits.max_compute_workgroup_size_x,
+        ),
+    ];
+    for (limit, needed, available) in checks {
+        if available < needed {
+            return Err(ScanError::DeviceLimit {
+                limit,
+                needed: u64::from(needed),
+                available: u64::from(available),
+            });
+        }
+    }
+    Ok(())
 }
 
 fn check_storage(which: &'static str, buffer: &wgpu::Buffer) -> Result<(), ScanError> {

@@ -88,7 +88,7 @@ fn insert_ms(ctx: &GpuContext, batch: &HashBatch, c: &Case) -> f64 {
 
 fn hash(c: &mut Criterion) {
     let ctx = gpu::context();
-    let batch = HashBatch::new(&ctx.device);
+    let batch = HashBatch::new(&ctx.device).expect("hash batch");
     let floors = RandomAccessKernel::new(&ctx.device);
     let mut group = c.benchmark_group("gpu-hash");
     group.sample_size(10);

@@ -19,7 +19,7 @@ fn fixture() -> Fixture {
     let ctx = gpu::context();
     Fixture {
         ctx,
-        batch: HashBatch::new(&ctx.device),
+        batch: HashBatch::new(&ctx.device).expect("hash batch"),
     }
 }
 
@@ -863,4 +863,114 @@ fn previous_frame_lookup_while_building_the_current_frame() {
         assert_eq!(g[0], *slot);
     }
     eprintln!("{hits} of {} lookups hit last frame's grid", frame_b.len());
+}
+
+/// Issue 13.3: a device below the batch kernels' needs (5 storage buffers per stage) gets a
+/// typed error from `HashBatch::new`; the table itself (3 storage buffers) still works there,
+/// and a device below the table role's needs gets a typed error from `HashTable::new`.
+#[test]
+fn downlevel_device_gets_typed_errors() {
+    let config = TableConfig {
+        num_buckets: 1024,
+        ..TableConfig::default()
+    };
+    let p = params(config, Vec3::ZERO);
+    for limits in [
+        wgpu::Limits::downlevel_defaults(),
+        gpu::limits_with_storage_buffers(4),
+    ] {
+        let (device, queue) = gpu::device_with_limits(limits);
+        let err = HashBatch::new(&device).unwrap_err();
+        assert!(
+            matches!(
+                err,
+                gpu_hash::HashError::DeviceLimit {
+                    limit: "max_storage_buffers_per_shader_stage",
+                    needed: 5,
+                    ..
+                }
+            ),
+            "{err}"
+        );
+        HashTable::new(&device, &queue, &p).unwrap();
+    }
+    let (device, queue) = gpu::device_with_limits(gpu::limits_with_storage_buffers(2));
+    let err = HashTable::new(&device, &queue, &p).unwrap_err();
+    assert!(
+        matches!(
+            err,
+            gpu_hash::HashError::DeviceLimit {
+                limit: "max_storage_buffers_per_shader_stage",
+                needed: 3,
+                ..
+            }
+        ),
+        "{err}"
+    );
+    let (device, _queue) = gpu::device_with_limits(gpu::limits_with_storage_buffers(5));
+    HashBatch::new(&device).unwrap();
+}
+
+/// Issue 13.4: `encode_*` binds only the ranges it uses, so a points buffer larger than one
+/// binding works for a small `n`; a range that itself exceeds the limit is an error at encode
+/// time, before wgpu sees it.
+#[test]
+fn buffers_larger_than_a_binding_are_bound_by_range() {
+    let ctx = gpu::context();
+    const LIMIT: u64 = 1 << 20;
+    let (device, queue) = gpu::device_with_limits(wgpu::Limits {
+        max_storage_buffer_binding_size: LIMIT,
+        ..ctx.adapter.limits()
+    });
+    let small = GpuContext {
+        device,
+        queue,
+        ..ctx.clone()
+    };
+    let d = &small.device;
+    let batch = HashBatch::new(d).unwrap();
+    let config = TableConfig {
+        num_buckets: 4096,
+        ..TableConfig::default()
+    };
+    let p = params(config, Vec3::new(0.0, 1.0, -4.0));
+    let t = HashTable::new(d, &small.queue, &p).unwrap();
+    gpu::run(&small, |enc| t.encode_clear(enc));
+    let n = 1000u32;
+    let mut rng = StdRng::seed_from_u64(13);
+    let mut host = vec![[0f32; 4]; (LIMIT as usize + 16) / 16];
+    for q in host.iter_mut().take(n as usize) {
+        *q = [
+            rng.random_range(-1.0..1.0),
+            rng.random_range(-1.0..1.0),
+            rng.random_range(-1.0..1.0),
+            1.0,
+        ];
+    }
+    let points = buffers::storage_from(d, "points 16 bytes over the binding limit", &host);
+    assert_eq!(points.size(), LIMIT + 16);
+    let out = buffers::storage_zeroed(d, "out", LIMIT + 16);
+    gpu::run(&small, |enc| {
+        batch
+            .encode_insert_points(d, enc, &t, &points, &out, n)
+            .unwrap()
+    });
+    let got: Vec<[u32; 2]> = buffers::read_range(&small, &out, 0, u64::from(n) * 8).unwrap();
+    for (q, [slot, _]) in host.iter().zip(&got) {
+        let c = p.cell(Vec3::new(q[0], q[1], q[2]));
+        assert_eq!(*slot / config.slots_per_bucket, c.bucket);
+    }
+    // n whose range exceeds the binding: an error at encode time.
+    let too_many = (LIMIT / 16 + 1) as u32;
+    let mut enc = d.create_command_encoder(&Default::default());
+    let err = batch
+        .encode_insert_points(d, &mut enc, &t, &points, &out, too_many)
+        .unwrap_err();
+    assert!(
+        matches!(
+            err,
+            gpu_hash::HashError::BindingTooLarge { name: "input", .. }
+        ),
+        "{err}"
+    );
 }

@@ -483,6 +483,50 @@ fn own_device_without_subgroups() {
     assert_eq!(total, cpu::total(&input));
 }
 
+/// Issue 13.2: a device below the kernel's needs (8 storage buffers per stage) gets a typed
+/// error from `Scan::new`, never a wgpu validation panic.
+#[test]
+fn downlevel_device_gets_a_typed_error() {
+    for limits in [
+        wgpu::Limits::downlevel_defaults(),
+        gpu::limits_with_storage_buffers(7),
+    ] {
+        let (device, _queue) = gpu::device_with_limits(limits);
+        let err = Scan::new(&device, &ScanDescriptor::new(1 << 16)).unwrap_err();
+        assert!(
+            matches!(
+                err,
+                ScanError::DeviceLimit {
+                    limit: "max_storage_buffers_per_shader_stage",
+                    needed: 8,
+                    ..
+                }
+            ),
+            "{err}"
+        );
+    }
+    // Exactly 8 is enough.
+    let (device, _queue) = gpu::device_with_limits(gpu::limits_with_storage_buffers(8));
+    Scan::new(&device, &ScanDescriptor::new(1 << 16)).unwrap();
+}
+
+/// Issue 13.5: unsupported `items_per_thread` values are the caller's error, not silently
+/// changed and not blamed on the device.
+#[test]
+fn invalid_items_per_thread_are_rejected() {
+    let ctx = gpu::context();
+    for items in [0u32, 2, 6] {
+        let desc = ScanDescriptor {
+            items_per_thread: Some(items),
+            ..ScanDescriptor::new(1 << 16)
+        };
+        assert_eq!(
+            Scan::new(&ctx.device, &desc).unwrap_err(),
+            ScanError::InvalidItemsPerThread(items)
+        );
+    }
+}
+
 fn pollster_block_on<F: std::future::Future>(f: F) -> F::Output {
     // A minimal executor: wgpu's native futures are ready when polled after the call returns.
     let waker = std::task::Waker::noop();
