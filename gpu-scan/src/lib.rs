@@ -30,6 +30,33 @@ pub use shaders::KernelConfig;
 /// Default failed polls of one predecessor before a workgroup takes the fallback.
 pub const DEFAULT_SPIN_LIMIT: u32 = 256;
 
+/// Default elements per invocation on GPUs (see [`ScanDescriptor::items_per_thread`]).
+pub const DEFAULT_ITEMS_PER_THREAD: u32 = 16;
+
+/// Default invocations per workgroup on GPUs (see [`ScanDescriptor::workgroup_size`]).
+pub const DEFAULT_WORKGROUP_SIZE: u32 = 256;
+
+/// Default elements per invocation on CPU adapters (llvmpipe / lavapipe, SwiftShader).
+pub const CPU_ITEMS_PER_THREAD: u32 = 1024;
+
+/// Default invocations per workgroup on CPU adapters.
+pub const CPU_WORKGROUP_SIZE: u32 = 32;
+
+/// The default `(workgroup_size, items_per_thread)` for an adapter.
+///
+/// GPUs get 256 x 16 (tiles of 4096: enough invocations to hide memory latency). CPU adapters
+/// (`DeviceType::Cpu`) get 32 x 1024 (tiles of 32768): there every workgroup runs as a few
+/// SIMD lanes on one core, and the per-tile costs (barriers, which llvmpipe implements as
+/// coroutine switches, the ticket, the look-back) dominate unless each invocation scans a long
+/// run. On llvmpipe this takes a 2^25 scan from ~0.2 to ~1.0 times the speed of a plain copy.
+pub fn default_shape(info: &wgpu::AdapterInfo) -> (u32, u32) {
+    if info.device_type == wgpu::DeviceType::Cpu {
+        (CPU_WORKGROUP_SIZE, CPU_ITEMS_PER_THREAD)
+    } else {
+        (DEFAULT_WORKGROUP_SIZE, DEFAULT_ITEMS_PER_THREAD)
+    }
+}
+
 /// Which prefix sum.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub enum ScanKind {
@@ -57,9 +84,13 @@ pub struct ScanDescriptor {
     /// Count tiles, look-back steps, failed polls and fallbacks into a debug buffer
     /// ([`Scan::counters_buffer`]). Costs a few atomics per tile; for benchmarks and tests.
     pub debug_counters: bool,
-    /// Elements per thread (tile = workgroup size x this), a multiple of 4. `None` picks the
-    /// largest of 16, 8, 4 that fits the device's workgroup memory.
+    /// Elements per thread (tile = workgroup size x this), a non-zero multiple of 4: each
+    /// invocation scans a run of this many consecutive elements serially in registers. `None`
+    /// picks [`DEFAULT_ITEMS_PER_THREAD`].
     pub items_per_thread: Option<u32>,
+    /// Invocations per workgroup, a power of two >= 32 within the device's limits. `None`
+    /// picks [`DEFAULT_WORKGROUP_SIZE`] (or the device's largest power of two below it).
+    pub workgroup_size: Option<u32>,
 }
 
 impl ScanDescriptor {
@@ -71,6 +102,7 @@ impl ScanDescriptor {
             spin_limit: DEFAULT_SPIN_LIMIT,
             debug_counters: false,
             items_per_thread: None,
+            workgroup_size: None,
         }
     }
 
@@ -104,6 +136,9 @@ pub enum ScanError {
         needed: u64,
         available: u64,
     },
+    /// `workgroup_size` is not a power of two in `32..=max`.
+    #[error("workgroup_size {size} is not a power of two in 32..={max}")]
+    InvalidWorkgroupSize { size: u32, max: u32 },
     /// `items_per_thread` is not one of the supported values.
     #[error(
         "items_per_thread {0} is not supported (use 4, 8, 12, 16, ...: a non-zero multiple of 4)"
@@ -264,7 +299,17 @@ impl Scan {
                 "{max_threads} invocations per workgroup (need 32)"
             )));
         }
-        let workgroup_size = 1 << max_threads.ilog2();
+        let (default_wg, default_items) = default_shape(&device.adapter_info());
+        let workgroup_size = match desc.workgroup_size {
+            None => 1 << max_threads.min(default_wg).ilog2(),
+            Some(w) if w.is_power_of_two() && w >= 32 && w <= max_threads => w,
+            Some(w) => {
+                return Err(ScanError::InvalidWorkgroupSize {
+                    size: w,
+                    max: 1 << max_threads.ilog2(),
+                });
+            }
+        };
         let mut config = KernelConfig {
             workgroup_size,
             items_per_thread: 1,
@@ -274,23 +319,17 @@ impl Scan {
             max_groups_x: limits.max_compute_workgroups_per_dimension,
             subgroups: desc.use_subgroups,
         };
-        let candidates: Vec<u32> = match desc.items_per_thread {
-            Some(items) => vec![items],
-            None => vec![16, 8, 4],
-        };
-        let items = candidates.into_iter().find(|&items| {
-            let c = KernelConfig {
-                items_per_thread: items,
-                ..config
-            };
-            c.workgroup_bytes() <= limits.max_compute_workgroup_storage_size
-        });
-        config.items_per_thread = items.ok_or_else(|| {
-            ScanError::UnsupportedLimits(format!(
-                "{} bytes of workgroup memory",
-                limits.max_compute_workgroup_storage_size
-            ))
-        })?;
+        config.items_per_thread = desc.items_per_thread.unwrap_or(default_items);
+        if config.workgroup_bytes() > limits.max_compute_workgroup_storage_size {
+            return Err(ScanError::DeviceLimit {
+                limit: "max_compute_workgroup_storage_size",
+                needed: u64::from(config.workgroup_bytes()),
+                available: u64::from(limits.max_compute_workgroup_storage_size),
+            });
+        }
+        if u64::from(config.tile_len()) > u64::from(u32::MAX / 2) {
+            return Err(ScanError::InvalidItemsPerThread(config.items_per_thread));
+        }
         let tiles = desc.max_len.div_ceil(config.tile_len()).max(1);
         let groups = split_groups(tiles, config.max_groups_x);
         if groups.1 > limits.max_compute_workgroups_per_dimension {

@@ -1,7 +1,10 @@
 //! gpu-scan microbenchmark: the single-pass exclusive scan against the vec4 copy floor (reads n,
 //! writes n), our three-dispatch reduce-then-scan, and a serial scan on the host, at
-//! n = 2^20, 2^22, 2^25 (clamped to the adapter's binding limit). GPU work is timed with GPU
-//! timestamps; every ratio compares kernels measured in the same run on the same device.
+//! n = 2^20, 2^24, 2^25 (clamped to the adapter's binding limit; `SCAN_BENCH_SIZES=20,24`
+//! picks others, `SCAN_BENCH_CRITERION=0` skips the criterion groups and prints only the
+//! RESULT lines, `SCAN_BENCH_WG` / `SCAN_BENCH_ITEMS` override the kernel shape). GPU work is
+//! timed with GPU timestamps; every ratio compares kernels measured in the same run on the same
+//! device.
 //!
 //! Besides the ratios, each RESULT line carries what explains them on a device that falls
 //! short: the per-tile cost, the look-back's failed polls and fallbacks (from a run with debug
@@ -19,15 +22,43 @@ use rand::{Rng, SeedableRng, rngs::StdRng};
 use tests::floors::{CopyKernel, ReduceThenScan};
 use tests::{bench, buffers, gpu};
 
+/// `SCAN_BENCH_SIZES`: comma-separated log2 sizes (default `20,24,25`).
+fn sizes_log2() -> Vec<u32> {
+    match std::env::var("SCAN_BENCH_SIZES") {
+        Ok(v) => v
+            .split(',')
+            .map(|s| {
+                s.trim()
+                    .parse()
+                    .expect("SCAN_BENCH_SIZES: log2 sizes, e.g. 20,24,25")
+            })
+            .collect(),
+        Err(_) => vec![20, 24, 25],
+    }
+}
+
+/// An optional `u32` from the environment (kernel-shape experiments).
+fn env_u32(name: &str) -> Option<u32> {
+    std::env::var(name)
+        .ok()
+        .map(|v| v.parse().unwrap_or_else(|_| panic!("{name}: a u32")))
+}
+
 fn scan_bench(c: &mut Criterion) {
     let ctx = gpu::context();
     let max = u32::try_from(ctx.max_storage_u32s()).unwrap_or(u32::MAX);
-    let sizes: Vec<u32> = [1u32 << 20, 1 << 22, 1 << 25]
+    let sizes: Vec<u32> = sizes_log2()
         .into_iter()
-        .map(|n| n.min(max & !3))
+        .map(|l| (1u32 << l).min(max & !3))
         .collect();
+    // SCAN_BENCH_CRITERION=0 skips the criterion groups: only the RESULT runs.
+    let with_criterion = std::env::var("SCAN_BENCH_CRITERION").map_or(true, |v| v != "0");
     let max_n = *sizes.iter().max().unwrap();
-    let desc = ScanDescriptor::for_device(&ctx.device, max_n);
+    let desc = ScanDescriptor {
+        items_per_thread: env_u32("SCAN_BENCH_ITEMS"),
+        workgroup_size: env_u32("SCAN_BENCH_WG"),
+        ..ScanDescriptor::for_device(&ctx.device, max_n)
+    };
     let scan = Scan::new(&ctx.device, &desc).expect("scan");
     let counting = Scan::new(
         &ctx.device,
@@ -66,30 +97,32 @@ fn scan_bench(c: &mut Criterion) {
             rts.encode_downsweep_only(&ctx.device, enc, &input, &output, n)
         };
 
-        let label = format!("2^{}", n.ilog2());
-        let mut group = c.benchmark_group(format!("gpu-scan/{label}"));
-        group.throughput(Throughput::Elements(u64::from(n)));
-        group.sample_size(10);
-        group.warm_up_time(Duration::from_millis(500));
-        group.measurement_time(Duration::from_secs(if n >= 1 << 24 { 6 } else { 2 }));
-        group.bench_function("scan_exclusive", |b| {
-            b.iter_custom(|iters| bench::gpu_time(ctx, iters, record_scan))
-        });
-        group.bench_function("copy_vec4", |b| {
-            b.iter_custom(|iters| bench::gpu_time(ctx, iters, record_copy))
-        });
-        group.bench_function("reduce_then_scan", |b| {
-            b.iter_custom(|iters| bench::gpu_time(ctx, iters, record_rts))
-        });
-        group.bench_function("host_scan", |b| {
-            b.iter(|| {
-                host_scan(
-                    std::hint::black_box(&host_input[..n as usize]),
-                    &mut host_output[..n as usize],
-                )
-            })
-        });
-        group.finish();
+        if with_criterion {
+            let label = format!("2^{}", n.ilog2());
+            let mut group = c.benchmark_group(format!("gpu-scan/{label}"));
+            group.throughput(Throughput::Elements(u64::from(n)));
+            group.sample_size(10);
+            group.warm_up_time(Duration::from_millis(500));
+            group.measurement_time(Duration::from_secs(if n >= 1 << 24 { 6 } else { 2 }));
+            group.bench_function("scan_exclusive", |b| {
+                b.iter_custom(|iters| bench::gpu_time(ctx, iters, record_scan))
+            });
+            group.bench_function("copy_vec4", |b| {
+                b.iter_custom(|iters| bench::gpu_time(ctx, iters, record_copy))
+            });
+            group.bench_function("reduce_then_scan", |b| {
+                b.iter_custom(|iters| bench::gpu_time(ctx, iters, record_rts))
+            });
+            group.bench_function("host_scan", |b| {
+                b.iter(|| {
+                    host_scan(
+                        std::hint::black_box(&host_input[..n as usize]),
+                        &mut host_output[..n as usize],
+                    )
+                })
+            });
+            group.finish();
+        }
 
         // The RESULT numbers: interleaved timed runs so that drift hits every kernel alike.
         let reps = if n >= 1 << 24 { 5 } else { 15 };
@@ -165,6 +198,11 @@ fn scan_bench(c: &mut Criterion) {
                     format!("{:.4}", per_tile(counters.fallbacks)),
                 ),
                 ("subgroups", desc.use_subgroups.to_string()),
+                ("workgroup_size", scan.config().workgroup_size.to_string()),
+                (
+                    "items_per_thread",
+                    scan.config().items_per_thread.to_string(),
+                ),
             ],
         );
         println!("{line}");

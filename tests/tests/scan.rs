@@ -128,6 +128,48 @@ fn awkward_sizes_match_cpu_twin() {
     }
 }
 
+/// The thread-coarsened kernel over several (workgroup size, items per thread) shapes: the GPU
+/// default, the CPU default, short and non-power-of-two runs; sizes around run, tile and vec4
+/// boundaries; both workgroup-scan variants; and the forced fallback (which reduces whole
+/// predecessor tiles).
+#[test]
+fn kernel_shapes_match_cpu_twin_on_awkward_sizes() {
+    let ctx = gpu::context();
+    let shapes = [(256u32, 16u32), (32, 1024), (32, 4), (64, 12), (128, 8)];
+    for (wg, items) in shapes {
+        for spin_limit in [gpu_scan::DEFAULT_SPIN_LIMIT, 0] {
+            let desc = ScanDescriptor {
+                workgroup_size: Some(wg),
+                items_per_thread: Some(items),
+                spin_limit,
+                ..ScanDescriptor::new(1 << 20)
+            };
+            for (name, scan) in variants(ctx, desc, "kernel_shapes (subgroup half)") {
+                assert_eq!(scan.tile_len(), wg * items);
+                let t = scan.tile_len();
+                let name = format!("{name} {wg}x{items} spin {spin_limit}");
+                for (i, n) in [
+                    1,
+                    items - 1,
+                    items + 1,
+                    items + 3,
+                    t - 3,
+                    t + 2,
+                    3 * t + items + 1,
+                    5 * t - 1,
+                    (1 << 20) - 1,
+                ]
+                .into_iter()
+                .enumerate()
+                {
+                    let kind = KINDS[i % 2];
+                    check(ctx, &scan, &name, Pattern::Random(i as u64 + 40), n, kind);
+                }
+            }
+        }
+    }
+}
+
 #[test]
 fn random_totals_wrap_past_2_32() {
     // The inputs of the other tests are uniform over u32; make sure that means wrapping.
@@ -190,9 +232,11 @@ fn large_sizes_cover_each_variant_kind_and_pattern() {
 #[test]
 fn hundred_scans_in_one_submit() {
     let ctx = gpu::context();
-    let desc = ScanDescriptor::for_device(&ctx.device, 1 << 16);
+    // Up to 5 tiles + 3 per scan (tiles are 32768 elements on CPU adapters).
+    let desc = ScanDescriptor::for_device(&ctx.device, 1 << 18);
     let scan = Scan::new(&ctx.device, &desc).unwrap();
     let t = scan.tile_len() as usize;
+    assert!(5 * t + 3 <= 1 << 18);
     let mut rng = StdRng::seed_from_u64(100);
     struct Job {
         input: Vec<u32>,
