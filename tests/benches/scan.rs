@@ -68,6 +68,14 @@ fn scan_bench(c: &mut Criterion) {
         },
     )
     .expect("scan with counters");
+    // The peer: lampshade's prefix sum (multi-pass), recorded into the same encoder on the
+    // same device over the same buffers. Its workspace is allocated on its first recording,
+    // which the warm-up run of every timing does.
+    let lampshade = std::cell::RefCell::new(lampshade::Scanner::new_for_adapter(
+        &ctx.device,
+        &ctx.queue,
+        &ctx.info,
+    ));
     let copy = CopyKernel::new(&ctx.device);
     let rts = ReduceThenScan::new(&ctx.device, max_n);
     let mut rng = StdRng::seed_from_u64(1);
@@ -93,6 +101,12 @@ fn scan_bench(c: &mut Criterion) {
             |enc: &mut wgpu::CommandEncoder| copy.encode(&ctx.device, enc, &input, &output, n / 4);
         let record_rts =
             |enc: &mut wgpu::CommandEncoder| rts.encode(&ctx.device, enc, &input, &output, n);
+        let record_lampshade = |enc: &mut wgpu::CommandEncoder| {
+            lampshade
+                .borrow_mut()
+                .record_exclusive_scan(enc, &input, &output, n)
+                .expect("lampshade scan")
+        };
         let record_tile = |enc: &mut wgpu::CommandEncoder| {
             rts.encode_downsweep_only(&ctx.device, enc, &input, &output, n)
         };
@@ -110,6 +124,9 @@ fn scan_bench(c: &mut Criterion) {
             group.bench_function("copy_vec4", |b| {
                 b.iter_custom(|iters| bench::gpu_time(ctx, iters, record_copy))
             });
+            group.bench_function("lampshade_scan", |b| {
+                b.iter_custom(|iters| bench::gpu_time(ctx, iters, record_lampshade))
+            });
             group.bench_function("reduce_then_scan", |b| {
                 b.iter_custom(|iters| bench::gpu_time(ctx, iters, record_rts))
             });
@@ -126,16 +143,20 @@ fn scan_bench(c: &mut Criterion) {
 
         // The RESULT numbers: interleaved timed runs so that drift hits every kernel alike.
         let reps = if n >= 1 << 24 { 5 } else { 15 };
-        let (mut scan_ms, mut copy_ms, mut rts_ms, mut tile_ms) = (0.0, 0.0, 0.0, 0.0);
+        let (mut scan_ms, mut copy_ms, mut rts_ms, mut tile_ms, mut ls_ms) =
+            (0.0, 0.0, 0.0, 0.0, 0.0);
         for _ in 0..reps {
             scan_ms += bench::gpu_ms(ctx, 1, record_scan);
             copy_ms += bench::gpu_ms(ctx, 1, record_copy);
             rts_ms += bench::gpu_ms(ctx, 1, record_rts);
             tile_ms += bench::gpu_ms(ctx, 1, record_tile);
+            ls_ms += bench::gpu_ms(ctx, 1, record_lampshade);
         }
         let r = f64::from(reps);
-        let (scan_ms, copy_ms, rts_ms, tile_ms) =
-            (scan_ms / r, copy_ms / r, rts_ms / r, tile_ms / r);
+        let (scan_ms, copy_ms, rts_ms, tile_ms, ls_ms) =
+            (scan_ms / r, copy_ms / r, rts_ms / r, tile_ms / r, ls_ms / r);
+        // The peer's output must be the same scan (checked once per size, first words).
+        check_peer(ctx, &scan, &input, &output, n, record_lampshade);
         let t0 = std::time::Instant::now(); // the host has no GPU timestamps
         let host_reps = 5;
         for _ in 0..host_reps {
@@ -174,11 +195,13 @@ fn scan_bench(c: &mut Criterion) {
                 ("n", n.to_string()),
                 ("scan_vs_copy", format!("{:.3}", copy_ms / scan_ms)),
                 ("scan_vs_rts", format!("{:.3}", rts_ms / scan_ms)),
+                ("scan_vs_lampshade", format!("{:.3}", ls_ms / scan_ms)),
                 ("scan_vs_host", format!("{:.3}", host_ms / scan_ms)),
                 ("tile_vs_copy", format!("{:.3}", copy_ms / tile_ms)),
                 ("scan_elem_s", eps(scan_ms)),
                 ("copy_elem_s", eps(copy_ms)),
                 ("rts_elem_s", eps(rts_ms)),
+                ("lampshade_elem_s", eps(ls_ms)),
                 ("host_elem_s", eps(host_ms)),
                 ("tiles", tiles.to_string()),
                 (
@@ -213,6 +236,32 @@ fn scan_bench(c: &mut Criterion) {
     for line in lines {
         println!("{line}");
     }
+}
+
+/// Runs our scan and the peer's on the same input and compares a sample of the outputs, so the
+/// comparison is between two kernels that compute the same thing.
+fn check_peer(
+    ctx: &tests::GpuContext,
+    scan: &Scan,
+    input: &wgpu::Buffer,
+    output: &wgpu::Buffer,
+    n: u32,
+    record_peer: impl FnOnce(&mut wgpu::CommandEncoder),
+) {
+    let bytes = u64::from(n.min(1 << 16)) * 4;
+    let tail = u64::from(n) * 4 - bytes;
+    gpu::run(ctx, |enc| {
+        scan.encode(enc, input, output, n, ScanKind::Exclusive, None)
+            .expect("encode")
+    });
+    let ours: Vec<u32> = buffers::read_range(ctx, output, tail, bytes).unwrap();
+    gpu::run(ctx, |enc| enc.clear_buffer(output, 0, None));
+    gpu::run(ctx, record_peer);
+    let theirs: Vec<u32> = buffers::read_range(ctx, output, tail, bytes).unwrap();
+    assert!(
+        ours == theirs,
+        "lampshade's exclusive scan differs from ours at n = {n}"
+    );
 }
 
 criterion_group!(benches, scan_bench);
