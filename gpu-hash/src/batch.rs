@@ -307,7 +307,8 @@ impl HashBatch {
     }
 
     /// `output[i]` (u32) = `find_or_insert` of key `input[i]` ([`crate::HashKey`]): a slot or
-    /// [`crate::HASH_FULL`].
+    /// [`crate::HASH_FULL`]. Slot counters are not touched (use
+    /// [`HashBatch::encode_insert_points`] or `hash_slot_append` to count items).
     pub fn encode_insert_keys(
         &self,
         device: &wgpu::Device,
@@ -320,9 +321,12 @@ impl HashBatch {
         self.encode(Kernel::InsertKeys, device, encoder, table, keys, slots, n)
     }
 
-    /// Inserts the cell of each point (`input[i]` = `vec4<f32>`, w ignored; no jitter):
-    /// `output[2i]` = slot (or [`crate::HASH_FULL`] / [`crate::HASH_REJECTED`]),
-    /// `output[2i + 1]` = the point's index in its slot (the slot counter's old value).
+    /// Inserts the cell of each point (`input[i]` = `vec4<f32>`, w ignored; no jitter) and
+    /// appends it to its slot: `output[2i]` = slot, `output[2i + 1]` = the point's index in its
+    /// slot (the slot counter's old value). A point without a cell (non-finite or out of range,
+    /// counted in the stats) writes `(HASH_REJECTED, HASH_NOT_FOUND)`; one whose probe sequence
+    /// is full (an overflow, counted) writes `(HASH_FULL, HASH_NOT_FOUND)`; neither touches a
+    /// counter.
     pub fn encode_insert_points(
         &self,
         device: &wgpu::Device,

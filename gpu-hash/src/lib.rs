@@ -46,7 +46,8 @@ pub use table::{
     bind_group_layout_entries, lookup_bind_group_layout_entries,
 };
 pub use wgsl::{
-    HASH_WGSL, LOOKUP_WGSL, TABLE_WGSL, bindings_wgsl, constants_wgsl, lookup_bindings_wgsl,
+    GridBinding, HASH_WGSL, LOOKUP_WGSL, Role, TABLE_WGSL, bindings_wgsl, compose_grid,
+    constants_wgsl, lookup_bindings_wgsl,
 };
 
 /// Returned instead of a slot when every probed slot holds another key (counted in
