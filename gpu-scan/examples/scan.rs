@@ -57,7 +57,8 @@ async fn run() -> Result<(), Box<dyn std::error::Error>> {
 
     let scan = Scan::new(&device, &ScanDescriptor::for_device(&device, n))?;
     let mut encoder = device.create_command_encoder(&Default::default());
-    scan.encode(
+    scan.bind_and_encode(
+        &device,
         &mut encoder,
         &input_buf,
         &output_buf,

@@ -9,9 +9,12 @@
 //! # fn demo(device: &wgpu::Device, queue: &wgpu::Queue, input: &wgpu::Buffer,
 //! #         output: &wgpu::Buffer) -> Result<(), gpu_scan::ScanError> {
 //! use gpu_scan::{Scan, ScanDescriptor, ScanKind};
+//! // Create with the device (limits checked), bind once to your buffers...
 //! let scan = Scan::new(device, &ScanDescriptor::for_device(device, 1 << 20))?;
+//! let binding = scan.bind(device, input, output, 1000, ScanKind::Exclusive, None)?;
+//! // ...and encode as often as needed into your encoder, with no allocation.
 //! let mut encoder = device.create_command_encoder(&Default::default());
-//! scan.encode(&mut encoder, input, output, 1000, ScanKind::Exclusive, None)?;
+//! scan.encode(&mut encoder, &binding)?;
 //! queue.submit([encoder.finish()]);
 //! # Ok(()) }
 //! ```
@@ -160,12 +163,15 @@ pub enum ScanError {
     /// Two buffers that must differ are the same buffer.
     #[error("the {0} and {1} buffers must not alias")]
     Aliasing(&'static str, &'static str),
+    /// A [`ScanBinding`] made by another [`Scan`] was passed to [`Scan::encode`].
+    #[error("the binding was made by another Scan")]
+    ForeignBinding,
     /// The indirect length's offset is not a multiple of 4.
     #[error("the length offset {0} is not a multiple of 4")]
     UnalignedLenOffset(u64),
 }
 
-/// Per-encode parameters of the kernel (the WGSL struct `ScanParams`).
+/// Per-binding parameters of the kernel (the WGSL struct `ScanParams`).
 #[repr(C)]
 #[derive(Debug, Clone, Copy, PartialEq, Eq, bytemuck::Pod, bytemuck::Zeroable)]
 pub struct ScanParams {
@@ -198,7 +204,7 @@ pub struct ScanCounters {
 ///
 /// # Contract
 /// - Results are modulo 2^32 (wrapping adds), bit-exact against [`cpu::scan`].
-/// - One dispatch per scan (plus a one-thread pre-pass for [`Scan::encode_indirect`] and a
+/// - One dispatch per scan (plus a one-thread pre-pass for [`Scan::bind_indirect`] and a
 ///   `clear_buffer` of the scratch). Everything is recorded into the caller's encoder; the
 ///   scratch reset is part of the recorded work, so any number of scans may be encoded in one
 ///   submit, on the same or different buffers.
@@ -217,7 +223,8 @@ pub struct ScanCounters {
 /// so the scan completes even where a waiting workgroup could starve the one it waits for.
 #[derive(Debug)]
 pub struct Scan {
-    device: wgpu::Device,
+    /// Identifies the bindings this scan made ([`ScanBinding`]).
+    id: u64,
     config: KernelConfig,
     layout: wgpu::BindGroupLayout,
     pipeline: wgpu::ComputePipeline,
@@ -409,8 +416,9 @@ impl Scan {
         let dummy_out = buffer("gpu-scan empty output", 16, U::STORAGE);
         let dummy_in4 = buffer("gpu-scan empty vec4 input", 16, U::STORAGE);
         let dummy_out4 = buffer("gpu-scan empty vec4 output", 16, U::STORAGE);
+        static NEXT_ID: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
         Ok(Self {
-            device: device.clone(),
+            id: NEXT_ID.fetch_add(1, std::sync::atomic::Ordering::Relaxed),
             config,
             layout,
             pipeline,
@@ -477,18 +485,21 @@ impl Scan {
         Ok(())
     }
 
-    /// Records a scan of the first `n` elements of `input` into the first `n` of `output`;
-    /// with `total`, also writes the sum of the `n` inputs to its first word. See the
-    /// [contract](Scan#contract).
-    pub fn encode(
+    /// Binds this scan to the caller's buffers: a scan of the first `n` elements of `input`
+    /// into the first `n` of `output`; with `total`, the sum of the `n` inputs is also written
+    /// to its first word. Every check of the [contract](Scan#contract) happens here, and the
+    /// per-binding parameter block and bind group are created here, once: record the scan with
+    /// [`Scan::encode`] as many times as needed, without any allocation.
+    #[allow(clippy::too_many_arguments)]
+    pub fn bind(
         &self,
-        encoder: &mut wgpu::CommandEncoder,
+        device: &wgpu::Device,
         input: &wgpu::Buffer,
         output: &wgpu::Buffer,
         n: u32,
         kind: ScanKind,
         total: Option<&wgpu::Buffer>,
-    ) -> Result<(), ScanError> {
+    ) -> Result<ScanBinding, ScanError> {
         if n > self.config.max_len {
             return Err(ScanError::TooLong {
                 n,
@@ -512,7 +523,10 @@ impl Scan {
         }
         self.check_total(total, [input, output])?;
         if n == 0 && total.is_none() {
-            return Ok(());
+            return Ok(ScanBinding {
+                scan_id: self.id,
+                work: None,
+            });
         }
         let views = if n == 0 {
             Views {
@@ -535,38 +549,36 @@ impl Scan {
                 output4,
             }
         };
-        let params = self.params(n, kind, total.is_some(), 0);
-        let bind_group = self.bind_group(&views, total, &params);
+        let params = self.params(device, n, kind, total.is_some(), 0);
+        let bind_group = self.bind_group(device, &views, total, &params);
         let tiles = n.div_ceil(self.config.tile_len()).max(1);
-        let tiles_bytes = (1 + 2 * u64::from(tiles)) * 4;
-        encoder.clear_buffer(&self.scratch, 0, Some(tiles_bytes));
-        let (x, y) = split_groups(tiles, self.config.max_groups_x);
-        let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
-            label: Some("gpu-scan"),
-            timestamp_writes: None,
-        });
-        pass.set_pipeline(&self.pipeline);
-        pass.set_bind_group(0, &bind_group, &[]);
-        pass.dispatch_workgroups(x, y, 1);
-        Ok(())
+        Ok(ScanBinding {
+            scan_id: self.id,
+            work: Some(Work {
+                bind_group,
+                _params: params,
+                clear_bytes: Some((1 + 2 * u64::from(tiles)) * 4),
+                dispatch: Dispatch::Direct(split_groups(tiles, self.config.max_groups_x)),
+            }),
+        })
     }
 
-    /// Like [`Scan::encode`], but `n` is the `u32` at byte `len_offset` of `len`, read on the GPU
-    /// when the work runs. A one-thread pre-pass clamps it to `max_len` and writes the scan's own
-    /// indirect dispatch arguments; the kernel further clamps `n` to the `input` and `output`
-    /// bindings (each bound whole, up to the device's binding limit). `n = 0` writes only the
-    /// total (0), if requested.
+    /// Like [`Scan::bind`], but `n` is the `u32` at byte `len_offset` of `len`, read on the GPU
+    /// each time the scan runs. A one-thread pre-pass clamps it to `max_len` and writes the
+    /// scan's own indirect dispatch arguments; the kernel further clamps `n` to the `input` and
+    /// `output` bindings (each bound whole, up to the device's binding limit). `n = 0` writes
+    /// only the total (0), if requested.
     #[allow(clippy::too_many_arguments)]
-    pub fn encode_indirect(
+    pub fn bind_indirect(
         &self,
-        encoder: &mut wgpu::CommandEncoder,
+        device: &wgpu::Device,
         input: &wgpu::Buffer,
         output: &wgpu::Buffer,
         len: &wgpu::Buffer,
         len_offset: u64,
         kind: ScanKind,
         total: Option<&wgpu::Buffer>,
-    ) -> Result<(), ScanError> {
+    ) -> Result<ScanBinding, ScanError> {
         if input == output {
             return Err(ScanError::Aliasing("input", "output"));
         }
@@ -606,8 +618,8 @@ impl Scan {
             size: len.size(),
             needed: len_offset + 4,
         })?;
-        let params = self.params(0, kind, total.is_some(), len_index);
-        let prepare_group = self.device.create_bind_group(&wgpu::BindGroupDescriptor {
+        let params = self.params(device, 0, kind, total.is_some(), len_index);
+        let prepare_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("gpu-scan prepare"),
             layout: &self.prepare_layout,
             entries: &[
@@ -628,43 +640,117 @@ impl Scan {
             input4: view4(input, &self.dummy_in4),
             output4: view4(output, &self.dummy_out4),
         };
-        let bind_group = self.bind_group(&views, total, &params);
-        encoder.clear_buffer(&self.scratch, 0, None);
+        let bind_group = self.bind_group(device, &views, total, &params);
+        Ok(ScanBinding {
+            scan_id: self.id,
+            work: Some(Work {
+                bind_group,
+                _params: params,
+                clear_bytes: None,
+                dispatch: Dispatch::Indirect(prepare_group),
+            }),
+        })
+    }
+
+    /// Records the bound scan into the caller's encoder: a `clear_buffer` of the scratch and
+    /// one compute pass (the pre-pass and the scan for an indirect binding). Allocates nothing;
+    /// may be called any number of times, in one encoder or many.
+    pub fn encode(
+        &self,
+        encoder: &mut wgpu::CommandEncoder,
+        binding: &ScanBinding,
+    ) -> Result<(), ScanError> {
+        self.encode_timed(encoder, binding, &mut |_| None)
+    }
+
+    /// [`Scan::encode`] with a named timestamp span hook: `span` is called with the pass name
+    /// (`"gpu-scan"` or `"gpu-scan indirect"`) and may return the timestamp writes for it.
+    pub fn encode_timed<'q>(
+        &self,
+        encoder: &mut wgpu::CommandEncoder,
+        binding: &ScanBinding,
+        span: &mut dyn FnMut(&'static str) -> Option<wgpu::ComputePassTimestampWrites<'q>>,
+    ) -> Result<(), ScanError> {
+        if binding.scan_id != self.id {
+            return Err(ScanError::ForeignBinding);
+        }
+        let Some(work) = &binding.work else {
+            return Ok(());
+        };
+        encoder.clear_buffer(&self.scratch, 0, work.clear_bytes);
+        let name = match work.dispatch {
+            Dispatch::Direct(_) => "gpu-scan",
+            Dispatch::Indirect(_) => "gpu-scan indirect",
+        };
         let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
-            label: Some("gpu-scan indirect"),
-            timestamp_writes: None,
+            label: Some(name),
+            timestamp_writes: span(name),
         });
-        pass.set_pipeline(&self.prepare_pipeline);
-        pass.set_bind_group(0, &prepare_group, &[]);
-        pass.dispatch_workgroups(1, 1, 1);
-        pass.set_pipeline(&self.pipeline);
-        pass.set_bind_group(0, &bind_group, &[]);
-        pass.dispatch_workgroups_indirect(&self.dispatch, 0);
+        match &work.dispatch {
+            Dispatch::Direct((x, y)) => {
+                pass.set_pipeline(&self.pipeline);
+                pass.set_bind_group(0, &work.bind_group, &[]);
+                pass.dispatch_workgroups(*x, *y, 1);
+            }
+            Dispatch::Indirect(prepare_group) => {
+                pass.set_pipeline(&self.prepare_pipeline);
+                pass.set_bind_group(0, prepare_group, &[]);
+                pass.dispatch_workgroups(1, 1, 1);
+                pass.set_pipeline(&self.pipeline);
+                pass.set_bind_group(0, &work.bind_group, &[]);
+                pass.dispatch_workgroups_indirect(&self.dispatch, 0);
+            }
+        }
         Ok(())
     }
 
-    fn params(&self, n: u32, kind: ScanKind, write_total: bool, len_index: u32) -> wgpu::Buffer {
+    /// One-off convenience: [`Scan::bind`] then [`Scan::encode`]. It allocates a parameter
+    /// block and a bind group on every call; bind once and encode many times instead when the
+    /// same scan runs every frame.
+    #[allow(clippy::too_many_arguments)]
+    pub fn bind_and_encode(
+        &self,
+        device: &wgpu::Device,
+        encoder: &mut wgpu::CommandEncoder,
+        input: &wgpu::Buffer,
+        output: &wgpu::Buffer,
+        n: u32,
+        kind: ScanKind,
+        total: Option<&wgpu::Buffer>,
+    ) -> Result<(), ScanError> {
+        let binding = self.bind(device, input, output, n, kind, total)?;
+        self.encode(encoder, &binding)
+    }
+
+    fn params(
+        &self,
+        device: &wgpu::Device,
+        n: u32,
+        kind: ScanKind,
+        write_total: bool,
+        len_index: u32,
+    ) -> wgpu::Buffer {
         let params = ScanParams {
             n,
             inclusive: u32::from(kind == ScanKind::Inclusive),
             write_total: u32::from(write_total),
             len_index,
         };
-        self.device
-            .create_buffer_init(&wgpu::util::BufferInitDescriptor {
-                label: Some("gpu-scan params"),
-                contents: bytemuck::bytes_of(&params),
-                usage: wgpu::BufferUsages::STORAGE,
-            })
+        device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("gpu-scan params"),
+            contents: bytemuck::bytes_of(&params),
+            usage: wgpu::BufferUsages::STORAGE,
+        })
     }
 
     fn bind_group(
         &self,
+        device: &wgpu::Device,
         views: &Views<'_>,
         total: Option<&wgpu::Buffer>,
         params: &wgpu::Buffer,
     ) -> wgpu::BindGroup {
-        self.device.create_bind_group(&wgpu::BindGroupDescriptor {
+        device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("gpu-scan"),
             layout: &self.layout,
             entries: &[
@@ -679,6 +765,31 @@ impl Scan {
             ],
         })
     }
+}
+
+/// A [`Scan`] bound to the caller's buffers (see [`Scan::bind`] and [`Scan::bind_indirect`]):
+/// the bind group and parameter block, created once. It keeps the buffers alive; record it with
+/// [`Scan::encode`] on the `Scan` that made it.
+#[derive(Debug)]
+pub struct ScanBinding {
+    scan_id: u64,
+    work: Option<Work>,
+}
+
+#[derive(Debug)]
+struct Work {
+    bind_group: wgpu::BindGroup,
+    _params: wgpu::Buffer,
+    /// Bytes of scratch to clear (`None`: all of it, for indirect scans).
+    clear_bytes: Option<u64>,
+    dispatch: Dispatch,
+}
+
+#[derive(Debug)]
+enum Dispatch {
+    Direct((u32, u32)),
+    /// The pre-pass's bind group; the scan dispatch reads the arguments it writes.
+    Indirect(wgpu::BindGroup),
 }
 
 /// The four views of input and output the kernel binds: (buffer, binding size).

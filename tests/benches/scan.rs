@@ -93,10 +93,11 @@ fn scan_bench(c: &mut Criterion) {
 
     let mut lines = Vec::new();
     for &n in &sizes {
-        let record_scan = |enc: &mut wgpu::CommandEncoder| {
-            scan.encode(enc, &input, &output, n, ScanKind::Exclusive, None)
-                .expect("encode")
-        };
+        let bound = scan
+            .bind(&ctx.device, &input, &output, n, ScanKind::Exclusive, None)
+            .expect("bind");
+        let record_scan =
+            |enc: &mut wgpu::CommandEncoder| scan.encode(enc, &bound).expect("encode");
         let record_copy =
             |enc: &mut wgpu::CommandEncoder| copy.encode(&ctx.device, enc, &input, &output, n / 4);
         let record_rts =
@@ -174,7 +175,15 @@ fn scan_bench(c: &mut Criterion) {
             gpu::run(ctx, |enc| {
                 counting.clear_counters(enc);
                 counting
-                    .encode(enc, &input, &output, n, ScanKind::Exclusive, None)
+                    .bind_and_encode(
+                        &ctx.device,
+                        enc,
+                        &input,
+                        &output,
+                        n,
+                        ScanKind::Exclusive,
+                        None,
+                    )
                     .expect("encode");
             });
             let words: Vec<u32> =
@@ -251,8 +260,16 @@ fn check_peer(
     let bytes = u64::from(n.min(1 << 16)) * 4;
     let tail = u64::from(n) * 4 - bytes;
     gpu::run(ctx, |enc| {
-        scan.encode(enc, input, output, n, ScanKind::Exclusive, None)
-            .expect("encode")
+        scan.bind_and_encode(
+            &ctx.device,
+            enc,
+            input,
+            output,
+            n,
+            ScanKind::Exclusive,
+            None,
+        )
+        .expect("encode")
     });
     let ours: Vec<u32> = buffers::read_range(ctx, output, tail, bytes).unwrap();
     gpu::run(ctx, |enc| enc.clear_buffer(output, 0, None));

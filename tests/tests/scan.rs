@@ -69,7 +69,7 @@ fn gpu_scan(ctx: &GpuContext, scan: &Scan, input: &[u32], kind: ScanKind) -> (Ve
     let out_buf = buffers::storage_zeroed(&ctx.device, "output", u64::from(n) * 4);
     let total = buffers::storage_from(&ctx.device, "total", &[0xDEAD_BEEFu32]);
     gpu::run(ctx, |enc| {
-        scan.encode(enc, &in_buf, &out_buf, n, kind, Some(&total))
+        scan.bind_and_encode(&ctx.device, enc, &in_buf, &out_buf, n, kind, Some(&total))
             .unwrap()
     });
     drop(in_buf);
@@ -170,6 +170,46 @@ fn kernel_shapes_match_cpu_twin_on_awkward_sizes() {
     }
 }
 
+/// The API shape: bind once, encode many times (here three times into one encoder and once
+/// more in a later submit) with no allocation per encode; a binding only works with the scan
+/// that made it; the timestamp span hook sees the pass name.
+#[test]
+fn bind_once_encode_many() {
+    let ctx = gpu::context();
+    let scan = Scan::new(&ctx.device, &ScanDescriptor::new(1 << 18)).unwrap();
+    let other = Scan::new(&ctx.device, &ScanDescriptor::new(1 << 18)).unwrap();
+    let input = make_input(Pattern::Random(77), 200_003);
+    let in_buf = buffers::storage_from(&ctx.device, "input", &input);
+    let out_buf = buffers::storage_zeroed(&ctx.device, "output", input.len() as u64 * 4);
+    let total = buffers::storage_zeroed(&ctx.device, "total", 4);
+    let n = input.len() as u32;
+    let kind = ScanKind::Inclusive;
+    let bound = scan
+        .bind(&ctx.device, &in_buf, &out_buf, n, kind, Some(&total))
+        .unwrap();
+    let mut names = Vec::new();
+    gpu::run(ctx, |enc| {
+        for _ in 0..3 {
+            scan.encode(enc, &bound).unwrap();
+        }
+        scan.encode_timed(enc, &bound, &mut |name| {
+            names.push(name);
+            None
+        })
+        .unwrap();
+        assert_eq!(other.encode(enc, &bound), Err(ScanError::ForeignBinding));
+    });
+    assert_eq!(names, ["gpu-scan"]);
+    let got: Vec<u32> = buffers::read(ctx, &out_buf).unwrap();
+    assert_scan_eq(&got[..input.len()], &input, kind, "bound, encoded 4 times");
+    gpu::run(ctx, |enc| enc.clear_buffer(&out_buf, 0, None));
+    gpu::run(ctx, |enc| scan.encode(enc, &bound).unwrap());
+    let got: Vec<u32> = buffers::read(ctx, &out_buf).unwrap();
+    assert_scan_eq(&got[..input.len()], &input, kind, "bound, later submit");
+    let t: Vec<u32> = buffers::read_range(ctx, &total, 0, 4).unwrap();
+    assert_eq!(t[0], cpu::total(&input));
+}
+
 #[test]
 fn random_totals_wrap_past_2_32() {
     // The inputs of the other tests are uniform over u32; make sure that means wrapping.
@@ -260,7 +300,8 @@ fn hundred_scans_in_one_submit() {
         let out = buffers::storage_zeroed(&ctx.device, "out", n as u64 * 4);
         let total = buffers::storage_zeroed(&ctx.device, "total", 4);
         let input = if i % 5 == 0 {
-            scan.encode(
+            scan.bind_and_encode(
+                &ctx.device,
                 &mut encoder,
                 &shared_buf,
                 &out,
@@ -273,8 +314,16 @@ fn hundred_scans_in_one_submit() {
         } else {
             let input = make_input(Pattern::Random(1000 + i as u64), n);
             let buf = buffers::storage_from(&ctx.device, "input", &input);
-            scan.encode(&mut encoder, &buf, &out, n as u32, kind, Some(&total))
-                .unwrap();
+            scan.bind_and_encode(
+                &ctx.device,
+                &mut encoder,
+                &buf,
+                &out,
+                n as u32,
+                kind,
+                Some(&total),
+            )
+            .unwrap();
             input
         };
         jobs.push(Job {
@@ -329,8 +378,10 @@ fn indirect_length_read_on_the_gpu() {
             let out = buffers::storage_zeroed(&ctx.device, "out", out_bytes);
             let total = buffers::storage_from(&ctx.device, "total", &[0xDEAD_BEEFu32]);
             let kind = KINDS[i % 2];
-            scan.encode_indirect(&mut encoder, &in_buf, &out, &len, 12, kind, Some(&total))
+            let bound = scan
+                .bind_indirect(&ctx.device, &in_buf, &out, &len, 12, kind, Some(&total))
                 .unwrap();
+            scan.encode(&mut encoder, &bound).unwrap();
             jobs.push((out, total, kind, effective));
         }
         ctx.queue.submit([encoder.finish()]);
@@ -438,22 +489,23 @@ fn errors_are_returned_before_encoding() {
     let mut enc = ctx.device.create_command_encoder(&Default::default());
     let ex = ScanKind::Exclusive;
     assert_eq!(
-        scan.encode(&mut enc, &a, &b, 1001, ex, None),
+        scan.bind(&ctx.device, &a, &b, 1001, ex, None).map(|_| ()),
         Err(ScanError::TooLong {
             n: 1001,
             max_len: 1000
         })
     );
     assert_eq!(
-        scan.encode(&mut enc, &a, &a, 10, ex, None),
+        scan.bind(&ctx.device, &a, &a, 10, ex, None).map(|_| ()),
         Err(ScanError::Aliasing("input", "output"))
     );
     assert_eq!(
-        scan.encode(&mut enc, &a, &b, 10, ex, Some(&b)),
+        scan.bind(&ctx.device, &a, &b, 10, ex, Some(&b)).map(|_| ()),
         Err(ScanError::Aliasing("output", "total"))
     );
     assert!(matches!(
-        scan.encode(&mut enc, &a, &small, 101, ex, None),
+        scan.bind(&ctx.device, &a, &small, 101, ex, None)
+            .map(|_| ()),
         Err(ScanError::BufferTooSmall {
             which: "output",
             ..
@@ -466,28 +518,33 @@ fn errors_are_returned_before_encoding() {
         mapped_at_creation: false,
     });
     assert_eq!(
-        scan.encode(&mut enc, &not_storage, &b, 10, ex, None),
+        scan.bind(&ctx.device, &not_storage, &b, 10, ex, None)
+            .map(|_| ()),
         Err(ScanError::MissingStorageUsage { which: "input" })
     );
     assert_eq!(
-        scan.encode_indirect(&mut enc, &a, &b, &small, 2, ex, None),
+        scan.bind_indirect(&ctx.device, &a, &b, &small, 2, ex, None)
+            .map(|_| ()),
         Err(ScanError::UnalignedLenOffset(2))
     );
     assert!(matches!(
-        scan.encode_indirect(&mut enc, &a, &b, &small, 400, ex, None),
+        scan.bind_indirect(&ctx.device, &a, &b, &small, 400, ex, None)
+            .map(|_| ()),
         Err(ScanError::BufferTooSmall {
             which: "length",
             ..
         })
     ));
     // n = 0 without a total records nothing; the encoder is still valid afterwards.
-    scan.encode(&mut enc, &a, &b, 0, ex, None).unwrap();
+    scan.bind_and_encode(&ctx.device, &mut enc, &a, &b, 0, ex, None)
+        .unwrap();
     ctx.queue.submit([enc.finish()]);
     ctx.wait().unwrap();
     // n = 0 with a total writes 0.
     let total = buffers::storage_from(&ctx.device, "total", &[5u32]);
     gpu::run(ctx, |enc| {
-        scan.encode(enc, &a, &b, 0, ex, Some(&total)).unwrap()
+        scan.bind_and_encode(&ctx.device, enc, &a, &b, 0, ex, Some(&total))
+            .unwrap()
     });
     let t: Vec<u32> = buffers::read_range(ctx, &total, 0, 4).unwrap();
     assert_eq!(t[0], 0);
