@@ -30,8 +30,10 @@
 //!
 //! On the host: [`bind_group_layout_entries`] / [`lookup_bind_group_layout_entries`] for the
 //! layouts, [`HashTable::bind_group_entries`] / [`HashTable::lookup_bind_group_entries`] (or
-//! [`TableBuffers`] over buffers you own) for the bind groups, [`HashTable::encode_clear`]
-//! before each build, [`HashBatch`] for ready-made insert/find/stats kernels.
+//! [`TableBuffers`] over buffers you own) for the bind groups, or one [`GridBinding`] value
+//! that derives the WGSL declarations, layout entries and bind group entries together;
+//! [`HashTable::encode_clear`] before each build; [`HashBatch`] for ready-made
+//! insert/find/stats kernels (create with the device, bind once, encode many times).
 
 mod batch;
 pub mod cell;
@@ -39,7 +41,7 @@ pub mod hash;
 mod table;
 pub mod wgsl;
 
-pub use batch::HashBatch;
+pub use batch::{BATCH_STORAGE_BUFFERS_PER_STAGE, BatchBinding, BatchKernel, HashBatch};
 pub use cell::{CellSizing, HashCell, HashGridParams, HashKey, jitter};
 pub use table::{
     CpuHashTable, HashStats, HashTable, Probe, TableBuffers, TableConfig,
@@ -111,6 +113,9 @@ pub enum HashError {
         bytes: u64,
         limit: u64,
     },
+    /// A [`BatchBinding`] made by another [`HashBatch`] was passed to [`HashBatch::encode`].
+    #[error("the binding was made by another HashBatch")]
+    ForeignBinding,
     /// Reading the stats back failed.
     #[error("reading back hash table stats failed: {0}")]
     Readback(String),

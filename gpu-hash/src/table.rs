@@ -62,7 +62,7 @@ impl TableConfig {
 }
 
 /// The stats buffer (`HashStatsAtomic` in `table.wgsl`). Inserts maintain the first four
-/// fields; [`crate::HashBatch::encode_stats`] recomputes the next three from the table.
+/// fields; [`crate::HashBatch::bind_stats`] recomputes the next three from the table.
 #[repr(C)]
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Pod, Zeroable)]
 pub struct HashStats {

@@ -55,9 +55,25 @@ impl Fixture {
         let n = keys.len() as u32;
         gpu::run(self.ctx, |enc| {
             if insert {
-                self.batch.encode_insert_keys(d, enc, t, &input, &out, n)
+                self.batch.bind_and_encode(
+                    d,
+                    enc,
+                    gpu_hash::BatchKernel::InsertKeys,
+                    t,
+                    &input,
+                    &out,
+                    n,
+                )
             } else {
-                self.batch.encode_find_keys(d, enc, t, &input, &out, n)
+                self.batch.bind_and_encode(
+                    d,
+                    enc,
+                    gpu_hash::BatchKernel::FindKeys,
+                    t,
+                    &input,
+                    &out,
+                    n,
+                )
             }
             .unwrap()
         });
@@ -75,9 +91,25 @@ impl Fixture {
         let n = points.len() as u32;
         gpu::run(self.ctx, |enc| {
             if insert {
-                self.batch.encode_insert_points(d, enc, t, &input, &out, n)
+                self.batch.bind_and_encode(
+                    d,
+                    enc,
+                    gpu_hash::BatchKernel::InsertPoints,
+                    t,
+                    &input,
+                    &out,
+                    n,
+                )
             } else {
-                self.batch.encode_find_points(d, enc, t, &input, &out, n)
+                self.batch.bind_and_encode(
+                    d,
+                    enc,
+                    gpu_hash::BatchKernel::FindPoints,
+                    t,
+                    &input,
+                    &out,
+                    n,
+                )
             }
             .unwrap()
         });
@@ -171,7 +203,15 @@ fn gpu_hashes_are_bit_identical_to_twins() {
     let out = buffers::storage_zeroed(d, "hashes", values.len() as u64 * 8);
     gpu::run(f.ctx, |enc| {
         f.batch
-            .encode_hash_values(d, enc, &t, &inb, &out, values.len() as u32)
+            .bind_and_encode(
+                d,
+                enc,
+                gpu_hash::BatchKernel::HashValues,
+                &t,
+                &inb,
+                &out,
+                values.len() as u32,
+            )
             .unwrap()
     });
     let got: Vec<[u32; 2]> = buffers::read(f.ctx, &out).unwrap();
@@ -222,7 +262,15 @@ fn cell_keys_match_twin_on_1e5_positions_from_1e_3_to_1e4() {
     let out = buffers::storage_zeroed(d, "cells", points.len() as u64 * 32);
     gpu::run(f.ctx, |enc| {
         f.batch
-            .encode_cells(d, enc, &t, &inb, &out, points.len() as u32)
+            .bind_and_encode(
+                d,
+                enc,
+                gpu_hash::BatchKernel::Cells,
+                &t,
+                &inb,
+                &out,
+                points.len() as u32,
+            )
             .unwrap()
     });
     let got: Vec<HashCell> = buffers::read(f.ctx, &out).unwrap();
@@ -299,7 +347,15 @@ fn jitter_matches_twin_and_stays_in_tangent_plane() {
     let out = buffers::storage_zeroed(d, "jitter out", n as u64 * 16);
     gpu::run(f.ctx, |enc| {
         f.batch
-            .encode_jitter(d, enc, &t, &inb, &out, n as u32)
+            .bind_and_encode(
+                d,
+                enc,
+                gpu_hash::BatchKernel::Jitter,
+                &t,
+                &inb,
+                &out,
+                n as u32,
+            )
             .unwrap()
     });
     let got: Vec<[f32; 4]> = buffers::read(f.ctx, &out).unwrap();
@@ -952,7 +1008,15 @@ fn buffers_larger_than_a_binding_are_bound_by_range() {
     let out = buffers::storage_zeroed(d, "out", LIMIT + 16);
     gpu::run(&small, |enc| {
         batch
-            .encode_insert_points(d, enc, &t, &points, &out, n)
+            .bind_and_encode(
+                d,
+                enc,
+                gpu_hash::BatchKernel::InsertPoints,
+                &t,
+                &points,
+                &out,
+                n,
+            )
             .unwrap()
     });
     let got: Vec<[u32; 2]> = buffers::read_range(&small, &out, 0, u64::from(n) * 8).unwrap();
@@ -964,7 +1028,15 @@ fn buffers_larger_than_a_binding_are_bound_by_range() {
     let too_many = (LIMIT / 16 + 1) as u32;
     let mut enc = d.create_command_encoder(&Default::default());
     let err = batch
-        .encode_insert_points(d, &mut enc, &t, &points, &out, too_many)
+        .bind_and_encode(
+            d,
+            &mut enc,
+            gpu_hash::BatchKernel::InsertPoints,
+            &t,
+            &points,
+            &out,
+            too_many,
+        )
         .unwrap_err();
     assert!(
         matches!(
@@ -972,5 +1044,58 @@ fn buffers_larger_than_a_binding_are_bound_by_range() {
             gpu_hash::HashError::BindingTooLarge { name: "input", .. }
         ),
         "{err}"
+    );
+}
+
+/// The API shape: a kernel bound once to a table and buffers is encoded many times (clearing
+/// the table between builds) with no allocation; a binding only works with the batch that made
+/// it; the timestamp span hook sees the pass names.
+#[test]
+fn bind_once_encode_many() {
+    let f = fixture();
+    let d = &f.ctx.device;
+    let other = HashBatch::new(d).unwrap();
+    let config = TableConfig {
+        num_buckets: 1024,
+        ..TableConfig::default()
+    };
+    let p = params(config, Vec3::ZERO);
+    let t = f.table(&p);
+    let mut rng = StdRng::seed_from_u64(31);
+    let keys = random_keys(&mut rng, 5000, 2);
+    let input = buffers::storage_from(d, "keys", &keys);
+    let out = buffers::storage_zeroed(d, "slots", keys.len() as u64 * 4);
+    let n = keys.len() as u32;
+    let insert = f
+        .batch
+        .bind(d, gpu_hash::BatchKernel::InsertKeys, &t, &input, &out, n)
+        .unwrap();
+    let stats = f.batch.bind_stats(d, &t);
+    let mut names = Vec::new();
+    gpu::run(f.ctx, |enc| {
+        for _ in 0..3 {
+            t.encode_clear(enc);
+            f.batch.encode(enc, &insert).unwrap();
+        }
+        f.batch
+            .encode_timed(enc, &stats, &mut |name| {
+                names.push(name);
+                None
+            })
+            .unwrap();
+        assert!(matches!(
+            other.encode(enc, &insert),
+            Err(gpu_hash::HashError::ForeignBinding)
+        ));
+    });
+    assert_eq!(names, ["gpu-hash table_stats"]);
+    let slots: Vec<u32> = buffers::read(f.ctx, &out).unwrap();
+    assert!(slots.iter().all(|&s| s < config.num_slots() as u32));
+    assert_eq!(f.find_keys(&t, &keys), slots);
+    let used = slots.iter().collect::<std::collections::HashSet<_>>().len();
+    let st: HashStats = buffers::read::<HashStats>(f.ctx, t.stats()).unwrap()[0];
+    assert_eq!(
+        st.used_slots as usize, used,
+        "three builds of one table, one set of slots"
     );
 }
