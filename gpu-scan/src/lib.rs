@@ -876,8 +876,18 @@ pub fn wgsl_modules() -> Vec<(String, String)> {
         subgroups: true,
         ..testing
     };
+    let cpu_shape = KernelConfig {
+        workgroup_size: CPU_WORKGROUP_SIZE,
+        items_per_thread: CPU_ITEMS_PER_THREAD,
+        subgroups: true,
+        ..base
+    };
     vec![
         ("gpu-scan/scan (no subgroups)".into(), base.scan_source()),
+        (
+            "gpu-scan/scan (CPU-adapter shape 32 x 1024, subgroups)".into(),
+            cpu_shape.scan_source(),
+        ),
         ("gpu-scan/scan (subgroups)".into(), subgroups.scan_source()),
         (
             "gpu-scan/scan (no subgroups, forced fallback, counters)".into(),
