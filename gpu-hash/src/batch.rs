@@ -5,7 +5,7 @@ use std::num::NonZeroU64;
 
 use wgpu::util::DeviceExt;
 
-use crate::wgsl::{self, BindAt};
+use crate::wgsl::{self, BindAt, GridBinding};
 use crate::{HashError, HashStats, HashTable};
 
 const IO_WGSL: &str = include_str!("wgsl/batch_io.wgsl");
@@ -19,6 +19,8 @@ const ROLE_AT: BindAt = BindAt {
     group: 0,
     first_binding: 0,
 };
+const TABLE_AT: GridBinding = GridBinding::table(0, 0);
+const LOOKUP_AT: GridBinding = GridBinding::lookup(0, 0);
 
 pub(crate) fn insert_module() -> String {
     format!(
@@ -34,56 +36,154 @@ pub(crate) fn lookup_module() -> String {
     )
 }
 
-/// The batch kernels of one device. Each `encode_*` records one compute pass into the
-/// caller's encoder; item `i` reads `input[i]` (16 bytes) and writes `output` at a per-kernel
-/// stride.
+/// The batch kernels of one device, created once ([`HashBatch::new`] checks the device's
+/// limits); no device is stored. Bind a kernel to a table and your buffers once
+/// ([`HashBatch::bind`]), then record it any number of times ([`HashBatch::encode`]) with no
+/// allocation. Item `i` reads `input[i]` (16 bytes, `3 x 16` for [`BatchKernel::Jitter`]) and
+/// writes `output` at the kernel's stride ([`BatchKernel::output_words`]).
 #[derive(Debug)]
 pub struct HashBatch {
+    id: u64,
     io_layout: wgpu::BindGroupLayout,
     table_layout: wgpu::BindGroupLayout,
     lookup_layout: wgpu::BindGroupLayout,
-    insert_keys: wgpu::ComputePipeline,
-    insert_points: wgpu::ComputePipeline,
-    table_stats: wgpu::ComputePipeline,
-    find_keys: wgpu::ComputePipeline,
-    find_points: wgpu::ComputePipeline,
-    cells: wgpu::ComputePipeline,
-    hash_values: wgpu::ComputePipeline,
-    jitter: wgpu::ComputePipeline,
+    /// Indexed by [`BatchKernel`].
+    pipelines: Vec<wgpu::ComputePipeline>,
+    stats: wgpu::ComputePipeline,
 }
 
-/// Words written per item by each kernel.
-#[derive(Debug, Clone, Copy)]
-enum Kernel {
+/// The batch kernels. Inputs are `vec4` per item; outputs `u32` words.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum BatchKernel {
+    /// `output[i]` = `hash_find_or_insert` of key `input[i]` ([`crate::HashKey`]): a slot or
+    /// [`crate::HASH_FULL`]. Slot counters are not touched (use [`BatchKernel::InsertPoints`]
+    /// or `hash_slot_append` to count items).
     InsertKeys,
+    /// Inserts the cell of each point (`input[i]` = `vec4<f32>`, w ignored; no jitter) and
+    /// appends it to its slot: `output[2i]` = slot, `output[2i + 1]` = the point's index in
+    /// its slot (the slot counter's old value). A point without a cell (non-finite or out of
+    /// range, counted in the stats) writes `(HASH_REJECTED, HASH_NOT_FOUND)`; one whose probe
+    /// sequence is full (an overflow, counted) writes `(HASH_FULL, HASH_NOT_FOUND)`; neither
+    /// touches a counter.
     InsertPoints,
+    /// `output[i]` = `find` of key `input[i]` through the read-only lookup role: a slot or
+    /// [`crate::HASH_NOT_FOUND`].
     FindKeys,
+    /// Finds the cell of each point under the table's own params: `output[2i]` = slot (or
+    /// [`crate::HASH_NOT_FOUND`] / [`crate::HASH_REJECTED`]), `output[2i + 1]` = items counted
+    /// in the slot (0 without a slot).
     FindPoints,
+    /// `output[8i..8i + 8]` = the [`crate::HashCell`] of point `input[i]` under the table's
+    /// params.
     Cells,
+    /// `output[2i]` = pcg(`input[i].x`), `output[2i + 1]` = xxhash32(`input[i].x`) (input is
+    /// `vec4<u32>`; the table only provides the bindings).
     HashValues,
+    /// Item `i` reads `input[3i]` = position, `input[3i + 1]` = normal, `input[3i + 2]` =
+    /// (u.x, u.y, cell_size) as `vec4<f32>`; `output[4i..4i + 3]` = `hash_jitter` of them.
     Jitter,
 }
 
-impl Kernel {
-    fn out_words(self) -> u64 {
+impl BatchKernel {
+    /// Every kernel, in pipeline order.
+    pub const ALL: [BatchKernel; 7] = [
+        BatchKernel::InsertKeys,
+        BatchKernel::InsertPoints,
+        BatchKernel::FindKeys,
+        BatchKernel::FindPoints,
+        BatchKernel::Cells,
+        BatchKernel::HashValues,
+        BatchKernel::Jitter,
+    ];
+
+    /// `u32` words written per item.
+    pub fn output_words(self) -> u64 {
         match self {
-            Kernel::InsertKeys | Kernel::FindKeys => 1,
-            Kernel::InsertPoints | Kernel::FindPoints | Kernel::HashValues => 2,
-            Kernel::Jitter => 4,
-            Kernel::Cells => 8,
+            BatchKernel::InsertKeys | BatchKernel::FindKeys => 1,
+            BatchKernel::InsertPoints | BatchKernel::FindPoints | BatchKernel::HashValues => 2,
+            BatchKernel::Jitter => 4,
+            BatchKernel::Cells => 8,
         }
     }
 
-    fn in_vec4s(self) -> u64 {
+    /// `vec4`s read per item.
+    pub fn input_vec4s(self) -> u64 {
         match self {
-            Kernel::Jitter => 3,
+            BatchKernel::Jitter => 3,
             _ => 1,
+        }
+    }
+
+    /// Whether it binds the table role (read-write) rather than the lookup role.
+    pub fn writes_table(self) -> bool {
+        matches!(self, BatchKernel::InsertKeys | BatchKernel::InsertPoints)
+    }
+
+    fn entry_point(self) -> &'static str {
+        match self {
+            BatchKernel::InsertKeys => "insert_keys",
+            BatchKernel::InsertPoints => "insert_points",
+            BatchKernel::FindKeys => "find_keys",
+            BatchKernel::FindPoints => "find_points",
+            BatchKernel::Cells => "cells",
+            BatchKernel::HashValues => "hash_values",
+            BatchKernel::Jitter => "jitter",
         }
     }
 }
 
+/// A batch kernel (or the stats kernel) bound to one table and the caller's buffers: bind
+/// groups, parameter block and dispatch size, created once by [`HashBatch::bind`] /
+/// [`HashBatch::bind_stats`]. Record it with [`HashBatch::encode`] on the batch that made it.
+#[derive(Debug)]
+pub struct BatchBinding {
+    batch_id: u64,
+    kernel: Option<BatchKernel>,
+    role: wgpu::BindGroup,
+    io: Option<(wgpu::BindGroup, wgpu::Buffer)>,
+    dispatch: (u32, u32),
+    /// The stats buffer to clear before the stats kernel.
+    stats: Option<wgpu::Buffer>,
+}
+
+/// Storage buffers the insert kernels bind in one stage: the table role's checksums, counters
+/// and stats, plus the batch's input and output.
+pub const BATCH_STORAGE_BUFFERS_PER_STAGE: u32 = 5;
+
+/// Checks the device limits the batch kernels need (the README's device requirements table).
+pub(crate) fn check_batch_limits(limits: &wgpu::Limits) -> Result<(), HashError> {
+    let what = "HashBatch";
+    let checks = [
+        (
+            "max_storage_buffers_per_shader_stage",
+            BATCH_STORAGE_BUFFERS_PER_STAGE,
+            limits.max_storage_buffers_per_shader_stage,
+        ),
+        (
+            "max_uniform_buffers_per_shader_stage",
+            2,
+            limits.max_uniform_buffers_per_shader_stage,
+        ),
+        ("max_bind_groups", 2, limits.max_bind_groups),
+        (
+            "max_compute_invocations_per_workgroup",
+            WORKGROUP_SIZE,
+            limits.max_compute_invocations_per_workgroup,
+        ),
+        (
+            "max_compute_workgroup_size_x",
+            WORKGROUP_SIZE,
+            limits.max_compute_workgroup_size_x,
+        ),
+    ];
+    crate::check_limits(what, &checks)
+}
+
 impl HashBatch {
-    pub fn new(device: &wgpu::Device) -> Self {
+    /// Builds the batch pipelines, after checking the device limits they need
+    /// ([`HashError::DeviceLimit`] otherwise).
+    pub fn new(device: &wgpu::Device) -> Result<Self, HashError> {
+        check_batch_limits(&device.limits())?;
         let layout = |label: &str, entries: &[wgpu::BindGroupLayoutEntry]| {
             device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
                 label: Some(label),
@@ -109,14 +209,8 @@ impl HashBatch {
                 buffer_entry(2, wgpu::BufferBindingType::Storage { read_only: false }, 4),
             ],
         );
-        let table_layout = layout(
-            "gpu-hash table",
-            &crate::bind_group_layout_entries(ROLE_AT.first_binding),
-        );
-        let lookup_layout = layout(
-            "gpu-hash lookup",
-            &crate::lookup_bind_group_layout_entries(ROLE_AT.first_binding),
-        );
+        let table_layout = layout("gpu-hash table", &TABLE_AT.layout_entries());
+        let lookup_layout = layout("gpu-hash lookup", &LOOKUP_AT.layout_entries());
         let pipeline_layout = |label: &str, role: &wgpu::BindGroupLayout, io: bool| {
             device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
                 label: Some(label),
@@ -148,45 +242,41 @@ impl HashBatch {
                 cache: None,
             })
         };
-        Self {
-            insert_keys: pipeline(&insert_layout, &insert_module, "insert_keys"),
-            insert_points: pipeline(&insert_layout, &insert_module, "insert_points"),
-            table_stats: pipeline(&stats_layout, &insert_module, "table_stats"),
-            find_keys: pipeline(&find_layout, &lookup_module, "find_keys"),
-            find_points: pipeline(&find_layout, &lookup_module, "find_points"),
-            cells: pipeline(&find_layout, &lookup_module, "cells"),
-            hash_values: pipeline(&find_layout, &lookup_module, "hash_values"),
-            jitter: pipeline(&find_layout, &lookup_module, "jitter"),
+        let pipelines = BatchKernel::ALL
+            .iter()
+            .map(|k| {
+                if k.writes_table() {
+                    pipeline(&insert_layout, &insert_module, k.entry_point())
+                } else {
+                    pipeline(&find_layout, &lookup_module, k.entry_point())
+                }
+            })
+            .collect();
+        static NEXT_ID: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
+        Ok(Self {
+            id: NEXT_ID.fetch_add(1, std::sync::atomic::Ordering::Relaxed),
+            stats: pipeline(&stats_layout, &insert_module, "table_stats"),
+            pipelines,
             io_layout,
             table_layout,
             lookup_layout,
-        }
+        })
     }
 
-    fn pipeline(&self, kernel: Kernel) -> (&wgpu::ComputePipeline, bool) {
-        match kernel {
-            Kernel::InsertKeys => (&self.insert_keys, true),
-            Kernel::InsertPoints => (&self.insert_points, true),
-            Kernel::FindKeys => (&self.find_keys, false),
-            Kernel::FindPoints => (&self.find_points, false),
-            Kernel::Cells => (&self.cells, false),
-            Kernel::HashValues => (&self.hash_values, false),
-            Kernel::Jitter => (&self.jitter, false),
-        }
-    }
-
-    #[allow(clippy::too_many_arguments)]
-    fn encode(
+    /// Binds `kernel` to `table` and the caller's `input` / `output` for `n` items: checks the
+    /// buffer sizes and that the exact ranges the kernel uses (`n * stride` bytes from 0) fit
+    /// one storage binding ([`HashError::BindingTooLarge`]), then creates the bind groups and
+    /// the parameter block, once.
+    pub fn bind(
         &self,
-        kernel: Kernel,
         device: &wgpu::Device,
-        encoder: &mut wgpu::CommandEncoder,
+        kernel: BatchKernel,
         table: &HashTable,
         input: &wgpu::Buffer,
         output: &wgpu::Buffer,
         n: u32,
-    ) -> Result<(), HashError> {
-        let need_in = u64::from(n) * 16 * kernel.in_vec4s();
+    ) -> Result<BatchBinding, HashError> {
+        let need_in = u64::from(n) * 16 * kernel.input_vec4s();
         if input.size() < need_in {
             return Err(HashError::BufferTooSmall {
                 name: "input",
@@ -194,7 +284,7 @@ impl HashBatch {
                 need: need_in,
             });
         }
-        let need_out = u64::from(n) * 4 * kernel.out_words();
+        let need_out = u64::from(n) * 4 * kernel.output_words();
         if output.size() < need_out {
             return Err(HashError::BufferTooSmall {
                 name: "output",
@@ -202,207 +292,152 @@ impl HashBatch {
                 need: need_out,
             });
         }
-        if n == 0 {
-            return Ok(());
+        // Bind exactly the ranges the kernel reads and writes, so a caller's buffer may be
+        // larger than one binding; a range that itself exceeds the limit is an error here.
+        let limit = device.limits().max_storage_buffer_binding_size;
+        for (name, bytes) in [("input", need_in), ("output", need_out)] {
+            if bytes > limit {
+                return Err(HashError::BindingTooLarge { name, bytes, limit });
+            }
         }
-        let (pipeline, writes_table) = self.pipeline(kernel);
-        let role = if writes_table {
-            device.create_bind_group(&wgpu::BindGroupDescriptor {
-                label: Some("gpu-hash table"),
-                layout: &self.table_layout,
-                entries: &table.bind_group_entries(ROLE_AT.first_binding),
-            })
+        let role = self.role_group(device, table, kernel.writes_table());
+        let io = (n > 0).then(|| {
+            let params = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some("gpu-hash batch params"),
+                contents: bytemuck::cast_slice(&[n, 0, 0, 0]),
+                usage: wgpu::BufferUsages::UNIFORM,
+            });
+            let range = |buffer, size| {
+                wgpu::BindingResource::Buffer(wgpu::BufferBinding {
+                    buffer,
+                    offset: 0,
+                    size: wgpu::BufferSize::new(size),
+                })
+            };
+            let group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some("gpu-hash batch io"),
+                layout: &self.io_layout,
+                entries: &[
+                    wgpu::BindGroupEntry {
+                        binding: 0,
+                        resource: params.as_entire_binding(),
+                    },
+                    wgpu::BindGroupEntry {
+                        binding: 1,
+                        resource: range(input, need_in),
+                    },
+                    wgpu::BindGroupEntry {
+                        binding: 2,
+                        resource: range(output, need_out),
+                    },
+                ],
+            });
+            (group, params)
+        });
+        Ok(BatchBinding {
+            batch_id: self.id,
+            kernel: Some(kernel),
+            role,
+            io,
+            dispatch: dispatch_2d(n.div_ceil(WORKGROUP_SIZE), device),
+            stats: None,
+        })
+    }
+
+    /// Binds the stats kernel to `table`: recomputes `used_slots`, `max_bucket_fill` and
+    /// `full_buckets` of its stats from its checksums (the insert-time counters are kept).
+    pub fn bind_stats(&self, device: &wgpu::Device, table: &HashTable) -> BatchBinding {
+        BatchBinding {
+            batch_id: self.id,
+            kernel: None,
+            role: self.role_group(device, table, true),
+            io: None,
+            dispatch: dispatch_2d(table.config().num_buckets.div_ceil(WORKGROUP_SIZE), device),
+            stats: Some(table.stats().clone()),
+        }
+    }
+
+    fn role_group(&self, device: &wgpu::Device, table: &HashTable, write: bool) -> wgpu::BindGroup {
+        let (at, layout) = if write {
+            (TABLE_AT, &self.table_layout)
         } else {
-            device.create_bind_group(&wgpu::BindGroupDescriptor {
-                label: Some("gpu-hash lookup"),
-                layout: &self.lookup_layout,
-                entries: &table.lookup_bind_group_entries(ROLE_AT.first_binding),
-            })
+            (LOOKUP_AT, &self.lookup_layout)
         };
-        let params = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-            label: Some("gpu-hash batch params"),
-            contents: bytemuck::cast_slice(&[n, 0, 0, 0]),
-            usage: wgpu::BufferUsages::UNIFORM,
-        });
-        let io = device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("gpu-hash batch io"),
-            layout: &self.io_layout,
-            entries: &[
-                wgpu::BindGroupEntry {
-                    binding: 0,
-                    resource: params.as_entire_binding(),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 1,
-                    resource: input.as_entire_binding(),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 2,
-                    resource: output.as_entire_binding(),
-                },
-            ],
-        });
-        let (x, y) = dispatch_2d(n.div_ceil(WORKGROUP_SIZE), device);
+        device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("gpu-hash table"),
+            layout,
+            entries: &at.bind_group_entries(&table.buffers()),
+        })
+    }
+
+    /// Records a bound kernel: one compute pass (the stats kernel also clears the fields it
+    /// recomputes). Allocates nothing; `n = 0` records nothing.
+    pub fn encode(
+        &self,
+        encoder: &mut wgpu::CommandEncoder,
+        binding: &BatchBinding,
+    ) -> Result<(), HashError> {
+        self.encode_timed(encoder, binding, &mut |_| None)
+    }
+
+    /// [`HashBatch::encode`] with a named timestamp span hook: `span` is called with the pass
+    /// name (`"gpu-hash <entry point>"`, e.g. `"gpu-hash insert_points"`, or
+    /// `"gpu-hash table_stats"`) and may return the timestamp writes for it.
+    pub fn encode_timed<'q>(
+        &self,
+        encoder: &mut wgpu::CommandEncoder,
+        binding: &BatchBinding,
+        span: &mut dyn FnMut(&'static str) -> Option<wgpu::ComputePassTimestampWrites<'q>>,
+    ) -> Result<(), HashError> {
+        if binding.batch_id != self.id {
+            return Err(HashError::ForeignBinding);
+        }
+        let (pipeline, name) = match binding.kernel {
+            Some(k) => {
+                if binding.io.is_none() {
+                    return Ok(()); // n = 0
+                }
+                (&self.pipelines[k as usize], pass_name(k))
+            }
+            None => (&self.stats, "gpu-hash table_stats"),
+        };
+        if let Some(stats) = &binding.stats {
+            encoder.clear_buffer(stats, HashStats::COMPUTED_OFFSET, None);
+        }
         let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
-            label: Some("gpu-hash batch"),
-            timestamp_writes: None,
+            label: Some(name),
+            timestamp_writes: span(name),
         });
         pass.set_pipeline(pipeline);
-        pass.set_bind_group(0, &role, &[]);
-        pass.set_bind_group(1, &io, &[]);
-        pass.dispatch_workgroups(x, y, 1);
+        pass.set_bind_group(0, &binding.role, &[]);
+        if let Some((io, _)) = &binding.io {
+            pass.set_bind_group(1, io, &[]);
+        }
+        pass.dispatch_workgroups(binding.dispatch.0, binding.dispatch.1, 1);
         Ok(())
     }
 
-    /// `output[i]` (u32) = `find_or_insert` of key `input[i]` ([`crate::HashKey`]): a slot or
-    /// [`crate::HASH_FULL`].
-    pub fn encode_insert_keys(
+    /// One-off convenience: [`HashBatch::bind`] then [`HashBatch::encode`] (allocates a bind
+    /// group and parameter block on every call).
+    #[allow(clippy::too_many_arguments)]
+    pub fn bind_and_encode(
         &self,
         device: &wgpu::Device,
         encoder: &mut wgpu::CommandEncoder,
-        table: &HashTable,
-        keys: &wgpu::Buffer,
-        slots: &wgpu::Buffer,
-        n: u32,
-    ) -> Result<(), HashError> {
-        self.encode(Kernel::InsertKeys, device, encoder, table, keys, slots, n)
-    }
-
-    /// Inserts the cell of each point (`input[i]` = `vec4<f32>`, w ignored; no jitter):
-    /// `output[2i]` = slot (or [`crate::HASH_FULL`] / [`crate::HASH_REJECTED`]),
-    /// `output[2i + 1]` = the point's index in its slot (the slot counter's old value).
-    pub fn encode_insert_points(
-        &self,
-        device: &wgpu::Device,
-        encoder: &mut wgpu::CommandEncoder,
-        table: &HashTable,
-        points: &wgpu::Buffer,
-        output: &wgpu::Buffer,
-        n: u32,
-    ) -> Result<(), HashError> {
-        self.encode(
-            Kernel::InsertPoints,
-            device,
-            encoder,
-            table,
-            points,
-            output,
-            n,
-        )
-    }
-
-    /// `output[i]` = `find` of key `input[i]` through the read-only lookup role: a slot or
-    /// [`crate::HASH_NOT_FOUND`].
-    pub fn encode_find_keys(
-        &self,
-        device: &wgpu::Device,
-        encoder: &mut wgpu::CommandEncoder,
-        table: &HashTable,
-        keys: &wgpu::Buffer,
-        slots: &wgpu::Buffer,
-        n: u32,
-    ) -> Result<(), HashError> {
-        self.encode(Kernel::FindKeys, device, encoder, table, keys, slots, n)
-    }
-
-    /// Finds the cell of each point under the table's own params: `output[2i]` = slot (or
-    /// [`crate::HASH_NOT_FOUND`] / [`crate::HASH_REJECTED`]), `output[2i + 1]` = items counted
-    /// in the slot (0 without a slot).
-    pub fn encode_find_points(
-        &self,
-        device: &wgpu::Device,
-        encoder: &mut wgpu::CommandEncoder,
-        table: &HashTable,
-        points: &wgpu::Buffer,
-        output: &wgpu::Buffer,
-        n: u32,
-    ) -> Result<(), HashError> {
-        self.encode(
-            Kernel::FindPoints,
-            device,
-            encoder,
-            table,
-            points,
-            output,
-            n,
-        )
-    }
-
-    /// `output[8i..8i + 8]` = the [`crate::HashCell`] of point `input[i]` under the table's
-    /// params.
-    pub fn encode_cells(
-        &self,
-        device: &wgpu::Device,
-        encoder: &mut wgpu::CommandEncoder,
-        table: &HashTable,
-        points: &wgpu::Buffer,
-        cells: &wgpu::Buffer,
-        n: u32,
-    ) -> Result<(), HashError> {
-        self.encode(Kernel::Cells, device, encoder, table, points, cells, n)
-    }
-
-    /// `output[2i]` = pcg(`input[i].x`), `output[2i + 1]` = xxhash32(`input[i].x`) (input is
-    /// `vec4<u32>`; `table` only provides the bindings).
-    pub fn encode_hash_values(
-        &self,
-        device: &wgpu::Device,
-        encoder: &mut wgpu::CommandEncoder,
-        table: &HashTable,
-        values: &wgpu::Buffer,
-        output: &wgpu::Buffer,
-        n: u32,
-    ) -> Result<(), HashError> {
-        self.encode(
-            Kernel::HashValues,
-            device,
-            encoder,
-            table,
-            values,
-            output,
-            n,
-        )
-    }
-
-    /// Item `i` reads `input[3i]` = position, `input[3i + 1]` = normal, `input[3i + 2]` =
-    /// (u.x, u.y, cell_size) as `vec4<f32>`; `output[4i..4i + 3]` = `hash_jitter` of them.
-    pub fn encode_jitter(
-        &self,
-        device: &wgpu::Device,
-        encoder: &mut wgpu::CommandEncoder,
+        kernel: BatchKernel,
         table: &HashTable,
         input: &wgpu::Buffer,
         output: &wgpu::Buffer,
         n: u32,
     ) -> Result<(), HashError> {
-        self.encode(Kernel::Jitter, device, encoder, table, input, output, n)
+        let binding = self.bind(device, kernel, table, input, output, n)?;
+        self.encode(encoder, &binding)
     }
 
-    /// Recomputes `used_slots`, `max_bucket_fill` and `full_buckets` of `table`'s stats from
-    /// its checksums (the insert-time counters are kept).
-    pub fn encode_stats(
-        &self,
-        device: &wgpu::Device,
-        encoder: &mut wgpu::CommandEncoder,
-        table: &HashTable,
-    ) {
-        encoder.clear_buffer(table.stats(), HashStats::COMPUTED_OFFSET, None);
-        let role = device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("gpu-hash table"),
-            layout: &self.table_layout,
-            entries: &table.bind_group_entries(ROLE_AT.first_binding),
-        });
-        let (x, y) = dispatch_2d(table.config().num_buckets.div_ceil(WORKGROUP_SIZE), device);
-        let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
-            label: Some("gpu-hash stats"),
-            timestamp_writes: None,
-        });
-        pass.set_pipeline(&self.table_stats);
-        pass.set_bind_group(0, &role, &[]);
-        pass.dispatch_workgroups(x, y, 1);
-    }
-
-    /// Computes and reads back `table`'s stats: submits its own command buffer and blocks.
+    /// Test and tool convenience: computes and reads back `table`'s stats. It **submits its own
+    /// command buffer and blocks** until the GPU is done; in a frame loop, record
+    /// [`HashBatch::bind_stats`] with [`HashBatch::encode`] and copy [`HashTable::stats`] to
+    /// your own readback buffer instead.
     pub fn read_stats(
         &self,
         device: &wgpu::Device,
@@ -419,7 +454,7 @@ impl HashBatch {
         let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
             label: Some("gpu-hash stats"),
         });
-        self.encode_stats(device, &mut encoder, table);
+        self.encode(&mut encoder, &self.bind_stats(device, table))?;
         encoder.copy_buffer_to_buffer(table.stats(), 0, &staging, 0, size);
         queue.submit([encoder.finish()]);
         let slice = staging.slice(..);
@@ -440,6 +475,18 @@ impl HashBatch {
         drop(view);
         staging.unmap();
         Ok(stats)
+    }
+}
+
+fn pass_name(kernel: BatchKernel) -> &'static str {
+    match kernel {
+        BatchKernel::InsertKeys => "gpu-hash insert_keys",
+        BatchKernel::InsertPoints => "gpu-hash insert_points",
+        BatchKernel::FindKeys => "gpu-hash find_keys",
+        BatchKernel::FindPoints => "gpu-hash find_points",
+        BatchKernel::Cells => "gpu-hash cells",
+        BatchKernel::HashValues => "gpu-hash hash_values",
+        BatchKernel::Jitter => "gpu-hash jitter",
     }
 }
 

@@ -30,8 +30,10 @@
 //!
 //! On the host: [`bind_group_layout_entries`] / [`lookup_bind_group_layout_entries`] for the
 //! layouts, [`HashTable::bind_group_entries`] / [`HashTable::lookup_bind_group_entries`] (or
-//! [`TableBuffers`] over buffers you own) for the bind groups, [`HashTable::encode_clear`]
-//! before each build, [`HashBatch`] for ready-made insert/find/stats kernels.
+//! [`TableBuffers`] over buffers you own) for the bind groups, or one [`GridBinding`] value
+//! that derives the WGSL declarations, layout entries and bind group entries together;
+//! [`HashTable::encode_clear`] before each build; [`HashBatch`] for ready-made
+//! insert/find/stats kernels (create with the device, bind once, encode many times).
 
 mod batch;
 pub mod cell;
@@ -39,14 +41,15 @@ pub mod hash;
 mod table;
 pub mod wgsl;
 
-pub use batch::HashBatch;
+pub use batch::{BATCH_STORAGE_BUFFERS_PER_STAGE, BatchBinding, BatchKernel, HashBatch};
 pub use cell::{CellSizing, HashCell, HashGridParams, HashKey, jitter};
 pub use table::{
     CpuHashTable, HashStats, HashTable, Probe, TableBuffers, TableConfig,
     bind_group_layout_entries, lookup_bind_group_layout_entries,
 };
 pub use wgsl::{
-    HASH_WGSL, LOOKUP_WGSL, TABLE_WGSL, bindings_wgsl, constants_wgsl, lookup_bindings_wgsl,
+    GridBinding, HASH_WGSL, LOOKUP_WGSL, Role, TABLE_WGSL, bindings_wgsl, compose_grid,
+    constants_wgsl, lookup_bindings_wgsl,
 };
 
 /// Returned instead of a slot when every probed slot holds another key (counted in
@@ -90,9 +93,53 @@ pub enum HashError {
         have: u64,
         need: u64,
     },
+    /// A device limit is below what a kernel or binding role needs (see the crate README's
+    /// device requirements table).
+    #[error("{what} needs {limit} >= {needed}, the device has {available}")]
+    DeviceLimit {
+        /// What needs it (a kernel or binding role).
+        what: &'static str,
+        /// The field of [`wgpu::Limits`].
+        limit: &'static str,
+        needed: u64,
+        available: u64,
+    },
+    /// A caller's buffer range would exceed the device's storage binding limit.
+    #[error(
+        "buffer `{name}` would be bound with {bytes} bytes, above the device's max storage binding of {limit} bytes"
+    )]
+    BindingTooLarge {
+        name: &'static str,
+        bytes: u64,
+        limit: u64,
+    },
+    /// A [`BatchBinding`] made by another [`HashBatch`] was passed to [`HashBatch::encode`].
+    #[error("the binding was made by another HashBatch")]
+    ForeignBinding,
     /// Reading the stats back failed.
     #[error("reading back hash table stats failed: {0}")]
     Readback(String),
+}
+
+/// Storage buffers the table role ([`bindings_wgsl`]) binds: checksums, counters, stats.
+pub const TABLE_STORAGE_BUFFERS: u32 = 3;
+
+/// Checks `(limit name, needed, available)` triples for `what`.
+pub(crate) fn check_limits(
+    what: &'static str,
+    checks: &[(&'static str, u32, u32)],
+) -> Result<(), HashError> {
+    for &(limit, needed, available) in checks {
+        if available < needed {
+            return Err(HashError::DeviceLimit {
+                what,
+                limit,
+                needed: u64::from(needed),
+                available: u64::from(available),
+            });
+        }
+    }
+    Ok(())
 }
 
 /// Every WGSL module this crate ships, composed as it is used, as `(name, source)`: the

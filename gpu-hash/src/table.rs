@@ -62,7 +62,7 @@ impl TableConfig {
 }
 
 /// The stats buffer (`HashStatsAtomic` in `table.wgsl`). Inserts maintain the first four
-/// fields; [`crate::HashBatch::encode_stats`] recomputes the next three from the table.
+/// fields; [`crate::HashBatch::bind_stats`] recomputes the next three from the table.
 #[repr(C)]
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Pod, Zeroable)]
 pub struct HashStats {
@@ -219,6 +219,22 @@ impl HashTable {
             probe_buckets: params.probe_buckets,
         };
         config.validate()?;
+        let limits = device.limits();
+        crate::check_limits(
+            "HashTable (table role)",
+            &[
+                (
+                    "max_storage_buffers_per_shader_stage",
+                    crate::TABLE_STORAGE_BUFFERS,
+                    limits.max_storage_buffers_per_shader_stage,
+                ),
+                (
+                    "max_uniform_buffers_per_shader_stage",
+                    1,
+                    limits.max_uniform_buffers_per_shader_stage,
+                ),
+            ],
+        )?;
         let bytes = config.num_slots() * 4;
         let limit = device
             .limits()

@@ -19,6 +19,107 @@ pub struct BindAt {
     pub first_binding: u32,
 }
 
+/// Which side of a table a shader binds: [`Role::Table`] (read-write, atomics: build the grid)
+/// or [`Role::Lookup`] (read-only, plain loads: search a grid nobody writes during the
+/// dispatch).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum Role {
+    /// `hash_params`, `hash_checksums`, `hash_counters`, `hash_stats` (4 bindings, 3 storage).
+    Table,
+    /// `hash_lookup_params`, `hash_lookup_checksums`, `hash_lookup_counters` (3 bindings, 2
+    /// storage).
+    Lookup,
+}
+
+/// One value that places a table's bindings in a user shader: the role, the group and the
+/// first binding. Everything that must agree derives from it: the WGSL declarations
+/// ([`GridBinding::wgsl`], [`compose_grid`]), the layout entries
+/// ([`GridBinding::layout_entries`]) and the bind group entries
+/// ([`GridBinding::bind_group_entries`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub struct GridBinding {
+    pub role: Role,
+    pub group: u32,
+    pub first_binding: u32,
+}
+
+impl GridBinding {
+    /// The table role at `group`, bindings `first_binding..first_binding + 4`.
+    pub const fn table(group: u32, first_binding: u32) -> Self {
+        Self {
+            role: Role::Table,
+            group,
+            first_binding,
+        }
+    }
+
+    /// The lookup role at `group`, bindings `first_binding..first_binding + 3`.
+    pub const fn lookup(group: u32, first_binding: u32) -> Self {
+        Self {
+            role: Role::Lookup,
+            group,
+            first_binding,
+        }
+    }
+
+    /// Bindings this role occupies (consecutive from `first_binding`).
+    pub const fn binding_count(&self) -> u32 {
+        match self.role {
+            Role::Table => 4,
+            Role::Lookup => 3,
+        }
+    }
+
+    /// Storage buffers this role binds (one uniform besides).
+    pub const fn storage_buffers(&self) -> u32 {
+        match self.role {
+            Role::Table => 3,
+            Role::Lookup => 2,
+        }
+    }
+
+    /// The WGSL declarations of this role ([`bindings_wgsl`] or [`lookup_bindings_wgsl`]).
+    pub fn wgsl(&self) -> String {
+        match self.role {
+            Role::Table => bindings_wgsl(self.group, self.first_binding),
+            Role::Lookup => lookup_bindings_wgsl(self.group, self.first_binding),
+        }
+    }
+
+    /// The layout entries of this role, for the layout of group `self.group`.
+    pub fn layout_entries(&self) -> Vec<wgpu::BindGroupLayoutEntry> {
+        match self.role {
+            Role::Table => crate::bind_group_layout_entries(self.first_binding),
+            Role::Lookup => crate::lookup_bind_group_layout_entries(self.first_binding),
+        }
+    }
+
+    /// The bind group entries of `table` in this role.
+    pub fn bind_group_entries<'a>(
+        &self,
+        table: &crate::TableBuffers<'a>,
+    ) -> Vec<wgpu::BindGroupEntry<'a>> {
+        match self.role {
+            Role::Table => table.bind_group_entries(self.first_binding),
+            Role::Lookup => table.lookup_bind_group_entries(self.first_binding),
+        }
+    }
+
+    fn at(&self) -> BindAt {
+        BindAt {
+            group: self.group,
+            first_binding: self.first_binding,
+        }
+    }
+}
+
+/// [`compose`] for the given bindings (at most one per role): constants, their declarations
+/// and the library files. Append your kernel to it.
+pub fn compose_grid(bindings: &[GridBinding]) -> String {
+    let find = |role| bindings.iter().find(|b| b.role == role).map(|b| b.at());
+    compose(find(Role::Table), find(Role::Lookup))
+}
+
 /// The constants Rust owns (sentinels, status codes), as WGSL `const` declarations.
 pub fn constants_wgsl() -> String {
     format!(

@@ -57,14 +57,16 @@ async fn run() -> Result<(), Box<dyn std::error::Error>> {
 
     let scan = Scan::new(&device, &ScanDescriptor::for_device(&device, n))?;
     let mut encoder = device.create_command_encoder(&Default::default());
-    scan.encode(
-        &mut encoder,
+    // Bind once to the buffers; encode (here once) with no allocation.
+    let binding = scan.bind(
+        &device,
         &input_buf,
         &output_buf,
         n,
         ScanKind::Exclusive,
         Some(&total_buf),
     )?;
+    scan.encode(&mut encoder, &binding)?;
     encoder.copy_buffer_to_buffer(&output_buf, 0, &readback, 0, u64::from(n) * 4);
     encoder.copy_buffer_to_buffer(&total_buf, 0, &readback, u64::from(n) * 4, 4);
     queue.submit([encoder.finish()]);

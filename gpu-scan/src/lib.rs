@@ -9,9 +9,12 @@
 //! # fn demo(device: &wgpu::Device, queue: &wgpu::Queue, input: &wgpu::Buffer,
 //! #         output: &wgpu::Buffer) -> Result<(), gpu_scan::ScanError> {
 //! use gpu_scan::{Scan, ScanDescriptor, ScanKind};
+//! // Create with the device (limits checked), bind once to your buffers...
 //! let scan = Scan::new(device, &ScanDescriptor::for_device(device, 1 << 20))?;
+//! let binding = scan.bind(device, input, output, 1000, ScanKind::Exclusive, None)?;
+//! // ...and encode as often as needed into your encoder, with no allocation.
 //! let mut encoder = device.create_command_encoder(&Default::default());
-//! scan.encode(&mut encoder, input, output, 1000, ScanKind::Exclusive, None)?;
+//! scan.encode(&mut encoder, &binding)?;
 //! queue.submit([encoder.finish()]);
 //! # Ok(()) }
 //! ```
@@ -29,6 +32,33 @@ pub use shaders::KernelConfig;
 
 /// Default failed polls of one predecessor before a workgroup takes the fallback.
 pub const DEFAULT_SPIN_LIMIT: u32 = 256;
+
+/// Default elements per invocation on GPUs (see [`ScanDescriptor::items_per_thread`]).
+pub const DEFAULT_ITEMS_PER_THREAD: u32 = 16;
+
+/// Default invocations per workgroup on GPUs (see [`ScanDescriptor::workgroup_size`]).
+pub const DEFAULT_WORKGROUP_SIZE: u32 = 256;
+
+/// Default elements per invocation on CPU adapters (llvmpipe / lavapipe, SwiftShader).
+pub const CPU_ITEMS_PER_THREAD: u32 = 1024;
+
+/// Default invocations per workgroup on CPU adapters.
+pub const CPU_WORKGROUP_SIZE: u32 = 32;
+
+/// The default `(workgroup_size, items_per_thread)` for an adapter.
+///
+/// GPUs get 256 x 16 (tiles of 4096: enough invocations to hide memory latency). CPU adapters
+/// (`DeviceType::Cpu`) get 32 x 1024 (tiles of 32768): there every workgroup runs as a few
+/// SIMD lanes on one core, and the per-tile costs (barriers, which llvmpipe implements as
+/// coroutine switches, the ticket, the look-back) dominate unless each invocation scans a long
+/// run. On llvmpipe this takes a 2^25 scan from ~0.2 to ~1.0 times the speed of a plain copy.
+pub fn default_shape(info: &wgpu::AdapterInfo) -> (u32, u32) {
+    if info.device_type == wgpu::DeviceType::Cpu {
+        (CPU_WORKGROUP_SIZE, CPU_ITEMS_PER_THREAD)
+    } else {
+        (DEFAULT_WORKGROUP_SIZE, DEFAULT_ITEMS_PER_THREAD)
+    }
+}
 
 /// Which prefix sum.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
@@ -57,9 +87,13 @@ pub struct ScanDescriptor {
     /// Count tiles, look-back steps, failed polls and fallbacks into a debug buffer
     /// ([`Scan::counters_buffer`]). Costs a few atomics per tile; for benchmarks and tests.
     pub debug_counters: bool,
-    /// Elements per thread (tile = workgroup size x this), a multiple of 4. `None` picks the
-    /// largest of 16, 8, 4 that fits the device's workgroup memory.
+    /// Elements per thread (tile = workgroup size x this), a non-zero multiple of 4: each
+    /// invocation scans a run of this many consecutive elements serially in registers. `None`
+    /// picks [`DEFAULT_ITEMS_PER_THREAD`].
     pub items_per_thread: Option<u32>,
+    /// Invocations per workgroup, a power of two >= 32 within the device's limits. `None`
+    /// picks [`DEFAULT_WORKGROUP_SIZE`] (or the device's largest power of two below it).
+    pub workgroup_size: Option<u32>,
 }
 
 impl ScanDescriptor {
@@ -71,6 +105,7 @@ impl ScanDescriptor {
             spin_limit: DEFAULT_SPIN_LIMIT,
             debug_counters: false,
             items_per_thread: None,
+            workgroup_size: None,
         }
     }
 
@@ -95,6 +130,23 @@ pub enum ScanError {
     /// The device's compute limits cannot hold the kernel's workgroup.
     #[error("the device's compute limits cannot run the scan kernel: {0}")]
     UnsupportedLimits(String),
+    /// A device limit is below what the scan kernel needs (see the crate README's device
+    /// requirements table).
+    #[error("the scan needs {limit} >= {needed}, the device has {available}")]
+    DeviceLimit {
+        /// The field of [`wgpu::Limits`].
+        limit: &'static str,
+        needed: u64,
+        available: u64,
+    },
+    /// `workgroup_size` is not a power of two in `32..=max`.
+    #[error("workgroup_size {size} is not a power of two in 32..={max}")]
+    InvalidWorkgroupSize { size: u32, max: u32 },
+    /// `items_per_thread` is not one of the supported values.
+    #[error(
+        "items_per_thread {0} is not supported (use 4, 8, 12, 16, ...: a non-zero multiple of 4)"
+    )]
+    InvalidItemsPerThread(u32),
     /// `n` is larger than the scan's `max_len` (which never exceeds the binding limit).
     #[error("n = {n} exceeds this scan's max_len of {max_len} elements")]
     TooLong { n: u32, max_len: u32 },
@@ -111,12 +163,15 @@ pub enum ScanError {
     /// Two buffers that must differ are the same buffer.
     #[error("the {0} and {1} buffers must not alias")]
     Aliasing(&'static str, &'static str),
+    /// A [`ScanBinding`] made by another [`Scan`] was passed to [`Scan::encode`].
+    #[error("the binding was made by another Scan")]
+    ForeignBinding,
     /// The indirect length's offset is not a multiple of 4.
     #[error("the length offset {0} is not a multiple of 4")]
     UnalignedLenOffset(u64),
 }
 
-/// Per-encode parameters of the kernel (the WGSL struct `ScanParams`).
+/// Per-binding parameters of the kernel (the WGSL struct `ScanParams`).
 #[repr(C)]
 #[derive(Debug, Clone, Copy, PartialEq, Eq, bytemuck::Pod, bytemuck::Zeroable)]
 pub struct ScanParams {
@@ -149,7 +204,7 @@ pub struct ScanCounters {
 ///
 /// # Contract
 /// - Results are modulo 2^32 (wrapping adds), bit-exact against [`cpu::scan`].
-/// - One dispatch per scan (plus a one-thread pre-pass for [`Scan::encode_indirect`] and a
+/// - One dispatch per scan (plus a one-thread pre-pass for [`Scan::bind_indirect`] and a
 ///   `clear_buffer` of the scratch). Everything is recorded into the caller's encoder; the
 ///   scratch reset is part of the recorded work, so any number of scans may be encoded in one
 ///   submit, on the same or different buffers.
@@ -168,7 +223,8 @@ pub struct ScanCounters {
 /// so the scan completes even where a waiting workgroup could starve the one it waits for.
 #[derive(Debug)]
 pub struct Scan {
-    device: wgpu::Device,
+    /// Identifies the bindings this scan made ([`ScanBinding`]).
+    id: u64,
     config: KernelConfig,
     layout: wgpu::BindGroupLayout,
     pipeline: wgpu::ComputePipeline,
@@ -235,6 +291,12 @@ impl Scan {
         if desc.use_subgroups && !device.features().contains(wgpu::Features::SUBGROUP) {
             return Err(ScanError::SubgroupsUnavailable);
         }
+        check_device_limits(&limits)?;
+        if let Some(items) = desc.items_per_thread {
+            if items == 0 || items % 4 != 0 {
+                return Err(ScanError::InvalidItemsPerThread(items));
+            }
+        }
         let max_threads = limits
             .max_compute_invocations_per_workgroup
             .min(limits.max_compute_workgroup_size_x)
@@ -244,7 +306,17 @@ impl Scan {
                 "{max_threads} invocations per workgroup (need 32)"
             )));
         }
-        let workgroup_size = 1 << max_threads.ilog2();
+        let (default_wg, default_items) = default_shape(&device.adapter_info());
+        let workgroup_size = match desc.workgroup_size {
+            None => 1 << max_threads.min(default_wg).ilog2(),
+            Some(w) if w.is_power_of_two() && w >= 32 && w <= max_threads => w,
+            Some(w) => {
+                return Err(ScanError::InvalidWorkgroupSize {
+                    size: w,
+                    max: 1 << max_threads.ilog2(),
+                });
+            }
+        };
         let mut config = KernelConfig {
             workgroup_size,
             items_per_thread: 1,
@@ -254,28 +326,17 @@ impl Scan {
             max_groups_x: limits.max_compute_workgroups_per_dimension,
             subgroups: desc.use_subgroups,
         };
-        let candidates: Vec<u32> = match desc.items_per_thread {
-            Some(items) => vec![items.max(4)],
-            None => vec![16, 8, 4],
-        };
-        if candidates.iter().any(|i| i % 4 != 0) {
-            return Err(ScanError::UnsupportedLimits(
-                "items_per_thread must be a multiple of 4 (vec4 loads)".into(),
-            ));
+        config.items_per_thread = desc.items_per_thread.unwrap_or(default_items);
+        if config.workgroup_bytes() > limits.max_compute_workgroup_storage_size {
+            return Err(ScanError::DeviceLimit {
+                limit: "max_compute_workgroup_storage_size",
+                needed: u64::from(config.workgroup_bytes()),
+                available: u64::from(limits.max_compute_workgroup_storage_size),
+            });
         }
-        let items = candidates.into_iter().find(|&items| {
-            let c = KernelConfig {
-                items_per_thread: items,
-                ..config
-            };
-            c.workgroup_bytes() <= limits.max_compute_workgroup_storage_size
-        });
-        config.items_per_thread = items.ok_or_else(|| {
-            ScanError::UnsupportedLimits(format!(
-                "{} bytes of workgroup memory",
-                limits.max_compute_workgroup_storage_size
-            ))
-        })?;
+        if u64::from(config.tile_len()) > u64::from(u32::MAX / 2) {
+            return Err(ScanError::InvalidItemsPerThread(config.items_per_thread));
+        }
         let tiles = desc.max_len.div_ceil(config.tile_len()).max(1);
         let groups = split_groups(tiles, config.max_groups_x);
         if groups.1 > limits.max_compute_workgroups_per_dimension {
@@ -355,8 +416,9 @@ impl Scan {
         let dummy_out = buffer("gpu-scan empty output", 16, U::STORAGE);
         let dummy_in4 = buffer("gpu-scan empty vec4 input", 16, U::STORAGE);
         let dummy_out4 = buffer("gpu-scan empty vec4 output", 16, U::STORAGE);
+        static NEXT_ID: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
         Ok(Self {
-            device: device.clone(),
+            id: NEXT_ID.fetch_add(1, std::sync::atomic::Ordering::Relaxed),
             config,
             layout,
             pipeline,
@@ -423,18 +485,21 @@ impl Scan {
         Ok(())
     }
 
-    /// Records a scan of the first `n` elements of `input` into the first `n` of `output`;
-    /// with `total`, also writes the sum of the `n` inputs to its first word. See the
-    /// [contract](Scan#contract).
-    pub fn encode(
+    /// Binds this scan to the caller's buffers: a scan of the first `n` elements of `input`
+    /// into the first `n` of `output`; with `total`, the sum of the `n` inputs is also written
+    /// to its first word. Every check of the [contract](Scan#contract) happens here, and the
+    /// per-binding parameter block and bind group are created here, once: record the scan with
+    /// [`Scan::encode`] as many times as needed, without any allocation.
+    #[allow(clippy::too_many_arguments)]
+    pub fn bind(
         &self,
-        encoder: &mut wgpu::CommandEncoder,
+        device: &wgpu::Device,
         input: &wgpu::Buffer,
         output: &wgpu::Buffer,
         n: u32,
         kind: ScanKind,
         total: Option<&wgpu::Buffer>,
-    ) -> Result<(), ScanError> {
+    ) -> Result<ScanBinding, ScanError> {
         if n > self.config.max_len {
             return Err(ScanError::TooLong {
                 n,
@@ -458,7 +523,10 @@ impl Scan {
         }
         self.check_total(total, [input, output])?;
         if n == 0 && total.is_none() {
-            return Ok(());
+            return Ok(ScanBinding {
+                scan_id: self.id,
+                work: None,
+            });
         }
         let views = if n == 0 {
             Views {
@@ -481,38 +549,36 @@ impl Scan {
                 output4,
             }
         };
-        let params = self.params(n, kind, total.is_some(), 0);
-        let bind_group = self.bind_group(&views, total, &params);
+        let params = self.params(device, n, kind, total.is_some(), 0);
+        let bind_group = self.bind_group(device, &views, total, &params);
         let tiles = n.div_ceil(self.config.tile_len()).max(1);
-        let tiles_bytes = (1 + 2 * u64::from(tiles)) * 4;
-        encoder.clear_buffer(&self.scratch, 0, Some(tiles_bytes));
-        let (x, y) = split_groups(tiles, self.config.max_groups_x);
-        let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
-            label: Some("gpu-scan"),
-            timestamp_writes: None,
-        });
-        pass.set_pipeline(&self.pipeline);
-        pass.set_bind_group(0, &bind_group, &[]);
-        pass.dispatch_workgroups(x, y, 1);
-        Ok(())
+        Ok(ScanBinding {
+            scan_id: self.id,
+            work: Some(Work {
+                bind_group,
+                _params: params,
+                clear_bytes: Some((1 + 2 * u64::from(tiles)) * 4),
+                dispatch: Dispatch::Direct(split_groups(tiles, self.config.max_groups_x)),
+            }),
+        })
     }
 
-    /// Like [`Scan::encode`], but `n` is the `u32` at byte `len_offset` of `len`, read on the GPU
-    /// when the work runs. A one-thread pre-pass clamps it to `max_len` and writes the scan's own
-    /// indirect dispatch arguments; the kernel further clamps `n` to the `input` and `output`
-    /// bindings (each bound whole, up to the device's binding limit). `n = 0` writes only the
-    /// total (0), if requested.
+    /// Like [`Scan::bind`], but `n` is the `u32` at byte `len_offset` of `len`, read on the GPU
+    /// each time the scan runs. A one-thread pre-pass clamps it to `max_len` and writes the
+    /// scan's own indirect dispatch arguments; the kernel further clamps `n` to the `input` and
+    /// `output` bindings (each bound whole, up to the device's binding limit). `n = 0` writes
+    /// only the total (0), if requested.
     #[allow(clippy::too_many_arguments)]
-    pub fn encode_indirect(
+    pub fn bind_indirect(
         &self,
-        encoder: &mut wgpu::CommandEncoder,
+        device: &wgpu::Device,
         input: &wgpu::Buffer,
         output: &wgpu::Buffer,
         len: &wgpu::Buffer,
         len_offset: u64,
         kind: ScanKind,
         total: Option<&wgpu::Buffer>,
-    ) -> Result<(), ScanError> {
+    ) -> Result<ScanBinding, ScanError> {
         if input == output {
             return Err(ScanError::Aliasing("input", "output"));
         }
@@ -552,8 +618,8 @@ impl Scan {
             size: len.size(),
             needed: len_offset + 4,
         })?;
-        let params = self.params(0, kind, total.is_some(), len_index);
-        let prepare_group = self.device.create_bind_group(&wgpu::BindGroupDescriptor {
+        let params = self.params(device, 0, kind, total.is_some(), len_index);
+        let prepare_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("gpu-scan prepare"),
             layout: &self.prepare_layout,
             entries: &[
@@ -574,43 +640,117 @@ impl Scan {
             input4: view4(input, &self.dummy_in4),
             output4: view4(output, &self.dummy_out4),
         };
-        let bind_group = self.bind_group(&views, total, &params);
-        encoder.clear_buffer(&self.scratch, 0, None);
+        let bind_group = self.bind_group(device, &views, total, &params);
+        Ok(ScanBinding {
+            scan_id: self.id,
+            work: Some(Work {
+                bind_group,
+                _params: params,
+                clear_bytes: None,
+                dispatch: Dispatch::Indirect(prepare_group),
+            }),
+        })
+    }
+
+    /// Records the bound scan into the caller's encoder: a `clear_buffer` of the scratch and
+    /// one compute pass (the pre-pass and the scan for an indirect binding). Allocates nothing;
+    /// may be called any number of times, in one encoder or many.
+    pub fn encode(
+        &self,
+        encoder: &mut wgpu::CommandEncoder,
+        binding: &ScanBinding,
+    ) -> Result<(), ScanError> {
+        self.encode_timed(encoder, binding, &mut |_| None)
+    }
+
+    /// [`Scan::encode`] with a named timestamp span hook: `span` is called with the pass name
+    /// (`"gpu-scan"` or `"gpu-scan indirect"`) and may return the timestamp writes for it.
+    pub fn encode_timed<'q>(
+        &self,
+        encoder: &mut wgpu::CommandEncoder,
+        binding: &ScanBinding,
+        span: &mut dyn FnMut(&'static str) -> Option<wgpu::ComputePassTimestampWrites<'q>>,
+    ) -> Result<(), ScanError> {
+        if binding.scan_id != self.id {
+            return Err(ScanError::ForeignBinding);
+        }
+        let Some(work) = &binding.work else {
+            return Ok(());
+        };
+        encoder.clear_buffer(&self.scratch, 0, work.clear_bytes);
+        let name = match work.dispatch {
+            Dispatch::Direct(_) => "gpu-scan",
+            Dispatch::Indirect(_) => "gpu-scan indirect",
+        };
         let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
-            label: Some("gpu-scan indirect"),
-            timestamp_writes: None,
+            label: Some(name),
+            timestamp_writes: span(name),
         });
-        pass.set_pipeline(&self.prepare_pipeline);
-        pass.set_bind_group(0, &prepare_group, &[]);
-        pass.dispatch_workgroups(1, 1, 1);
-        pass.set_pipeline(&self.pipeline);
-        pass.set_bind_group(0, &bind_group, &[]);
-        pass.dispatch_workgroups_indirect(&self.dispatch, 0);
+        match &work.dispatch {
+            Dispatch::Direct((x, y)) => {
+                pass.set_pipeline(&self.pipeline);
+                pass.set_bind_group(0, &work.bind_group, &[]);
+                pass.dispatch_workgroups(*x, *y, 1);
+            }
+            Dispatch::Indirect(prepare_group) => {
+                pass.set_pipeline(&self.prepare_pipeline);
+                pass.set_bind_group(0, prepare_group, &[]);
+                pass.dispatch_workgroups(1, 1, 1);
+                pass.set_pipeline(&self.pipeline);
+                pass.set_bind_group(0, &work.bind_group, &[]);
+                pass.dispatch_workgroups_indirect(&self.dispatch, 0);
+            }
+        }
         Ok(())
     }
 
-    fn params(&self, n: u32, kind: ScanKind, write_total: bool, len_index: u32) -> wgpu::Buffer {
+    /// One-off convenience: [`Scan::bind`] then [`Scan::encode`]. It allocates a parameter
+    /// block and a bind group on every call; bind once and encode many times instead when the
+    /// same scan runs every frame.
+    #[allow(clippy::too_many_arguments)]
+    pub fn bind_and_encode(
+        &self,
+        device: &wgpu::Device,
+        encoder: &mut wgpu::CommandEncoder,
+        input: &wgpu::Buffer,
+        output: &wgpu::Buffer,
+        n: u32,
+        kind: ScanKind,
+        total: Option<&wgpu::Buffer>,
+    ) -> Result<(), ScanError> {
+        let binding = self.bind(device, input, output, n, kind, total)?;
+        self.encode(encoder, &binding)
+    }
+
+    fn params(
+        &self,
+        device: &wgpu::Device,
+        n: u32,
+        kind: ScanKind,
+        write_total: bool,
+        len_index: u32,
+    ) -> wgpu::Buffer {
         let params = ScanParams {
             n,
             inclusive: u32::from(kind == ScanKind::Inclusive),
             write_total: u32::from(write_total),
             len_index,
         };
-        self.device
-            .create_buffer_init(&wgpu::util::BufferInitDescriptor {
-                label: Some("gpu-scan params"),
-                contents: bytemuck::bytes_of(&params),
-                usage: wgpu::BufferUsages::STORAGE,
-            })
+        device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("gpu-scan params"),
+            contents: bytemuck::bytes_of(&params),
+            usage: wgpu::BufferUsages::STORAGE,
+        })
     }
 
     fn bind_group(
         &self,
+        device: &wgpu::Device,
         views: &Views<'_>,
         total: Option<&wgpu::Buffer>,
         params: &wgpu::Buffer,
     ) -> wgpu::BindGroup {
-        self.device.create_bind_group(&wgpu::BindGroupDescriptor {
+        device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("gpu-scan"),
             layout: &self.layout,
             entries: &[
@@ -627,12 +767,79 @@ impl Scan {
     }
 }
 
+/// A [`Scan`] bound to the caller's buffers (see [`Scan::bind`] and [`Scan::bind_indirect`]):
+/// the bind group and parameter block, created once. It keeps the buffers alive; record it with
+/// [`Scan::encode`] on the `Scan` that made it.
+#[derive(Debug)]
+pub struct ScanBinding {
+    scan_id: u64,
+    work: Option<Work>,
+}
+
+#[derive(Debug)]
+struct Work {
+    bind_group: wgpu::BindGroup,
+    _params: wgpu::Buffer,
+    /// Bytes of scratch to clear (`None`: all of it, for indirect scans).
+    clear_bytes: Option<u64>,
+    dispatch: Dispatch,
+}
+
+#[derive(Debug)]
+enum Dispatch {
+    Direct((u32, u32)),
+    /// The pre-pass's bind group; the scan dispatch reads the arguments it writes.
+    Indirect(wgpu::BindGroup),
+}
+
 /// The four views of input and output the kernel binds: (buffer, binding size).
 struct Views<'a> {
     input: (&'a wgpu::Buffer, Option<u64>),
     output: (&'a wgpu::Buffer, Option<u64>),
     input4: (&'a wgpu::Buffer, Option<u64>),
     output4: (&'a wgpu::Buffer, Option<u64>),
+}
+
+/// Storage buffers the scan kernel binds in its one compute stage.
+pub const STORAGE_BUFFERS_PER_STAGE: u32 = 8;
+
+/// The device limits every scan needs, whatever its descriptor (the README's device
+/// requirements table): checked by [`Scan::new`] before anything is created, so a device that
+/// falls short gets a [`ScanError::DeviceLimit`] instead of a wgpu validation error.
+pub fn check_device_limits(limits: &wgpu::Limits) -> Result<(), ScanError> {
+    let checks = [
+        (
+            "max_storage_buffers_per_shader_stage",
+            STORAGE_BUFFERS_PER_STAGE,
+            limits.max_storage_buffers_per_shader_stage,
+        ),
+        ("max_bind_groups", 1, limits.max_bind_groups),
+        (
+            "max_bindings_per_bind_group",
+            STORAGE_BUFFERS_PER_STAGE,
+            limits.max_bindings_per_bind_group,
+        ),
+        (
+            "max_compute_invocations_per_workgroup",
+            32,
+            limits.max_compute_invocations_per_workgroup,
+        ),
+        (
+            "max_compute_workgroup_size_x",
+            32,
+            limits.max_compute_workgroup_size_x,
+        ),
+    ];
+    for (limit, needed, available) in checks {
+        if available < needed {
+            return Err(ScanError::DeviceLimit {
+                limit,
+                needed: u64::from(needed),
+                available: u64::from(available),
+            });
+        }
+    }
+    Ok(())
 }
 
 fn check_storage(which: &'static str, buffer: &wgpu::Buffer) -> Result<(), ScanError> {
@@ -669,8 +876,18 @@ pub fn wgsl_modules() -> Vec<(String, String)> {
         subgroups: true,
         ..testing
     };
+    let cpu_shape = KernelConfig {
+        workgroup_size: CPU_WORKGROUP_SIZE,
+        items_per_thread: CPU_ITEMS_PER_THREAD,
+        subgroups: true,
+        ..base
+    };
     vec![
         ("gpu-scan/scan (no subgroups)".into(), base.scan_source()),
+        (
+            "gpu-scan/scan (CPU-adapter shape 32 x 1024, subgroups)".into(),
+            cpu_shape.scan_source(),
+        ),
         ("gpu-scan/scan (subgroups)".into(), subgroups.scan_source()),
         (
             "gpu-scan/scan (no subgroups, forced fallback, counters)".into(),

@@ -51,10 +51,9 @@ impl KernelConfig {
 
     /// Workgroup memory the kernel declares, in bytes.
     pub fn workgroup_bytes(&self) -> u32 {
-        let tile = self.tile_len();
-        let padded = tile + tile / 32;
-        // tile + wg sums (+ spine in the shared variant) + broadcast + total
-        4 * (padded + self.workgroup_size * if self.subgroups { 1 } else { 2 } + 2 + 1)
+        // wg sums (+ spine in the shared variant) + broadcast + total; no tile buffer: every
+        // invocation keeps its run in registers (or re-reads it).
+        4 * (self.workgroup_size * if self.subgroups { 1 } else { 2 } + 2 + 1)
     }
 
     /// The generated `const` header every scan module starts with.

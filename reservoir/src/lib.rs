@@ -10,7 +10,8 @@
 //!   own kernels (see the workspace's WGSL composition convention).
 //! - [`Reservoir`] / [`PackedReservoir`]: the Rust twin, the same operations in the same order
 //!   (the numerical contract is documented on [`Reservoir`]).
-//! - [`mod@reference`]: an f64 reference implementation, used only by tests.
+//! - `reference` (feature `reference`, off by default): an f64 reference implementation that
+//!   tests compare the twin and the GPU against; not part of the library.
 //! - [`rng`]: the PCG random-number generator the ReSTIR passes share (WGSL + Rust twin).
 //!
 //! Random numbers are inputs: every helper takes `u` in [0, 1), so the GPU and the twin can be
@@ -33,6 +34,7 @@
 //! assert!(estimate.is_finite() && r.m == 8);
 //! ```
 
+#[cfg(any(test, feature = "reference"))]
 pub mod reference;
 pub mod rng;
 #[cfg(test)]

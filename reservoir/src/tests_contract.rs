@@ -155,6 +155,44 @@ fn merging_an_m_zero_reservoir_is_a_bitwise_no_op() {
     assert_eq!(e, Reservoir::empty());
 }
 
+/// Issue 13.1: `p_hat * W` overflowing to +Inf times `m = 0` is NaN, which must not read as an
+/// overflow (weight 2^127, the empty reservoir's sample selected): m = 0 contributes 0.
+#[test]
+fn merging_an_m_zero_reservoir_with_overflowing_p_hat_w_is_a_no_op() {
+    let mut a = Reservoir::empty();
+    a.update_slot(2.5, 0.1, 3);
+    let before = a;
+    let zero = Reservoir {
+        m: 0,
+        ucw: 1e30,
+        sample: 9,
+        ..Reservoir::empty()
+    };
+    assert_eq!(Reservoir::merge_weight(&zero, 1e30), 0.0);
+    assert!(!a.merge(&zero, 1e30, 0.0));
+    assert_eq!(bytemuck::bytes_of(&a), bytemuck::bytes_of(&before));
+    assert_eq!(a.sample, 3);
+
+    // The documented chain: W = f32::MAX from finalize, cap_m(0), merge.
+    let mut b = Reservoir::empty();
+    b.update_slot(1e30, 0.5, 9);
+    b.finalize(1e-30);
+    assert_eq!(b.ucw, f32::MAX);
+    b.cap_m(0);
+    assert_eq!(b.m, 0);
+    let mut c = before;
+    assert!(!c.merge(&b, 1e30, 0.0));
+    assert_eq!(bytemuck::bytes_of(&c), bytemuck::bytes_of(&before));
+    // The packed form too.
+    let mut d = before;
+    let packed = PackedReservoir {
+        ucw: f32::MAX,
+        m: 0,
+    };
+    assert!(!d.merge(&packed.unpack(9), f32::MAX, 0.0));
+    assert_eq!(bytemuck::bytes_of(&d), bytemuck::bytes_of(&before));
+}
+
 #[test]
 fn merge_with_very_different_m_weighs_by_confidence() {
     // A: m = 1, B: m = 10^6. Merge weights are p_hat * W * M; check the exact weights and the

@@ -188,6 +188,10 @@ impl Reservoir {
     /// The resampling weight of the finalized reservoir `other` at a receiver where its
     /// sample has target value `p_hat_at_receiver`: `p_hat * W * M` (see the contract).
     pub fn merge_weight(other: &Reservoir, p_hat_at_receiver: f32) -> f32 {
+        if other.m == 0 {
+            // Tested first: Inf * 0 is NaN, which must not read as an overflow below.
+            return 0.0;
+        }
         let pw = flush(positive_normal(p_hat_at_receiver) * positive_normal(other.ucw));
         let x = pw * other.m as f32;
         if x.to_bits() >= INF_BITS {

@@ -66,15 +66,23 @@ fn case(ctx: &GpuContext, n: u32, dup: bool, probe_buckets: u32) -> Case {
 
 /// Mean GPU milliseconds of the insert span (after a cleared table), over `REPS` runs.
 fn insert_ms(ctx: &GpuContext, batch: &HashBatch, c: &Case) -> f64 {
+    let bound = batch
+        .bind(
+            &ctx.device,
+            gpu_hash::BatchKernel::InsertKeys,
+            &c.table,
+            &c.keys,
+            &c.slots,
+            c.n,
+        )
+        .expect("bind insert batch");
     let mut total = 0.0;
     for rep in 0..=REPS {
         let mut timer = GpuTimer::new(ctx, 2);
         let mut enc = ctx.device.create_command_encoder(&Default::default());
         timer.span(&mut enc, "clear", |enc| c.table.encode_clear(enc));
         timer.span(&mut enc, "insert", |enc| {
-            batch
-                .encode_insert_keys(&ctx.device, enc, &c.table, &c.keys, &c.slots, c.n)
-                .expect("insert batch")
+            batch.encode(enc, &bound).expect("insert batch")
         });
         timer.resolve(&mut enc);
         ctx.queue.submit([enc.finish()]);
@@ -88,7 +96,7 @@ fn insert_ms(ctx: &GpuContext, batch: &HashBatch, c: &Case) -> f64 {
 
 fn hash(c: &mut Criterion) {
     let ctx = gpu::context();
-    let batch = HashBatch::new(&ctx.device);
+    let batch = HashBatch::new(&ctx.device).expect("hash batch");
     let floors = RandomAccessKernel::new(&ctx.device);
     let mut group = c.benchmark_group("gpu-hash");
     group.sample_size(10);
@@ -142,10 +150,15 @@ fn hash(c: &mut Criterion) {
             let stats = batch
                 .read_stats(&ctx.device, &ctx.queue, &c.table)
                 .expect("stats");
-            let find = |enc: &mut wgpu::CommandEncoder| {
+            let bind = |kernel| {
                 batch
-                    .encode_find_keys(&ctx.device, enc, &c.table, &c.keys, &c.slots, c.n)
-                    .expect("find batch")
+                    .bind(&ctx.device, kernel, &c.table, &c.keys, &c.slots, c.n)
+                    .expect("bind batch")
+            };
+            let find_bound = bind(gpu_hash::BatchKernel::FindKeys);
+            let insert_bound = bind(gpu_hash::BatchKernel::InsertKeys);
+            let find = |enc: &mut wgpu::CommandEncoder| {
+                batch.encode(enc, &find_bound).expect("find batch")
             };
             if sampled {
                 group.bench_function(format!("find/{label}/p{probe_buckets}/{n}"), |b| {
@@ -157,16 +170,7 @@ fn hash(c: &mut Criterion) {
                         b.iter_custom(|iters| {
                             bench::gpu_time(ctx, iters, |enc| {
                                 c.table.encode_clear(enc);
-                                batch
-                                    .encode_insert_keys(
-                                        &ctx.device,
-                                        enc,
-                                        &c.table,
-                                        &c.keys,
-                                        &c.slots,
-                                        c.n,
-                                    )
-                                    .expect("insert batch")
+                                batch.encode(enc, &insert_bound).expect("insert batch")
                             })
                         })
                     },

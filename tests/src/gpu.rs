@@ -42,3 +42,39 @@ pub fn run(ctx: &GpuContext, record: impl FnOnce(&mut wgpu::CommandEncoder)) {
     ctx.queue.submit([encoder.finish()]);
     ctx.wait().expect("GPU wait failed");
 }
+
+/// A second device on the shared adapter with `limits` (and no optional features), e.g.
+/// [`wgpu::Limits::downlevel_defaults`], to check that primitives reject a device that falls
+/// short with their own typed errors. Its uncaptured-error handler panics, like wgpu's default,
+/// so any validation error a primitive lets through fails the test.
+pub fn device_with_limits(limits: wgpu::Limits) -> (wgpu::Device, wgpu::Queue) {
+    let ctx = context();
+    let (device, queue) = block_on(ctx.adapter.request_device(&wgpu::DeviceDescriptor {
+        label: Some("limited test device"),
+        required_limits: limits,
+        ..Default::default()
+    }))
+    .expect("a device with lower limits on the shared adapter");
+    (device, queue)
+}
+
+/// The shared adapter's limits with fewer storage buffers per shader stage.
+pub fn limits_with_storage_buffers(per_stage: u32) -> wgpu::Limits {
+    wgpu::Limits {
+        max_storage_buffers_per_shader_stage: per_stage,
+        ..context().adapter.limits()
+    }
+}
+
+/// A minimal executor for wgpu's native futures (ready once the call returns).
+pub fn block_on<F: std::future::Future>(f: F) -> F::Output {
+    let waker = std::task::Waker::noop();
+    let mut cx = std::task::Context::from_waker(waker);
+    let mut f = std::pin::pin!(f);
+    loop {
+        if let std::task::Poll::Ready(v) = f.as_mut().poll(&mut cx) {
+            return v;
+        }
+        std::thread::yield_now();
+    }
+}

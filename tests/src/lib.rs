@@ -8,7 +8,7 @@
 //! - [`gpu`]: the one shared [`GpuContext`] for a test binary; tests fail loudly when there is no
 //!   adapter and skip, with a printed reason, only for missing optional features.
 //! - [`floors`]: same-harness floor kernels (vec4 copy) that benchmarks compare against.
-//! - [`bench`]: GPU-timestamp timing for criterion's `iter_custom` and the `RESULT` line.
+//! - [`bench`](mod@bench): GPU-timestamp timing for criterion's `iter_custom` and the `RESULT` line.
 //!
 //! Buffer upload and readback live in [`restir_world::gpu::buffers`] (re-exported as
 //! [`buffers`]).

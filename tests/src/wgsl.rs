@@ -62,7 +62,7 @@ pub fn workspace_root() -> PathBuf {
 /// Compares a Rust `#[repr(C)]` struct with the WGSL struct of the same shape as naga lays it
 /// out: total size and each field's name and offset, in order.
 ///
-/// Use through [`assert_wgsl_layout!`], which takes the offsets with `offset_of!`.
+/// Use through [`assert_wgsl_layout!`](crate::assert_wgsl_layout), which takes the offsets with `offset_of!`.
 pub fn check_layout(
     source: &str,
     wgsl_struct: &str,

@@ -19,7 +19,7 @@ fn fixture() -> Fixture {
     let ctx = gpu::context();
     Fixture {
         ctx,
-        batch: HashBatch::new(&ctx.device),
+        batch: HashBatch::new(&ctx.device).expect("hash batch"),
     }
 }
 
@@ -55,9 +55,25 @@ impl Fixture {
         let n = keys.len() as u32;
         gpu::run(self.ctx, |enc| {
             if insert {
-                self.batch.encode_insert_keys(d, enc, t, &input, &out, n)
+                self.batch.bind_and_encode(
+                    d,
+                    enc,
+                    gpu_hash::BatchKernel::InsertKeys,
+                    t,
+                    &input,
+                    &out,
+                    n,
+                )
             } else {
-                self.batch.encode_find_keys(d, enc, t, &input, &out, n)
+                self.batch.bind_and_encode(
+                    d,
+                    enc,
+                    gpu_hash::BatchKernel::FindKeys,
+                    t,
+                    &input,
+                    &out,
+                    n,
+                )
             }
             .unwrap()
         });
@@ -75,9 +91,25 @@ impl Fixture {
         let n = points.len() as u32;
         gpu::run(self.ctx, |enc| {
             if insert {
-                self.batch.encode_insert_points(d, enc, t, &input, &out, n)
+                self.batch.bind_and_encode(
+                    d,
+                    enc,
+                    gpu_hash::BatchKernel::InsertPoints,
+                    t,
+                    &input,
+                    &out,
+                    n,
+                )
             } else {
-                self.batch.encode_find_points(d, enc, t, &input, &out, n)
+                self.batch.bind_and_encode(
+                    d,
+                    enc,
+                    gpu_hash::BatchKernel::FindPoints,
+                    t,
+                    &input,
+                    &out,
+                    n,
+                )
             }
             .unwrap()
         });
@@ -171,7 +203,15 @@ fn gpu_hashes_are_bit_identical_to_twins() {
     let out = buffers::storage_zeroed(d, "hashes", values.len() as u64 * 8);
     gpu::run(f.ctx, |enc| {
         f.batch
-            .encode_hash_values(d, enc, &t, &inb, &out, values.len() as u32)
+            .bind_and_encode(
+                d,
+                enc,
+                gpu_hash::BatchKernel::HashValues,
+                &t,
+                &inb,
+                &out,
+                values.len() as u32,
+            )
             .unwrap()
     });
     let got: Vec<[u32; 2]> = buffers::read(f.ctx, &out).unwrap();
@@ -222,7 +262,15 @@ fn cell_keys_match_twin_on_1e5_positions_from_1e_3_to_1e4() {
     let out = buffers::storage_zeroed(d, "cells", points.len() as u64 * 32);
     gpu::run(f.ctx, |enc| {
         f.batch
-            .encode_cells(d, enc, &t, &inb, &out, points.len() as u32)
+            .bind_and_encode(
+                d,
+                enc,
+                gpu_hash::BatchKernel::Cells,
+                &t,
+                &inb,
+                &out,
+                points.len() as u32,
+            )
             .unwrap()
     });
     let got: Vec<HashCell> = buffers::read(f.ctx, &out).unwrap();
@@ -299,7 +347,15 @@ fn jitter_matches_twin_and_stays_in_tangent_plane() {
     let out = buffers::storage_zeroed(d, "jitter out", n as u64 * 16);
     gpu::run(f.ctx, |enc| {
         f.batch
-            .encode_jitter(d, enc, &t, &inb, &out, n as u32)
+            .bind_and_encode(
+                d,
+                enc,
+                gpu_hash::BatchKernel::Jitter,
+                &t,
+                &inb,
+                &out,
+                n as u32,
+            )
             .unwrap()
     });
     let got: Vec<[f32; 4]> = buffers::read(f.ctx, &out).unwrap();
@@ -863,4 +919,183 @@ fn previous_frame_lookup_while_building_the_current_frame() {
         assert_eq!(g[0], *slot);
     }
     eprintln!("{hits} of {} lookups hit last frame's grid", frame_b.len());
+}
+
+/// Issue 13.3: a device below the batch kernels' needs (5 storage buffers per stage) gets a
+/// typed error from `HashBatch::new`; the table itself (3 storage buffers) still works there,
+/// and a device below the table role's needs gets a typed error from `HashTable::new`.
+#[test]
+fn downlevel_device_gets_typed_errors() {
+    let config = TableConfig {
+        num_buckets: 1024,
+        ..TableConfig::default()
+    };
+    let p = params(config, Vec3::ZERO);
+    for limits in [
+        wgpu::Limits::downlevel_defaults(),
+        gpu::limits_with_storage_buffers(4),
+    ] {
+        let (device, queue) = gpu::device_with_limits(limits);
+        let err = HashBatch::new(&device).unwrap_err();
+        assert!(
+            matches!(
+                err,
+                gpu_hash::HashError::DeviceLimit {
+                    limit: "max_storage_buffers_per_shader_stage",
+                    needed: 5,
+                    ..
+                }
+            ),
+            "{err}"
+        );
+        HashTable::new(&device, &queue, &p).unwrap();
+    }
+    let (device, queue) = gpu::device_with_limits(gpu::limits_with_storage_buffers(2));
+    let err = HashTable::new(&device, &queue, &p).unwrap_err();
+    assert!(
+        matches!(
+            err,
+            gpu_hash::HashError::DeviceLimit {
+                limit: "max_storage_buffers_per_shader_stage",
+                needed: 3,
+                ..
+            }
+        ),
+        "{err}"
+    );
+    let (device, _queue) = gpu::device_with_limits(gpu::limits_with_storage_buffers(5));
+    HashBatch::new(&device).unwrap();
+}
+
+/// Issue 13.4: `encode_*` binds only the ranges it uses, so a points buffer larger than one
+/// binding works for a small `n`; a range that itself exceeds the limit is an error at encode
+/// time, before wgpu sees it.
+#[test]
+fn buffers_larger_than_a_binding_are_bound_by_range() {
+    let ctx = gpu::context();
+    const LIMIT: u64 = 1 << 20;
+    let (device, queue) = gpu::device_with_limits(wgpu::Limits {
+        max_storage_buffer_binding_size: LIMIT,
+        ..ctx.adapter.limits()
+    });
+    let small = GpuContext {
+        device,
+        queue,
+        ..ctx.clone()
+    };
+    let d = &small.device;
+    let batch = HashBatch::new(d).unwrap();
+    let config = TableConfig {
+        num_buckets: 4096,
+        ..TableConfig::default()
+    };
+    let p = params(config, Vec3::new(0.0, 1.0, -4.0));
+    let t = HashTable::new(d, &small.queue, &p).unwrap();
+    gpu::run(&small, |enc| t.encode_clear(enc));
+    let n = 1000u32;
+    let mut rng = StdRng::seed_from_u64(13);
+    let mut host = vec![[0f32; 4]; (LIMIT as usize + 16) / 16];
+    for q in host.iter_mut().take(n as usize) {
+        *q = [
+            rng.random_range(-1.0..1.0),
+            rng.random_range(-1.0..1.0),
+            rng.random_range(-1.0..1.0),
+            1.0,
+        ];
+    }
+    let points = buffers::storage_from(d, "points 16 bytes over the binding limit", &host);
+    assert_eq!(points.size(), LIMIT + 16);
+    let out = buffers::storage_zeroed(d, "out", LIMIT + 16);
+    gpu::run(&small, |enc| {
+        batch
+            .bind_and_encode(
+                d,
+                enc,
+                gpu_hash::BatchKernel::InsertPoints,
+                &t,
+                &points,
+                &out,
+                n,
+            )
+            .unwrap()
+    });
+    let got: Vec<[u32; 2]> = buffers::read_range(&small, &out, 0, u64::from(n) * 8).unwrap();
+    for (q, [slot, _]) in host.iter().zip(&got) {
+        let c = p.cell(Vec3::new(q[0], q[1], q[2]));
+        assert_eq!(*slot / config.slots_per_bucket, c.bucket);
+    }
+    // n whose range exceeds the binding: an error at encode time.
+    let too_many = (LIMIT / 16 + 1) as u32;
+    let mut enc = d.create_command_encoder(&Default::default());
+    let err = batch
+        .bind_and_encode(
+            d,
+            &mut enc,
+            gpu_hash::BatchKernel::InsertPoints,
+            &t,
+            &points,
+            &out,
+            too_many,
+        )
+        .unwrap_err();
+    assert!(
+        matches!(
+            err,
+            gpu_hash::HashError::BindingTooLarge { name: "input", .. }
+        ),
+        "{err}"
+    );
+}
+
+/// The API shape: a kernel bound once to a table and buffers is encoded many times (clearing
+/// the table between builds) with no allocation; a binding only works with the batch that made
+/// it; the timestamp span hook sees the pass names.
+#[test]
+fn bind_once_encode_many() {
+    let f = fixture();
+    let d = &f.ctx.device;
+    let other = HashBatch::new(d).unwrap();
+    let config = TableConfig {
+        num_buckets: 1024,
+        ..TableConfig::default()
+    };
+    let p = params(config, Vec3::ZERO);
+    let t = f.table(&p);
+    let mut rng = StdRng::seed_from_u64(31);
+    let keys = random_keys(&mut rng, 5000, 2);
+    let input = buffers::storage_from(d, "keys", &keys);
+    let out = buffers::storage_zeroed(d, "slots", keys.len() as u64 * 4);
+    let n = keys.len() as u32;
+    let insert = f
+        .batch
+        .bind(d, gpu_hash::BatchKernel::InsertKeys, &t, &input, &out, n)
+        .unwrap();
+    let stats = f.batch.bind_stats(d, &t);
+    let mut names = Vec::new();
+    gpu::run(f.ctx, |enc| {
+        for _ in 0..3 {
+            t.encode_clear(enc);
+            f.batch.encode(enc, &insert).unwrap();
+        }
+        f.batch
+            .encode_timed(enc, &stats, &mut |name| {
+                names.push(name);
+                None
+            })
+            .unwrap();
+        assert!(matches!(
+            other.encode(enc, &insert),
+            Err(gpu_hash::HashError::ForeignBinding)
+        ));
+    });
+    assert_eq!(names, ["gpu-hash table_stats"]);
+    let slots: Vec<u32> = buffers::read(f.ctx, &out).unwrap();
+    assert!(slots.iter().all(|&s| s < config.num_slots() as u32));
+    assert_eq!(f.find_keys(&t, &keys), slots);
+    let used = slots.iter().collect::<std::collections::HashSet<_>>().len();
+    let st: HashStats = buffers::read::<HashStats>(f.ctx, t.stats()).unwrap()[0];
+    assert_eq!(
+        st.used_slots as usize, used,
+        "three builds of one table, one set of slots"
+    );
 }

@@ -682,6 +682,35 @@ fn hard_case_m_zero_merges_are_no_ops_and_m_caps_1_and_20() {
     // check_against_twin) and the twin's merge of an m = 0 reservoir is a no-op (unit test).
 }
 
+/// Issue 13.1 on the GPU: an m = 0 reservoir whose `p_hat * W` overflows (W = f32::MAX from
+/// finalize, then cap_m(0); and a `PackedReservoir { ucw: f32::MAX, m: 0 }`) merges as a no-op.
+#[test]
+fn hard_case_m_zero_merge_with_overflowing_p_hat_w_is_a_no_op() {
+    let mut s = vec![update(3, 2.5, 0.1)];
+    // reg 1: one 1e30 candidate, finalized with p_hat 1e-30: W = f32::MAX; then m capped to 0.
+    s.push(op(OP_UPDATE, 1, 1, 9, 1e30, 0.5));
+    s.push(op(OP_FINALIZE, 1, 1, 0, 1e-30, 0.0));
+    s.push(op(OP_CAP, 1, 1, 0, 0.0, 0.0));
+    // reg 2: the packed form { ucw: f32::MAX, m: 0 } with slot 9.
+    s.push(op(OP_REPACK, 2, 1, 9, 0.0, 0.0));
+    let without = s.clone();
+    s.push(op(OP_MERGE, 0, 1, 0, 1e30, 0.0));
+    s.push(op(OP_MERGE, 0, 2, 0, f32::MAX, 0.0));
+    let gpu = run_scripts_on_gpu(&[s.clone(), without]);
+    let (with, before) = (&gpu.regs[0][0], &gpu.regs[1][0]);
+    assert_eq!(gpu.regs[0][1].ucw, f32::MAX);
+    assert_eq!(gpu.regs[0][1].m, 0);
+    assert_eq!(gpu.regs[0][2].ucw, f32::MAX);
+    assert_eq!(
+        bits(with),
+        bits(before),
+        "m = 0 merge changed the receiver: {with:?} vs {before:?}"
+    );
+    assert_eq!(with.sample, 3);
+    assert!(!gpu.selected[0][s.len() - 1] && !gpu.selected[0][s.len() - 2]);
+    check_against_twin(&[s], 0);
+}
+
 // ---------------------------------------------------------------------------------------------
 // 10^7-long streams on the GPU against the twin and the f64 reference.
 

@@ -69,7 +69,7 @@ fn gpu_scan(ctx: &GpuContext, scan: &Scan, input: &[u32], kind: ScanKind) -> (Ve
     let out_buf = buffers::storage_zeroed(&ctx.device, "output", u64::from(n) * 4);
     let total = buffers::storage_from(&ctx.device, "total", &[0xDEAD_BEEFu32]);
     gpu::run(ctx, |enc| {
-        scan.encode(enc, &in_buf, &out_buf, n, kind, Some(&total))
+        scan.bind_and_encode(&ctx.device, enc, &in_buf, &out_buf, n, kind, Some(&total))
             .unwrap()
     });
     drop(in_buf);
@@ -126,6 +126,88 @@ fn awkward_sizes_match_cpu_twin() {
             }
         }
     }
+}
+
+/// The thread-coarsened kernel over several (workgroup size, items per thread) shapes: the GPU
+/// default, the CPU default, short and non-power-of-two runs; sizes around run, tile and vec4
+/// boundaries; both workgroup-scan variants; and the forced fallback (which reduces whole
+/// predecessor tiles).
+#[test]
+fn kernel_shapes_match_cpu_twin_on_awkward_sizes() {
+    let ctx = gpu::context();
+    let shapes = [(256u32, 16u32), (32, 1024), (32, 4), (64, 12), (128, 8)];
+    for (wg, items) in shapes {
+        for spin_limit in [gpu_scan::DEFAULT_SPIN_LIMIT, 0] {
+            let desc = ScanDescriptor {
+                workgroup_size: Some(wg),
+                items_per_thread: Some(items),
+                spin_limit,
+                ..ScanDescriptor::new(1 << 20)
+            };
+            for (name, scan) in variants(ctx, desc, "kernel_shapes (subgroup half)") {
+                assert_eq!(scan.tile_len(), wg * items);
+                let t = scan.tile_len();
+                let name = format!("{name} {wg}x{items} spin {spin_limit}");
+                for (i, n) in [
+                    1,
+                    items - 1,
+                    items + 1,
+                    items + 3,
+                    t - 3,
+                    t + 2,
+                    3 * t + items + 1,
+                    5 * t - 1,
+                    (1 << 20) - 1,
+                ]
+                .into_iter()
+                .enumerate()
+                {
+                    let kind = KINDS[i % 2];
+                    check(ctx, &scan, &name, Pattern::Random(i as u64 + 40), n, kind);
+                }
+            }
+        }
+    }
+}
+
+/// The API shape: bind once, encode many times (here three times into one encoder and once
+/// more in a later submit) with no allocation per encode; a binding only works with the scan
+/// that made it; the timestamp span hook sees the pass name.
+#[test]
+fn bind_once_encode_many() {
+    let ctx = gpu::context();
+    let scan = Scan::new(&ctx.device, &ScanDescriptor::new(1 << 18)).unwrap();
+    let other = Scan::new(&ctx.device, &ScanDescriptor::new(1 << 18)).unwrap();
+    let input = make_input(Pattern::Random(77), 200_003);
+    let in_buf = buffers::storage_from(&ctx.device, "input", &input);
+    let out_buf = buffers::storage_zeroed(&ctx.device, "output", input.len() as u64 * 4);
+    let total = buffers::storage_zeroed(&ctx.device, "total", 4);
+    let n = input.len() as u32;
+    let kind = ScanKind::Inclusive;
+    let bound = scan
+        .bind(&ctx.device, &in_buf, &out_buf, n, kind, Some(&total))
+        .unwrap();
+    let mut names = Vec::new();
+    gpu::run(ctx, |enc| {
+        for _ in 0..3 {
+            scan.encode(enc, &bound).unwrap();
+        }
+        scan.encode_timed(enc, &bound, &mut |name| {
+            names.push(name);
+            None
+        })
+        .unwrap();
+        assert_eq!(other.encode(enc, &bound), Err(ScanError::ForeignBinding));
+    });
+    assert_eq!(names, ["gpu-scan"]);
+    let got: Vec<u32> = buffers::read(ctx, &out_buf).unwrap();
+    assert_scan_eq(&got[..input.len()], &input, kind, "bound, encoded 4 times");
+    gpu::run(ctx, |enc| enc.clear_buffer(&out_buf, 0, None));
+    gpu::run(ctx, |enc| scan.encode(enc, &bound).unwrap());
+    let got: Vec<u32> = buffers::read(ctx, &out_buf).unwrap();
+    assert_scan_eq(&got[..input.len()], &input, kind, "bound, later submit");
+    let t: Vec<u32> = buffers::read_range(ctx, &total, 0, 4).unwrap();
+    assert_eq!(t[0], cpu::total(&input));
 }
 
 #[test]
@@ -190,9 +272,11 @@ fn large_sizes_cover_each_variant_kind_and_pattern() {
 #[test]
 fn hundred_scans_in_one_submit() {
     let ctx = gpu::context();
-    let desc = ScanDescriptor::for_device(&ctx.device, 1 << 16);
+    // Up to 5 tiles + 3 per scan (tiles are 32768 elements on CPU adapters).
+    let desc = ScanDescriptor::for_device(&ctx.device, 1 << 18);
     let scan = Scan::new(&ctx.device, &desc).unwrap();
     let t = scan.tile_len() as usize;
+    assert!(5 * t + 3 <= 1 << 18);
     let mut rng = StdRng::seed_from_u64(100);
     struct Job {
         input: Vec<u32>,
@@ -216,7 +300,8 @@ fn hundred_scans_in_one_submit() {
         let out = buffers::storage_zeroed(&ctx.device, "out", n as u64 * 4);
         let total = buffers::storage_zeroed(&ctx.device, "total", 4);
         let input = if i % 5 == 0 {
-            scan.encode(
+            scan.bind_and_encode(
+                &ctx.device,
                 &mut encoder,
                 &shared_buf,
                 &out,
@@ -229,8 +314,16 @@ fn hundred_scans_in_one_submit() {
         } else {
             let input = make_input(Pattern::Random(1000 + i as u64), n);
             let buf = buffers::storage_from(&ctx.device, "input", &input);
-            scan.encode(&mut encoder, &buf, &out, n as u32, kind, Some(&total))
-                .unwrap();
+            scan.bind_and_encode(
+                &ctx.device,
+                &mut encoder,
+                &buf,
+                &out,
+                n as u32,
+                kind,
+                Some(&total),
+            )
+            .unwrap();
             input
         };
         jobs.push(Job {
@@ -285,8 +378,10 @@ fn indirect_length_read_on_the_gpu() {
             let out = buffers::storage_zeroed(&ctx.device, "out", out_bytes);
             let total = buffers::storage_from(&ctx.device, "total", &[0xDEAD_BEEFu32]);
             let kind = KINDS[i % 2];
-            scan.encode_indirect(&mut encoder, &in_buf, &out, &len, 12, kind, Some(&total))
+            let bound = scan
+                .bind_indirect(&ctx.device, &in_buf, &out, &len, 12, kind, Some(&total))
                 .unwrap();
+            scan.encode(&mut encoder, &bound).unwrap();
             jobs.push((out, total, kind, effective));
         }
         ctx.queue.submit([encoder.finish()]);
@@ -394,22 +489,23 @@ fn errors_are_returned_before_encoding() {
     let mut enc = ctx.device.create_command_encoder(&Default::default());
     let ex = ScanKind::Exclusive;
     assert_eq!(
-        scan.encode(&mut enc, &a, &b, 1001, ex, None),
+        scan.bind(&ctx.device, &a, &b, 1001, ex, None).map(|_| ()),
         Err(ScanError::TooLong {
             n: 1001,
             max_len: 1000
         })
     );
     assert_eq!(
-        scan.encode(&mut enc, &a, &a, 10, ex, None),
+        scan.bind(&ctx.device, &a, &a, 10, ex, None).map(|_| ()),
         Err(ScanError::Aliasing("input", "output"))
     );
     assert_eq!(
-        scan.encode(&mut enc, &a, &b, 10, ex, Some(&b)),
+        scan.bind(&ctx.device, &a, &b, 10, ex, Some(&b)).map(|_| ()),
         Err(ScanError::Aliasing("output", "total"))
     );
     assert!(matches!(
-        scan.encode(&mut enc, &a, &small, 101, ex, None),
+        scan.bind(&ctx.device, &a, &small, 101, ex, None)
+            .map(|_| ()),
         Err(ScanError::BufferTooSmall {
             which: "output",
             ..
@@ -422,28 +518,33 @@ fn errors_are_returned_before_encoding() {
         mapped_at_creation: false,
     });
     assert_eq!(
-        scan.encode(&mut enc, &not_storage, &b, 10, ex, None),
+        scan.bind(&ctx.device, &not_storage, &b, 10, ex, None)
+            .map(|_| ()),
         Err(ScanError::MissingStorageUsage { which: "input" })
     );
     assert_eq!(
-        scan.encode_indirect(&mut enc, &a, &b, &small, 2, ex, None),
+        scan.bind_indirect(&ctx.device, &a, &b, &small, 2, ex, None)
+            .map(|_| ()),
         Err(ScanError::UnalignedLenOffset(2))
     );
     assert!(matches!(
-        scan.encode_indirect(&mut enc, &a, &b, &small, 400, ex, None),
+        scan.bind_indirect(&ctx.device, &a, &b, &small, 400, ex, None)
+            .map(|_| ()),
         Err(ScanError::BufferTooSmall {
             which: "length",
             ..
         })
     ));
     // n = 0 without a total records nothing; the encoder is still valid afterwards.
-    scan.encode(&mut enc, &a, &b, 0, ex, None).unwrap();
+    scan.bind_and_encode(&ctx.device, &mut enc, &a, &b, 0, ex, None)
+        .unwrap();
     ctx.queue.submit([enc.finish()]);
     ctx.wait().unwrap();
     // n = 0 with a total writes 0.
     let total = buffers::storage_from(&ctx.device, "total", &[5u32]);
     gpu::run(ctx, |enc| {
-        scan.encode(enc, &a, &b, 0, ex, Some(&total)).unwrap()
+        scan.bind_and_encode(&ctx.device, enc, &a, &b, 0, ex, Some(&total))
+            .unwrap()
     });
     let t: Vec<u32> = buffers::read_range(ctx, &total, 0, 4).unwrap();
     assert_eq!(t[0], 0);
@@ -481,6 +582,50 @@ fn own_device_without_subgroups() {
     let (got, total) = gpu_scan(&plain, &scan, &input, ScanKind::Inclusive);
     assert_scan_eq(&got, &input, ScanKind::Inclusive, "own device");
     assert_eq!(total, cpu::total(&input));
+}
+
+/// Issue 13.2: a device below the kernel's needs (8 storage buffers per stage) gets a typed
+/// error from `Scan::new`, never a wgpu validation panic.
+#[test]
+fn downlevel_device_gets_a_typed_error() {
+    for limits in [
+        wgpu::Limits::downlevel_defaults(),
+        gpu::limits_with_storage_buffers(7),
+    ] {
+        let (device, _queue) = gpu::device_with_limits(limits);
+        let err = Scan::new(&device, &ScanDescriptor::new(1 << 16)).unwrap_err();
+        assert!(
+            matches!(
+                err,
+                ScanError::DeviceLimit {
+                    limit: "max_storage_buffers_per_shader_stage",
+                    needed: 8,
+                    ..
+                }
+            ),
+            "{err}"
+        );
+    }
+    // Exactly 8 is enough.
+    let (device, _queue) = gpu::device_with_limits(gpu::limits_with_storage_buffers(8));
+    Scan::new(&device, &ScanDescriptor::new(1 << 16)).unwrap();
+}
+
+/// Issue 13.5: unsupported `items_per_thread` values are the caller's error, not silently
+/// changed and not blamed on the device.
+#[test]
+fn invalid_items_per_thread_are_rejected() {
+    let ctx = gpu::context();
+    for items in [0u32, 2, 6] {
+        let desc = ScanDescriptor {
+            items_per_thread: Some(items),
+            ..ScanDescriptor::new(1 << 16)
+        };
+        assert_eq!(
+            Scan::new(&ctx.device, &desc).unwrap_err(),
+            ScanError::InvalidItemsPerThread(items)
+        );
+    }
 }
 
 fn pollster_block_on<F: std::future::Future>(f: F) -> F::Output {

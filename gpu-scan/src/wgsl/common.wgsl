@@ -1,7 +1,7 @@
 // gpu-scan: what the scan kernel and its indirect pre-pass share. The constants (SCAN_*) come
 // from the header Rust generates (`gpu_scan::shaders::constants_header`).
 
-// Per-encode parameters: one small buffer per recorded scan, so that many scans in one submit
+// Per-binding parameters: one small buffer per ScanBinding, so that many scans in one submit
 // never share (and overwrite) one parameter block.
 struct ScanParams {
     // Number of elements. The indirect pre-pass overwrites it with the length it reads on the GPU.

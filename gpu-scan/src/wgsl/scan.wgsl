@@ -5,9 +5,10 @@
 // (wg_shared.wgsl or wg_subgroup.wgsl), which defines `scan_t`, `wg_scan` and the entry point.
 //
 // Each workgroup takes a tile rank from an atomic ticket (never from workgroup_id, so a tile only
-// waits on tiles whose workgroups already started), scans its SCAN_TILE elements, publishes its
-// aggregate, looks back over its predecessors' published states for its exclusive prefix,
-// publishes its inclusive prefix and writes the output.
+// waits on tiles whose workgroups already started), scans its SCAN_TILE elements (each invocation
+// a run of SCAN_ITEMS consecutive ones, see scan_tile), publishes its aggregate, looks back over
+// its predecessors' published states for its exclusive prefix, publishes its inclusive prefix
+// and writes the output.
 //
 // Tile state: two atomic words per tile, each `flag | 16-bit half of the value`, flags in the
 // high bits (0: nothing yet, SCAN_FLAG_AGGREGATE: the tile's sum, SCAN_FLAG_PREFIX: the sum of
@@ -34,17 +35,8 @@
 @group(0) @binding(6) var<storage, read> scan_in4: array<vec4<u32>>;
 @group(0) @binding(7) var<storage, read_write> scan_out4: array<vec4<u32>>;
 
-const SCAN_TILE_PADDED: u32 = SCAN_TILE + SCAN_TILE / 32u;
-
-// The tile in workgroup memory, with one padding word every 32 so that both the coalesced
-// (k * SCAN_WG + i) and the per-thread (t * SCAN_ITEMS + j) access patterns avoid bank conflicts.
-var<workgroup> scan_tile_buf: array<u32, SCAN_TILE_PADDED>;
 // Broadcast slot for values thread 0 reads (ticket, polled state).
 var<workgroup> scan_bcast: vec2<u32>;
-
-fn scan_pad(i: u32) -> u32 {
-    return i + (i >> 5u);
-}
 
 fn scan_publish(tile: u32, flag: u32, value: u32) {
     atomicMax(&scan_scratch[1u + 2u * tile], flag | (value & 0xFFFFu));
@@ -137,6 +129,17 @@ fn scan_lookback(li: u32, tile: u32, vec4_ok: bool) -> u32 {
     return prefix;
 }
 
+// One invocation's run of SCAN_ITEMS consecutive elements starting at `run` (a multiple of 4)
+// lies inside n and inside the vec4 views: it moves with SCAN_ITEMS / 4 vec4 accesses.
+fn scan_run_is_vec4(run: u32, n: u32, len4: u32) -> bool {
+    return run + SCAN_ITEMS <= n && run / 4u + SCAN_ITEMS / 4u <= len4;
+}
+
+// Thread-coarsened tile: each invocation owns a run of SCAN_ITEMS consecutive elements. Pass 1
+// sums its run in registers (no workgroup memory, no private array); one workgroup scan of the
+// run sums and the look-back give the run's exclusive prefix; pass 2 re-reads the run (from
+// cache: a tile is SCAN_TILE * 4 bytes) and writes its scan. Runs that reach past n (the last
+// tile only) or past the vec4 views (indirect scans) take scalar accesses.
 fn scan_tile(li: u32) {
     if li == 0u {
         scan_bcast.x = atomicAdd(&scan_scratch[0], 1u);
@@ -147,44 +150,25 @@ fn scan_tile(li: u32) {
     if tile >= num_tiles {
         return; // surplus workgroup of a 2D or indirect dispatch
     }
-    let base = tile * SCAN_TILE;
-    let full = base + SCAN_TILE <= n;
     // Every full tile lies inside the vec4 views (all tiles before the last are full); the
     // views may be shorter only in the indirect variant, where they are checked.
     let len4 = min(arrayLength(&scan_in4), arrayLength(&scan_out4));
     let vec4_ok = tile * (SCAN_TILE / 4u) + SCAN_TILE / 4u <= len4;
-    let fast = full && vec4_ok;
 
-    // Each thread scans SCAN_ITEMS consecutive elements in registers.
-    var items: array<u32, SCAN_ITEMS>;
+    let run = tile * SCAN_TILE + scan_t * SCAN_ITEMS;
+    let at = run / 4u;
+    let fast = scan_run_is_vec4(run, n, len4);
     var x = 0u;
     if fast {
-        let at = (base + scan_t * SCAN_ITEMS) / 4u;
         for (var q = 0u; q < SCAN_ITEMS / 4u; q++) {
             let v = scan_in4[at + q];
-            x += v.x;
-            items[4u * q] = x;
-            x += v.y;
-            items[4u * q + 1u] = x;
-            x += v.z;
-            items[4u * q + 2u] = x;
-            x += v.w;
-            items[4u * q + 3u] = x;
+            x += (v.x + v.y) + (v.z + v.w);
         }
     } else {
-        // Coalesced load into workgroup memory.
-        for (var k = 0u; k < SCAN_ITEMS; k++) {
-            let i = k * SCAN_WG + li;
-            var v = 0u;
-            if base + i < n {
-                v = scan_in[base + i];
-            }
-            scan_tile_buf[scan_pad(i)] = v;
-        }
-        workgroupBarrier();
         for (var j = 0u; j < SCAN_ITEMS; j++) {
-            x += scan_tile_buf[scan_pad(scan_t * SCAN_ITEMS + j)];
-            items[j] = x;
+            if run + j < n {
+                x += scan_in[run + j];
+            }
         }
     }
     let local = wg_scan(x);
@@ -213,34 +197,27 @@ fn scan_tile(li: u32) {
         }
     }
 
-    // Results back through workgroup memory, then a coalesced store.
-    let offset = prefix + local.x;
+    // Pass 2: the run again, now with its exclusive prefix.
+    var s = prefix + local.x;
     let inclusive = scan_params.inclusive != 0u;
     if fast {
-        let at = (base + scan_t * SCAN_ITEMS) / 4u;
-        var before = 0u;
         for (var q = 0u; q < SCAN_ITEMS / 4u; q++) {
-            var v: vec4<u32>;
-            if inclusive {
-                v = vec4<u32>(items[4u * q], items[4u * q + 1u], items[4u * q + 2u], items[4u * q + 3u]);
-            } else {
-                v = vec4<u32>(before, items[4u * q], items[4u * q + 1u], items[4u * q + 2u]);
-            }
-            before = items[4u * q + 3u];
-            scan_out4[at + q] = vec4<u32>(offset) + v;
+            let v = scan_in4[at + q];
+            let a = s + v.x;
+            let b = a + v.y;
+            let c = b + v.z;
+            let d = c + v.w;
+            scan_out4[at + q] = select(vec4<u32>(s, a, b, c), vec4<u32>(a, b, c, d), inclusive);
+            s = d;
         }
         return;
     }
-    var before = 0u;
     for (var j = 0u; j < SCAN_ITEMS; j++) {
-        scan_tile_buf[scan_pad(scan_t * SCAN_ITEMS + j)] = offset + select(before, items[j], inclusive);
-        before = items[j];
-    }
-    workgroupBarrier();
-    for (var k = 0u; k < SCAN_ITEMS; k++) {
-        let i = k * SCAN_WG + li;
-        if base + i < n {
-            scan_out[base + i] = scan_tile_buf[scan_pad(i)];
+        let i = run + j;
+        if i < n {
+            let next = s + scan_in[i];
+            scan_out[i] = select(s, next, inclusive);
+            s = next;
         }
     }
 }

@@ -118,7 +118,9 @@ fn reservoir_merge_weight(other: Reservoir, p_hat_at_receiver: f32) -> f32 {
         * reservoir_positive_normal(other.ucw));
     let x = pw * f32(other.m);
     let b = bitcast<u32>(x);
-    return select(reservoir_weight(x), RESERVOIR_SUM_MAX, b >= RESERVOIR_INF_BITS);
+    // m = 0 is tested on its own: an overflowed pw (+Inf) times 0 is NaN, not an overflow.
+    let w = select(reservoir_weight(x), RESERVOIR_SUM_MAX, b >= RESERVOIR_INF_BITS);
+    return select(w, 0.0, other.m == 0u);
 }
 
 // Merges the finalized reservoir `other` into r: weight p_hat(other's sample at r) * W * M,

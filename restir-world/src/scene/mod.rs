@@ -7,7 +7,7 @@
 //!   disagree about winding, and two-sided surfaces make that harmless.
 //! - Units are whatever the scene uses; the built-in scenes are in metres.
 //!
-//! Entry points: [`builtin`] (procedural scenes by name), [`load`] (glTF 2.0 / OBJ+MTL files),
+//! Entry points: [`builtin()`] (procedural scenes by name), [`load`] (glTF 2.0 / OBJ+MTL files),
 //! [`Scene::sanitize`] (drops NaN/Inf and degenerate triangles, counts them in a
 //! [`SanitizeReport`]).
 

@@ -26,7 +26,7 @@
 
 use glam::Vec3;
 use gpu_hash::{CellSizing, HashGridParams, HashStats, HashTable, TableConfig};
-use gpu_scan::{Scan, ScanDescriptor, ScanKind};
+use gpu_scan::{Scan, ScanBinding, ScanDescriptor, ScanKind};
 
 use crate::gpu::{SpanTimes, buffers};
 use crate::render::{self, Method, PassTimes, RenderError, Renderer};
@@ -723,11 +723,11 @@ pub struct WorldRestir {
     prev_reservoirs: wgpu::Buffer,
     /// Last frame's secondary vertices (the temporal pass's 1/Z test).
     prev_vertices: wgpu::Buffer,
-    /// Slots of each hash table (what is cleared and scanned).
-    slots: u32,
     params: wgpu::Buffer,
     debug: wgpu::Buffer,
     scan: Scan,
+    /// The slot-offset scan of table p's counters into offsets[p], bound once.
+    scan_bindings: [ScanBinding; 2],
     pipelines: Vec<Vec<wgpu::ComputePipeline>>,
     generate_group: wgpu::BindGroup,
     insert_groups: [wgpu::BindGroup; 2],
@@ -819,6 +819,17 @@ impl WorldRestir {
             device,
             &ScanDescriptor::for_device(device, slots_u32.max(1)),
         )?;
+        let bind_scan = |p: usize| {
+            scan.bind(
+                device,
+                tables[p].counters(),
+                &offsets[p],
+                slots_u32,
+                ScanKind::Exclusive,
+                None,
+            )
+        };
+        let scan_bindings = [bind_scan(0)?, bind_scan(1)?];
 
         // Pipelines, one layout per kernel module.
         let (render_group, render_layout) = renderer.bind_group();
@@ -974,10 +985,10 @@ impl WorldRestir {
             reservoirs,
             prev_reservoirs,
             prev_vertices,
-            slots: slots_u32,
             params,
             debug,
             scan,
+            scan_bindings,
             pipelines,
             generate_group,
             insert_groups,
@@ -1063,7 +1074,6 @@ impl WorldRestir {
                 &self.generate_group,
             )
         });
-        let slots = self.slots;
         Self::span(
             &mut timer,
             encoder,
@@ -1076,14 +1086,7 @@ impl WorldRestir {
                     &self.pipelines[K_INSERT][0],
                     &self.insert_groups[p],
                 );
-                self.scan.encode(
-                    enc,
-                    self.tables[p].counters(),
-                    &self.offsets[p],
-                    slots,
-                    ScanKind::Exclusive,
-                    None,
-                )?;
+                self.scan.encode(enc, &self.scan_bindings[p])?;
                 self.dispatch(
                     enc,
                     "wr scatter",

@@ -1,0 +1,262 @@
+//! The user-shader examples of the gpu-hash and reservoir READMEs, taken verbatim out of the
+//! README files (the ```wgsl block after `<!-- user-shader example -->`), composed as the
+//! README says, compiled and run on the shared test device, and checked against the Rust twins.
+
+use glam::Vec3;
+use gpu_hash::{CellSizing, GridBinding, HASH_NOT_FOUND, HashGridParams, HashTable, TableConfig};
+use rand::{Rng, SeedableRng, rngs::StdRng};
+use reservoir::{PackedReservoir, Reservoir};
+use tests::{buffers, gpu};
+
+/// The WGSL block that follows the `<!-- user-shader example -->` marker in `readme`.
+fn example_block(readme: &str, which: &str) -> String {
+    let after = readme
+        .split_once("<!-- user-shader example -->")
+        .unwrap_or_else(|| panic!("{which}: no user-shader example marker"))
+        .1;
+    let body = after
+        .split_once("```wgsl\n")
+        .unwrap_or_else(|| panic!("{which}: no wgsl block after the marker"))
+        .1;
+    body.split_once("```")
+        .unwrap_or_else(|| panic!("{which}: unterminated wgsl block"))
+        .0
+        .to_owned()
+}
+
+/// A pipeline for `entry` of `source` with explicit group layouts.
+fn pipeline(
+    device: &wgpu::Device,
+    source: &str,
+    entry: &str,
+    layouts: &[&wgpu::BindGroupLayout],
+) -> wgpu::ComputePipeline {
+    if let Err(e) = tests::wgsl::validate(entry, source) {
+        panic!("{e}");
+    }
+    let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+        label: Some(entry),
+        source: wgpu::ShaderSource::Wgsl(source.into()),
+    });
+    let layouts: Vec<Option<&wgpu::BindGroupLayout>> = layouts.iter().map(|l| Some(*l)).collect();
+    let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+        label: Some(entry),
+        bind_group_layouts: &layouts,
+        immediate_size: 0,
+    });
+    device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+        label: Some(entry),
+        layout: Some(&layout),
+        module: &module,
+        entry_point: Some(entry),
+        compilation_options: Default::default(),
+        cache: None,
+    })
+}
+
+fn storage_group(
+    device: &wgpu::Device,
+    buffers: &[&wgpu::Buffer],
+) -> (wgpu::BindGroupLayout, wgpu::BindGroup) {
+    let entries: Vec<wgpu::BindGroupLayoutEntry> = (0..buffers.len() as u32)
+        .map(|b| buffers::storage_entry(b, b == 0))
+        .collect();
+    let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+        label: Some("user buffers"),
+        entries: &entries,
+    });
+    let group_entries: Vec<wgpu::BindGroupEntry> = buffers
+        .iter()
+        .enumerate()
+        .map(|(i, b)| wgpu::BindGroupEntry {
+            binding: i as u32,
+            resource: b.as_entire_binding(),
+        })
+        .collect();
+    let group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+        label: Some("user buffers"),
+        layout: &layout,
+        entries: &group_entries,
+    });
+    (layout, group)
+}
+
+#[test]
+fn gpu_hash_readme_user_shader_runs_and_matches_the_twins() {
+    let user = example_block(include_str!("../../gpu-hash/README.md"), "gpu-hash");
+    let ctx = gpu::context();
+    let device = &ctx.device;
+    let config = TableConfig {
+        num_buckets: 4096,
+        ..TableConfig::default()
+    };
+    let params =
+        HashGridParams::new(&config, &CellSizing::default(), Vec3::new(0.0, 1.0, -4.0)).unwrap();
+    let table = HashTable::new(device, &ctx.queue, &params).unwrap();
+
+    // The README's host side: one GridBinding places the table.
+    let grid = GridBinding::table(0, 0);
+    let source = format!("{}\n{user}", gpu_hash::compose_grid(&[grid]));
+    let table_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+        label: None,
+        entries: &grid.layout_entries(),
+    });
+    let table_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+        label: None,
+        layout: &table_layout,
+        entries: &grid.bind_group_entries(&table.buffers()),
+    });
+
+    let n = 20_000usize;
+    let mut rng = StdRng::seed_from_u64(21);
+    let points: Vec<[f32; 4]> = (0..n)
+        .map(|_| {
+            [
+                rng.random_range(-2.0..2.0),
+                rng.random_range(-2.0..2.0),
+                rng.random_range(-2.0..2.0),
+                1.0,
+            ]
+        })
+        .collect();
+    let points_buf = buffers::storage_from(device, "points", &points);
+    let jittered_buf = buffers::storage_zeroed(device, "jittered", n as u64 * 16);
+    let out_buf = buffers::storage_zeroed(device, "out", n as u64 * 8);
+    let (user_layout, user_group) = storage_group(device, &[&points_buf, &jittered_buf, &out_buf]);
+    let pipeline = pipeline(
+        device,
+        &source,
+        "insert_jittered",
+        &[&table_layout, &user_layout],
+    );
+    gpu::run(ctx, |enc| {
+        table.encode_clear(enc);
+        let mut pass = enc.begin_compute_pass(&Default::default());
+        pass.set_pipeline(&pipeline);
+        pass.set_bind_group(0, &table_group, &[]);
+        pass.set_bind_group(1, &user_group, &[]);
+        pass.dispatch_workgroups((n as u32).div_ceil(64), 1, 1);
+    });
+    let jittered: Vec<[f32; 4]> = buffers::read(ctx, &jittered_buf).unwrap();
+    let out: Vec<[u32; 2]> = buffers::read(ctx, &out_buf).unwrap();
+    let counters: Vec<u32> = buffers::read(ctx, table.counters()).unwrap();
+
+    let mut members: std::collections::HashMap<u32, Vec<u32>> = Default::default();
+    for i in 0..n {
+        let p = Vec3::from_slice(&points[i][..3]);
+        let q = Vec3::from_slice(&jittered[i][..3]);
+        // The jitter against its twin (same u as the shader: the library hashes of i).
+        let u = [
+            (gpu_hash::hash::pcg(i as u32) >> 8) as f32 / 16_777_216.0,
+            (gpu_hash::hash::xxhash32(i as u32) >> 8) as f32 / 16_777_216.0,
+        ];
+        let twin = gpu_hash::jitter(p, Vec3::Y, u, params.cell_size(p));
+        assert!(
+            (q - twin).length() <= 1e-5 * (1.0 + p.length()),
+            "point {i}: jitter {q} vs twin {twin}"
+        );
+        // The slot is in the twin's bucket of the jittered position.
+        let [slot, index] = out[i];
+        assert_ne!(index, HASH_NOT_FOUND, "point {i}: not inserted");
+        assert_eq!(slot / config.slots_per_bucket, params.cell(q).bucket);
+        members.entry(slot).or_default().push(index);
+    }
+    for (slot, idx) in &mut members {
+        idx.sort_unstable();
+        assert!(idx.iter().enumerate().all(|(k, &v)| v == k as u32));
+        assert_eq!(counters[*slot as usize] as usize, idx.len());
+    }
+    eprintln!(
+        "gpu-hash README example: {n} points in {} cells",
+        members.len()
+    );
+}
+
+#[test]
+fn reservoir_readme_user_shader_runs_and_matches_the_twin() {
+    let user = example_block(include_str!("../../reservoir/README.md"), "reservoir");
+    let ctx = gpu::context();
+    let device = &ctx.device;
+    let source = format!("{}\n{}\n{user}", reservoir::wgsl(), reservoir::rng::WGSL);
+    let n = 1usize << 14;
+    let packed_buf = buffers::storage_zeroed(device, "reservoirs", n as u64 * 8);
+    let samples_buf = buffers::storage_zeroed(device, "samples", n as u64 * 4);
+    let entries = [
+        buffers::storage_entry(0, false),
+        buffers::storage_entry(1, false),
+    ];
+    let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+        label: None,
+        entries: &entries,
+    });
+    let group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+        label: None,
+        layout: &layout,
+        entries: &[
+            wgpu::BindGroupEntry {
+                binding: 0,
+                resource: packed_buf.as_entire_binding(),
+            },
+            wgpu::BindGroupEntry {
+                binding: 1,
+                resource: samples_buf.as_entire_binding(),
+            },
+        ],
+    });
+    let pipeline = pipeline(device, &source, "ris", &[&layout]);
+    gpu::run(ctx, |enc| {
+        let mut pass = enc.begin_compute_pass(&Default::default());
+        pass.set_pipeline(&pipeline);
+        pass.set_bind_group(0, &group, &[]);
+        pass.dispatch_workgroups((n as u32).div_ceil(64), 1, 1);
+    });
+    let packed: Vec<PackedReservoir> = buffers::read(ctx, &packed_buf).unwrap();
+    let samples: Vec<f32> = buffers::read(ctx, &samples_buf).unwrap();
+
+    // The twin of the README kernel, op for op.
+    let target = |x: f32| x * x;
+    let mut estimate = 0.0f64;
+    let mut sample_mismatches = 0;
+    for i in 0..n {
+        let mut rng = reservoir::rng::Rng::seed(i as u32, 0, 0);
+        let (mut a, mut b) = (Reservoir::empty(), Reservoir::empty());
+        let (mut ya, mut yb) = (0.0f32, 0.0f32);
+        for k in 0..16 {
+            let x = rng.next_f32();
+            if a.update_slot(target(x), rng.next_f32(), k) {
+                ya = x;
+            }
+            let z = rng.next_f32();
+            if b.update_slot(target(z), rng.next_f32(), 16 + k) {
+                yb = z;
+            }
+        }
+        a.finalize(target(ya));
+        b.finalize(target(yb));
+        if a.merge(&b, target(yb), rng.next_f32()) {
+            ya = yb;
+        }
+        a.finalize(target(ya));
+        a.cap_m(20);
+        let got = packed[i];
+        assert_eq!(got.m, a.m, "invocation {i}: m");
+        // The divisions of finalize may differ by a few ulp (WGSL allows 2.5), which can flip
+        // the merge's selection only at a near tie.
+        if samples[i] != ya {
+            sample_mismatches += 1;
+            continue;
+        }
+        let ulps = got.ucw.to_bits().abs_diff(a.ucw.to_bits());
+        assert!(ulps <= 8, "invocation {i}: W {} vs twin {}", got.ucw, a.ucw);
+        estimate += f64::from(samples[i] * got.ucw);
+    }
+    assert!(
+        sample_mismatches <= n / 1000,
+        "{sample_mismatches} samples differ from the twin"
+    );
+    // f(x) = x over [0, 1): integral 1/2. RIS with p_hat = x^2 has variance well below 0.1 per
+    // sample, so the mean of 16384 estimates is within 0.01 with overwhelming probability.
+    let mean = estimate / (n - sample_mismatches) as f64;
+    assert!((mean - 0.5).abs() < 0.01, "RIS estimate {mean}");
+    eprintln!("reservoir README example: mean estimate {mean:.4} (exact 0.5)");
+}
