@@ -4,10 +4,12 @@
 //! in the same run. Criterion times whole frames of each method (GPU time, `iter_custom`).
 //!
 //! Size: `WR_BENCH_SIZE` (default 128: the demo's default 256x256 takes too long per frame on
-//! lavapipe with 2 shared cores); table 100,000 x 32 (the paper's); many-lights with 10,000
-//! lights.
+//! lavapipe with 2 shared cores); many-lights with 10,000 lights. One `RESULT` line per
+//! world-restir variant of the method registry (`variant=default` first: the shipped defaults),
+//! each with the same frame's baselines measured in the same run.
 
 use criterion::{Criterion, criterion_group, criterion_main};
+use restir_world::render::methods::{WORLD_RESTIR_VARIANTS, world_restir_config};
 use restir_world::render::{Method, PassTimes, Renderer};
 use restir_world::scene::{BuiltinOptions, builtin};
 use restir_world::world_restir::{WorldRestir, WorldRestirConfig, add_times};
@@ -21,7 +23,8 @@ fn ms(t: &PassTimes, names: &[&str]) -> f64 {
         .iter()
         .filter(|(n, _)| names.contains(&n.as_str()))
         .map(|(_, v)| v)
-        .sum()
+        .sum::<f64>()
+        .max(0.0) // an empty sum is -0.0
 }
 
 fn baseline_times(ctx: &GpuContext, r: &mut Renderer) -> PassTimes {
@@ -72,7 +75,43 @@ fn world_restir(c: &mut Criterion) {
     }
     group.finish();
 
-    // Per-stage spans.
+    let t_ris = baseline_times(ctx, &mut ris);
+    let t_nee = baseline_times(ctx, &mut nee);
+    eprintln!("ris per frame: {:?}", t_ris.per_frame());
+    eprintln!("nee per frame: {:?}", t_nee.per_frame());
+
+    // Floor: a vec4 copy over the G-buffer's bytes.
+    let kernel = CopyKernel::new(&ctx.device);
+    let bytes = u64::from(side * side) * 64;
+    let src = buffers::storage_zeroed(&ctx.device, "src", bytes);
+    let dst = buffers::storage_zeroed(&ctx.device, "dst", bytes);
+    let floor_ms = bench::gpu_ms(ctx, 5, |enc| {
+        kernel.encode(&ctx.device, enc, &src, &dst, (bytes / 16) as u32)
+    });
+
+    // Per-stage spans of the defaults, then of every other variant.
+    let variants = std::iter::once(("default", WorldRestirConfig::default())).chain(
+        WORLD_RESTIR_VARIANTS
+            .iter()
+            .filter(|(name, _)| *name != "both")
+            .map(|(name, _)| (*name, world_restir_config(Some(name)).expect("variant"))),
+    );
+    for (variant, config) in variants {
+        let mut wr = WorldRestir::new(ctx, &scene, &cam, config, 1).expect("world-restir");
+        stage_result(ctx, &mut wr, variant, side, &t_ris, &t_nee, floor_ms);
+    }
+}
+
+/// One `RESULT world-restir` line: per-stage GPU ms per frame of `wr` after one warm-up frame.
+fn stage_result(
+    ctx: &GpuContext,
+    wr: &mut WorldRestir,
+    variant: &str,
+    side: u32,
+    t_ris: &PassTimes,
+    t_nee: &PassTimes,
+    floor_ms: f64,
+) {
     wr.render(ctx, 1, None, |_| {}).expect("warm-up");
     let mut t_wr = PassTimes::default();
     let mut timer = GpuTimer::new(ctx, 16);
@@ -85,34 +124,25 @@ fn world_restir(c: &mut Criterion) {
         ctx.queue.submit([enc.finish()]);
         add_times(&mut t_wr, &timer.read(ctx).expect("timestamps"));
     }
-    let t_ris = baseline_times(ctx, &mut ris);
-    let t_nee = baseline_times(ctx, &mut nee);
     let stats = wr.grid_stats(ctx).expect("stats");
-    eprintln!("world-restir per frame: {:?}", t_wr.per_frame());
-    eprintln!("ris per frame: {:?}", t_ris.per_frame());
-    eprintln!("nee per frame: {:?}", t_nee.per_frame());
-    eprintln!("grid: {stats:?}");
-
-    // Floor: a vec4 copy over the G-buffer's bytes.
-    let kernel = CopyKernel::new(&ctx.device);
-    let bytes = u64::from(side * side) * 64;
-    let src = buffers::storage_zeroed(&ctx.device, "src", bytes);
-    let dst = buffers::storage_zeroed(&ctx.device, "dst", bytes);
-    let floor_ms = bench::gpu_ms(ctx, 5, |enc| {
-        kernel.encode(&ctx.device, enc, &src, &dst, (bytes / 16) as u32)
-    });
+    eprintln!("world-restir {variant} per frame: {:?}", t_wr.per_frame());
 
     let f = |x: f64| format!("{x:.3}");
     let frame_wr = t_wr.total_ms() / f64::from(t_wr.frames.max(1));
     let frame_ris = t_ris.total_ms() / f64::from(t_ris.frames.max(1));
     let frame_nee = t_nee.total_ms() / f64::from(t_nee.frames.max(1));
     let build = ms(&t_wr, &["build"]);
+    let table = wr
+        .config()
+        .table(wr.renderer.camera.width, wr.renderer.camera.height);
     bench::print_result(
         ctx,
         "world-restir",
         &[
+            ("variant", variant.into()),
             ("scene", "many-lights".into()),
             ("size", format!("{side}x{side}")),
+            ("buckets", table.num_buckets.to_string()),
             ("generate_ms", f(ms(&t_wr, &["generate"]))),
             ("build_ms", f(build)),
             ("temporal_ms", f(ms(&t_wr, &["temporal"]))),
@@ -122,10 +152,11 @@ fn world_restir(c: &mut Criterion) {
             ("direct_ms", f(ms(&t_wr, &["shade_direct"]))),
             ("frame_ms", f(frame_wr)),
             ("build_share", format!("{:.3}", build / frame_wr)),
+            ("vs_ris_frame", format!("{:.3}", frame_wr / frame_ris)),
             ("ris_frame_ms", f(frame_ris)),
-            ("ris_indirect_ms", f(ms(&t_ris, &["shade_indirect"]))),
+            ("ris_indirect_ms", f(ms(t_ris, &["shade_indirect"]))),
             ("nee_frame_ms", f(frame_nee)),
-            ("nee_indirect_ms", f(ms(&t_nee, &["shade_indirect"]))),
+            ("nee_indirect_ms", f(ms(t_nee, &["shade_indirect"]))),
             ("floor_copy_ms", format!("{floor_ms:.4}")),
             ("overflows", stats.overflows.to_string()),
         ],
