@@ -555,7 +555,7 @@ fn own_device_without_subgroups() {
     // A user's device without SUBGROUP: requesting subgroups is an error, the portable path
     // scans correctly.
     let ctx = gpu::context();
-    let (device, queue) = pollster_block_on(ctx.adapter.request_device(&wgpu::DeviceDescriptor {
+    let (device, queue) = gpu::block_on(ctx.adapter.request_device(&wgpu::DeviceDescriptor {
         label: Some("plain device"),
         required_limits: ctx.adapter.limits(),
         ..Default::default()
@@ -625,19 +625,6 @@ fn invalid_items_per_thread_are_rejected() {
             Scan::new(&ctx.device, &desc).unwrap_err(),
             ScanError::InvalidItemsPerThread(items)
         );
-    }
-}
-
-fn pollster_block_on<F: std::future::Future>(f: F) -> F::Output {
-    // A minimal executor: wgpu's native futures are ready when polled after the call returns.
-    let waker = std::task::Waker::noop();
-    let mut cx = std::task::Context::from_waker(waker);
-    let mut f = std::pin::pin!(f);
-    loop {
-        if let std::task::Poll::Ready(v) = f.as_mut().poll(&mut cx) {
-            return v;
-        }
-        std::thread::yield_now();
     }
 }
 
