@@ -154,6 +154,10 @@ pub struct WorldRestirConfig {
     /// block, rotating over frames, generates a reservoir and enters the grid: the paper's half
     /// resolution). Every pixel still looks the grid up and shades; GI rays are traced for every
     /// pixel by the shared `gi` pass. Needs reuse on (with no reuse the other pixels stay black).
+    /// Biased above 1: a pixel without a reservoir of its own gets only samples its neighbours
+    /// could draw (measured on many-lights at 128x128 with stride 2: indirect mean -15/-22/-13%
+    /// per channel, at 0.96x the default's GPU time and the same single-frame relMSE), so the
+    /// default stays 1.
     pub gi_stride: u32,
     /// How reused reservoirs are weighted (default [`Combine::Pairwise`], unbiased).
     pub combine: Combine,
