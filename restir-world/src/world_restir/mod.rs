@@ -156,7 +156,8 @@ pub struct WorldRestirConfig {
     /// pixel by the shared `gi` pass. Needs reuse on (with no reuse the other pixels stay black).
     /// Biased above 1: a pixel without a reservoir of its own gets only samples its neighbours
     /// could draw (measured on many-lights at 128x128 with stride 2: indirect mean -15/-22/-13%
-    /// per channel, at 0.96x the default's GPU time and the same single-frame relMSE), so the
+    /// per channel; 63.5 against 65.9 ms per frame with four spatial passes, single-frame relMSE
+    /// 5.86 against 5.90), so the
     /// default stays 1.
     pub gi_stride: u32,
     /// How reused reservoirs are weighted (default [`Combine::Pairwise`], unbiased).
