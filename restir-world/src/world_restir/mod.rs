@@ -157,8 +157,7 @@ pub struct WorldRestirConfig {
     /// Biased above 1: a pixel without a reservoir of its own gets only samples its neighbours
     /// could draw (measured on many-lights at 128x128 with stride 2: indirect mean -15/-22/-13%
     /// per channel; 63.5 against 65.9 ms per frame with four spatial passes, single-frame relMSE
-    /// 5.86 against 5.90), so the
-    /// default stays 1.
+    /// 5.86 against 5.90), so the default stays 1.
     pub gi_stride: u32,
     /// How reused reservoirs are weighted (default [`Combine::Pairwise`], unbiased).
     pub combine: Combine,
