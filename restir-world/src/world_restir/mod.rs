@@ -748,7 +748,8 @@ pub struct WorldRestir {
 impl WorldRestir {
     /// A renderer for `scene` seen by `camera` whose indirect light uses world-space ReSTIR
     /// with `config`; direct light at the primary is the `ris` baseline's (RIS over
-    /// `config.candidates` + one shadow ray).
+    /// `render::DEFAULT_CANDIDATES` + one shadow ray), whatever `config.candidates` (the GI
+    /// vertices' candidates) is, so that direct light compares equal with `ris`.
     pub fn new(
         ctx: &GpuContext,
         scene: &Scene,
@@ -762,7 +763,7 @@ impl WorldRestir {
             scene,
             camera,
             Method::Ris {
-                candidates: config.candidates,
+                candidates: render::DEFAULT_CANDIDATES,
             },
             seed,
         )?;
