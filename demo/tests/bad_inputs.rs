@@ -8,9 +8,13 @@
 //! references). Every image is a few pixels, so the whole table runs in seconds.
 
 use std::path::{Path, PathBuf};
-use std::process::Command;
+use std::process::{Command, Stdio};
+use std::time::{Duration, Instant};
 
 use restir_world::image_io::{Image, read_exr, write_exr};
+
+/// Longest a case may run: every case is a few pixels, refused before any real work.
+const CASE_TIMEOUT: Duration = Duration::from_secs(60);
 
 fn exe() -> &'static str {
     env!("CARGO_BIN_EXE_restir-demo")
@@ -105,6 +109,14 @@ fn compare(extra: &[&str]) -> Vec<String> {
         }
     }
     v
+}
+
+/// `args` with the reference cache in `cache` instead of `--no-cache`.
+fn with_cache(mut args: Vec<String>, cache: &Path) -> Vec<String> {
+    args.retain(|a| a != "--no-cache");
+    args.push("--cache".into());
+    args.push(cache.display().to_string());
+    args
 }
 
 /// Files no committed text can be: written into `dir`.
@@ -203,12 +215,20 @@ fn bad_inputs_are_refused_with_their_cause_and_leave_nothing_behind() {
                 "cannot create the output directory /proc/restir-demo-x/y",
             )
         },
+        // With the reference cache inside the case's output: a reference rendered before the
+        // error is found would be left behind there.
         Case {
-            args: compare(&["--methods", "nee,ris:0"]),
+            args: with_cache(
+                compare(&["--methods", "nee,ris:0"]),
+                &tmp.join("out/compare-bad-variant/cache"),
+            ),
             ..case("compare-bad-variant", &[], 1, "ris:0")
         },
         Case {
-            args: compare(&["--scene", "cornell,doesnotexist"]),
+            args: with_cache(
+                compare(&["--scene", "cornell,doesnotexist"]),
+                &tmp.join("out/compare-missing-second-scene/cache"),
+            ),
             ..case("compare-missing-second-scene", &[], 1, "\"doesnotexist\"")
         },
         // 10: compare options that silently did something else.
@@ -507,10 +527,31 @@ fn bad_inputs_are_refused_with_their_cause_and_leave_nothing_behind() {
         for (k, v) in &c.env {
             cmd.env(k, v);
         }
-        let o = cmd.output().expect("run restir-demo");
-        let err = String::from_utf8_lossy(&o.stderr);
-        let code = o.status.code();
+        // stderr goes to a file and the run has a deadline: an unbounded read (a link to
+        // /dev/zero read whole) fails the case instead of hanging the test.
+        let log = tmp.join(format!("{}.stderr", c.name));
+        cmd.stdout(Stdio::null())
+            .stderr(std::fs::File::create(&log).expect("stderr log"));
+        let mut child = cmd.spawn().expect("run restir-demo");
+        let start = Instant::now();
         let mut problems = Vec::new();
+        let status = loop {
+            if let Some(st) = child.try_wait().expect("wait for restir-demo") {
+                break Some(st);
+            }
+            if start.elapsed() > CASE_TIMEOUT {
+                let _ = child.kill();
+                let _ = child.wait();
+                problems.push(format!(
+                    "still running after {} s (an unbounded read or a hang): killed",
+                    CASE_TIMEOUT.as_secs()
+                ));
+                break None;
+            }
+            std::thread::sleep(Duration::from_millis(10));
+        };
+        let err = std::fs::read_to_string(&log).unwrap_or_default();
+        let code = status.and_then(|s| s.code());
         if code == Some(101) || err.contains("panicked") {
             problems.push("panicked".to_owned());
         }
