@@ -166,8 +166,9 @@ struct RenderArgs {
     scene_opts: SceneArgs,
     #[arg(long, value_enum, default_value_t = MethodArg::Nee)]
     method: MethodArg,
-    /// RIS candidates (ris, and cpu-reference with --reference-ris).
-    #[arg(long, default_value_t = 16)]
+    /// RIS candidates (ris, world-restir, and cpu-reference with --reference-ris), 1..=65535.
+    #[arg(long, default_value_t = 16,
+          value_parser = clap::value_parser!(u32).range(1..=i64::from(restir_world::render::MAX_CANDIDATES)))]
     candidates: u32,
     /// cpu-reference: use the RIS estimator instead of NEE.
     #[arg(long)]
@@ -268,6 +269,7 @@ fn load_scene(name: &str, opts: &SceneArgs, size: Option<(u32, u32)>) -> Result<
             },
         )?;
         s.sanitize(name)?;
+        warn_if_dark(name, &s);
         return Ok(s);
     }
     let path = Path::new(name);
@@ -284,7 +286,42 @@ fn load_scene(name: &str, opts: &SceneArgs, size: Option<(u32, u32)>) -> Result<
     for w in &loaded.warnings {
         eprintln!("warning: {w}");
     }
+    warn_if_dark(name, &loaded.scene);
     Ok(loaded.scene)
+}
+
+/// A scene without emitters renders black: say so.
+fn warn_if_dark(name: &str, s: &Scene) {
+    if s.emissive_triangles() == 0 {
+        eprintln!("warning: {name}: the scene has no lights (no material emits): it renders black");
+    }
+}
+
+/// Creates the output directory and checks that files can be written into it, before any
+/// expensive work. Returns whether it already existed.
+fn prepare_out_dir(out: &Path) -> Result<bool> {
+    let existed = out.is_dir();
+    std::fs::create_dir_all(out)
+        .with_context(|| format!("cannot create the output directory {}", out.display()))?;
+    let probe = out.join(format!(".restir-demo-probe-{}", std::process::id()));
+    let written = std::fs::write(&probe, b"")
+        .with_context(|| format!("cannot write into the output directory {}", out.display()));
+    let _ = std::fs::remove_file(&probe);
+    if written.is_err() && !existed {
+        let _ = std::fs::remove_dir(out);
+    }
+    written.map(|()| existed)
+}
+
+/// Runs `work` with `out` prepared; a failed run removes `out` again when it created it and
+/// left it empty.
+fn with_out_dir(out: &Path, work: impl FnOnce() -> Result<()>) -> Result<()> {
+    let existed = prepare_out_dir(out)?;
+    let result = work();
+    if result.is_err() && !existed {
+        let _ = std::fs::remove_dir(out);
+    }
+    result
 }
 
 fn info(scene_name: Option<&str>, opts: &SceneArgs) -> Result<()> {
@@ -372,6 +409,33 @@ fn render(args: &RenderArgs) -> Result<()> {
     if !(args.exposure.is_finite() && args.exposure > 0.0) {
         anyhow::bail!("--exposure must be a positive number");
     }
+    if args.method == MethodArg::WorldRestir {
+        args.world.validate(args.candidates)?;
+    } else if args.world.animated() {
+        anyhow::bail!("--animation is a world-restir option (use --method world-restir)");
+    }
+    if args.method == MethodArg::CpuReference {
+        let bytes = reference::reference_bytes(camera.width, camera.height);
+        if bytes > reference::MAX_REFERENCE_BYTES {
+            anyhow::bail!(
+                "cpu-reference: a {}x{} image needs about {:.1} GiB of memory, above the limit \
+                 of {} GiB: render a smaller --size",
+                camera.width,
+                camera.height,
+                bytes as f64 / f64::from(1u32 << 30),
+                reference::MAX_REFERENCE_BYTES >> 30
+            );
+        }
+    }
+    with_out_dir(&args.out, || render_into(args, &scene, &camera, samples))
+}
+
+fn render_into(
+    args: &RenderArgs,
+    scene: &Scene,
+    camera: &restir_world::scene::Camera,
+    samples: u32,
+) -> Result<()> {
     let scene_tag: String = Path::new(&args.scene)
         .file_stem()
         .map(|s| s.to_string_lossy().into_owned())
@@ -385,11 +449,11 @@ fn render(args: &RenderArgs) -> Result<()> {
             } else {
                 reference::Method::Nee
             };
-            let r = reference::ReferenceRenderer::new(&scene)?;
+            let r = reference::ReferenceRenderer::new(scene)?;
             let pb = progress_bar(u64::from(camera.height), "cpu-reference rows");
             let start = std::time::Instant::now();
             let out = r.render(
-                &camera,
+                camera,
                 &reference::ReferenceOptions {
                     method,
                     spp: samples,
@@ -407,13 +471,13 @@ fn render(args: &RenderArgs) -> Result<()> {
             );
             ("cpu-reference", out)
         }
-        MethodArg::Nee | MethodArg::Ris => render_gpu(args, &scene, &camera, samples)?,
+        MethodArg::Nee | MethodArg::Ris => render_gpu(args, scene, camera, samples)?,
         MethodArg::WorldRestir => (
             "world-restir",
             render_cmd::render_world_restir(
                 &args.world,
-                &scene,
-                &camera,
+                scene,
+                camera,
                 samples,
                 args.candidates,
                 args.seed,
@@ -422,8 +486,6 @@ fn render(args: &RenderArgs) -> Result<()> {
             )?,
         ),
     };
-    std::fs::create_dir_all(&args.out)
-        .with_context(|| format!("creating {}", args.out.display()))?;
     for (kind, img) in [
         ("direct", &images.direct),
         ("indirect", &images.indirect),
@@ -501,9 +563,22 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
 }
 "#;
 
-fn smoke(out: &Path, (width, height): (u32, u32)) -> Result<()> {
+fn smoke(out: &Path, size: (u32, u32)) -> Result<()> {
+    with_out_dir(out, || smoke_into(out, size))
+}
+
+fn smoke_into(out: &Path, (width, height): (u32, u32)) -> Result<()> {
     let ctx = GpuContext::new()?;
     println!("{}", ctx.describe());
+    let bytes = u64::from(width) * u64::from(height) * 4;
+    let limit = ctx.max_storage_u32s() * 4;
+    if bytes > limit {
+        anyhow::bail!(
+            "smoke: a {width}x{height} image needs {bytes} bytes in one storage buffer, above \
+             the adapter's limit of {limit} bytes (max_storage_buffer_binding_size / \
+             max_buffer_size): use a smaller --size"
+        );
+    }
     let device = &ctx.device;
     let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
         label: Some("smoke"),
@@ -555,7 +630,6 @@ fn smoke(out: &Path, (width, height): (u32, u32)) -> Result<()> {
     }
     let bytes: Vec<u8> = bytemuck::cast_slice(&words[..(width * height) as usize]).to_vec();
     let img = image::RgbaImage::from_raw(width, height, bytes).context("image size")?;
-    std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
     let path = out.join("smoke.png");
     write_atomically(&path, |tmp| {
         img.save_with_format(tmp, image::ImageFormat::Png)
@@ -583,8 +657,6 @@ fn write_atomically(path: &Path, write: impl FnOnce(&Path) -> Result<()>) -> Res
 }
 
 fn compare_cmd(a: CompareArgs) -> Result<()> {
-    let ctx = GpuContext::new()?;
-    eprintln!("{}", ctx.describe());
     let methods = if a.methods.is_empty() {
         restir_world::render::registry()
             .iter()
@@ -614,6 +686,9 @@ fn compare_cmd(a: CompareArgs) -> Result<()> {
         progress: !a.quiet,
     };
     let command = std::env::args().collect::<Vec<_>>().join(" ");
+    compare::check(&opts)?;
+    let ctx = GpuContext::new()?;
+    eprintln!("{}", ctx.describe());
     let report = compare::run(&ctx, &opts, command)?;
     for sc in &report.scenes {
         for m in &sc.methods {

@@ -106,6 +106,33 @@ impl WorldArgs {
         }
     }
 
+    /// Whether a camera animation was asked for.
+    pub fn animated(&self) -> bool {
+        self.animation != Animation::Static
+    }
+
+    /// Checks the animation and the knobs before any work.
+    pub fn validate(&self, candidates: u32) -> Result<()> {
+        if self.animated() && self.anim_frames == 0 {
+            anyhow::bail!(
+                "--anim-frames must be at least 1 with --animation {:?} (0 would leave the \
+                 camera static)",
+                format!("{:?}", self.animation).to_lowercase()
+            );
+        }
+        if !self.orbit_degrees.is_finite() {
+            anyhow::bail!("--orbit-degrees must be a finite number");
+        }
+        if !(self.dolly_fraction.is_finite() && self.dolly_fraction < 1.0) {
+            anyhow::bail!(
+                "--dolly-fraction must be a finite number below 1 (1 reaches the target)"
+            );
+        }
+        self.config(candidates)
+            .validate()
+            .map_err(anyhow::Error::from)
+    }
+
     fn path(&self) -> CameraPath {
         match self.animation {
             Animation::Static => CameraPath::Static,
@@ -170,7 +197,6 @@ pub fn render_world_restir(
         stats.overflows
     );
     if args.debug_views {
-        std::fs::create_dir_all(out)?;
         for (view, name) in [
             (DebugView::Cells, "debug-cells"),
             (DebugView::M, "debug-m"),

@@ -299,8 +299,38 @@ pub fn load_or_render(
     Ok(r)
 }
 
+/// A reference image must hold finite, non-negative radiance; a combined reference must not
+/// be black everywhere (every relative error would divide by it).
+fn check_values(img: &Image, path: &Path, combined: bool) -> Result<(), ReferenceError> {
+    let bad = |msg: String| ReferenceError::Bad {
+        path: path.to_owned(),
+        msg,
+    };
+    for (i, p) in img.pixels.iter().enumerate() {
+        let (x, y) = (i % img.width as usize, i / img.width as usize);
+        if !p.iter().all(|v| v.is_finite()) {
+            return Err(bad(format!(
+                "has a NaN or infinite value at pixel ({x}, {y}): {p:?}"
+            )));
+        }
+        if p.iter().any(|&v| v < 0.0) {
+            return Err(bad(format!(
+                "has a negative value at pixel ({x}, {y}): {p:?}"
+            )));
+        }
+    }
+    if combined && img.pixels.iter().all(|p| p.iter().all(|&v| v == 0.0)) {
+        return Err(bad(
+            "is black everywhere (all zeros): not a reference".into()
+        ));
+    }
+    Ok(())
+}
+
 /// An external reference: `combined` from an EXR file, and the indirect image from a second
 /// one when given. Its convergence is unknown.
+/// The images must hold finite, non-negative radiance, and the combined one must not be all
+/// zeros.
 pub fn external(
     combined: &Path,
     indirect: Option<&Path>,
@@ -321,10 +351,12 @@ pub fn external(
         }
     };
     check(&c, combined)?;
+    check_values(&c, combined, true)?;
     let ind = match indirect {
         Some(p) => {
             let i = image_io::read_exr(p)?;
             check(&i, p)?;
+            check_values(&i, p, false)?;
             Some(i.pixels)
         }
         None => None,

@@ -29,6 +29,11 @@ pub enum ImageIoError {
     },
     #[error("image of {width}x{height} needs {} pixels, has {len}", *width as u64 * *height as u64)]
     Size { width: u32, height: u32, len: usize },
+    #[error(
+        "{path}: is {format}, not OpenEXR: only a linear EXR holds radiance (an 8-bit sRGB \
+         image is tone-mapped and clipped)"
+    )]
+    NotExr { path: PathBuf, format: String },
 }
 
 impl Image {
@@ -155,15 +160,21 @@ pub fn read_exr(path: &Path) -> Result<Image, ImageIoError> {
         path: path.to_owned(),
         source,
     })?;
-    let img = reader
+    let reader = reader
         .with_guessed_format()
         .map_err(|source| ImageIoError::Io {
             path: path.to_owned(),
             source,
-        })?
-        .decode()
-        .map_err(codec)?
-        .into_rgb32f();
+        })?;
+    if reader.format() != Some(image::ImageFormat::OpenExr) {
+        return Err(ImageIoError::NotExr {
+            path: path.to_owned(),
+            format: reader
+                .format()
+                .map_or("an unknown format".into(), |f| format!("{f:?}")),
+        });
+    }
+    let img = reader.decode().map_err(codec)?.into_rgb32f();
     let (width, height) = img.dimensions();
     let pixels = img
         .into_raw()

@@ -95,6 +95,16 @@ struct Hit {
     triangle: usize,
 }
 
+/// Most memory the CPU reference may use for its images (larger sizes are refused before any
+/// work instead of aborting on allocation).
+pub const MAX_REFERENCE_BYTES: u64 = 4 << 30;
+
+/// Memory the CPU reference needs for a `width` x `height` image: the f64 row sums (48 bytes a
+/// pixel) and the three f32 output images (36), with the images' final copies (36).
+pub fn reference_bytes(width: u32, height: u32) -> u64 {
+    u64::from(width) * u64::from(height) * (48 + 36 + 36)
+}
+
 impl ReferenceRenderer {
     /// Builds the CWBVH (obvhs medium preset) and the light table. The scene should be
     /// sanitized; an empty scene is an error.
@@ -262,6 +272,7 @@ impl ReferenceRenderer {
 
     /// Renders `camera` (its width x height) with `opts`. `progress`, if given, is called with
     /// the number of rows finished so far (from worker threads).
+    /// Fails before any work when the image needs more than [`MAX_REFERENCE_BYTES`].
     pub fn render(
         &self,
         camera: &Camera,
@@ -271,6 +282,17 @@ impl ReferenceRenderer {
         camera.validate()?;
         if opts.spp == 0 {
             return Err(SceneError::BadOption("spp must be at least 1".into()));
+        }
+        let bytes = reference_bytes(camera.width, camera.height);
+        if bytes > MAX_REFERENCE_BYTES {
+            return Err(SceneError::BadOption(format!(
+                "cpu-reference: a {}x{} image needs about {:.1} GiB of memory, above the limit \
+                 of {} GiB: render a smaller size",
+                camera.width,
+                camera.height,
+                bytes as f64 / f64::from(1u32 << 30),
+                MAX_REFERENCE_BYTES >> 30
+            )));
         }
         let cam = CameraGpu::new(camera);
         let (w, h) = (camera.width, camera.height);

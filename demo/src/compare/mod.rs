@@ -244,6 +244,7 @@ fn load_scene(name: &str, size: (u32, u32), lights: u32) -> Result<(String, Scen
         };
         let mut s = scene::builtin(name, &opts)?;
         s.sanitize(name)?;
+        warn_if_dark(name, &s);
         return Ok((name.to_owned(), s));
     }
     let path = Path::new(name);
@@ -260,12 +261,19 @@ fn load_scene(name: &str, size: (u32, u32), lights: u32) -> Result<(String, Scen
     if !loaded.report.is_clean() {
         eprintln!("warning: {name}: {}", loaded.report);
     }
+    warn_if_dark(name, &loaded.scene);
     let stem = path
         .file_stem()
         .and_then(|s| s.to_str())
         .unwrap_or("scene")
         .to_owned();
     Ok((stem, loaded.scene))
+}
+
+fn warn_if_dark(name: &str, s: &Scene) {
+    if s.emissive_triangles() == 0 {
+        eprintln!("warning: {name}: the scene has no lights (no material emits): it renders black");
+    }
 }
 
 /// Everything a method run needs to evaluate frames.
@@ -710,11 +718,11 @@ fn ratio(a: Option<Err2>, b: Option<Err2>, pick: fn(&Err2) -> f64) -> Option<f64
 
 fn compare_scene(
     ctx: &GpuContext,
-    name: &str,
+    label: String,
+    scene: Scene,
     opts: &CompareOptions,
     strip: &mut Vec<output::StripRow>,
 ) -> Result<SceneReport> {
-    let (label, scene) = load_scene(name, opts.size, opts.lights)?;
     let base = scene.camera_or_default(opts.size.0, opts.size.1);
     let bar = if opts.progress {
         ProgressBar::new(0)
@@ -897,28 +905,98 @@ fn compare_scene(
     })
 }
 
-/// Runs the whole comparison and writes every output into `opts.out`; returns the report.
-pub fn run(ctx: &GpuContext, opts: &CompareOptions, command: String) -> Result<Report> {
+/// Checks the options without a GPU and without rendering: every method spec parses, no
+/// method is listed twice, `--equal-time-to` and `--plant-bias` name listed methods, the
+/// reference settings make sense. [`run`] calls it first; tools may call it earlier.
+pub fn check(opts: &CompareOptions) -> Result<()> {
     if opts.frames == 0 {
         bail!("--frames must be at least 1");
     }
     if opts.methods.is_empty() {
         bail!("--methods is empty");
     }
-    for m in &opts.methods {
-        render::methods::entry(m)?;
+    if opts.scenes.is_empty() {
+        bail!("--scene is empty");
+    }
+    for (i, m) in opts.methods.iter().enumerate() {
+        render::methods::check_spec(m).with_context(|| format!("--methods {m}"))?;
+        if opts.methods[..i].contains(m) {
+            bail!("--methods lists {m:?} twice (a method compared with itself)");
+        }
+    }
+    for (i, sc) in opts.scenes.iter().enumerate() {
+        if opts.scenes[..i].contains(sc) {
+            bail!("--scene lists {sc:?} twice");
+        }
     }
     for (m, _) in &opts.plant_bias {
         if !opts.methods.contains(m) {
             bail!("--plant-bias names {m:?}, which is not in --methods");
         }
     }
+    if let Some(t) = &opts.equal_time_to
+        && !opts.methods.contains(t)
+    {
+        bail!(
+            "--equal-time-to names {t:?}, which is not in --methods ({})",
+            opts.methods.join(", ")
+        );
+    }
+    if opts.reference.is_none() && opts.reference_spp < 2 {
+        bail!(
+            "--reference-spp must be at least 2 (the reference is two independent halves), got {}",
+            opts.reference_spp
+        );
+    }
+    for p in opts.reference.iter().chain(&opts.reference_indirect) {
+        let exr = p
+            .extension()
+            .and_then(|e| e.to_str())
+            .is_some_and(|e| e.eq_ignore_ascii_case("exr"));
+        if !exr {
+            bail!(
+                "reference {}: must be a linear OpenEXR (.exr) image; an 8-bit sRGB image \
+                 (PNG, JPEG) is tone-mapped and clipped, not radiance",
+                p.display()
+            );
+        }
+        if !p.is_file() {
+            bail!("reference {}: missing or not a regular file", p.display());
+        }
+    }
+    Ok(())
+}
+
+/// Runs the whole comparison and writes every output into `opts.out`; returns the report.
+pub fn run(ctx: &GpuContext, opts: &CompareOptions, command: String) -> Result<Report> {
+    check(opts)?;
+    // Every scene loads before anything is rendered or written.
+    let loaded: Vec<(String, Scene)> = opts
+        .scenes
+        .iter()
+        .map(|name| load_scene(name, opts.size, opts.lights))
+        .collect::<Result<_>>()?;
+    let existed = opts.out.is_dir();
     std::fs::create_dir_all(&opts.out)
-        .with_context(|| format!("creating {}", opts.out.display()))?;
+        .with_context(|| format!("cannot create the output directory {}", opts.out.display()))?;
+    let result = run_scenes(ctx, opts, command, loaded);
+    if result.is_err() && !existed {
+        // Only when empty: a failed run leaves no directory of its own behind.
+        let _ = std::fs::remove_dir(&opts.out);
+    }
+    result
+}
+
+fn run_scenes(
+    ctx: &GpuContext,
+    opts: &CompareOptions,
+    command: String,
+    loaded: Vec<(String, Scene)>,
+) -> Result<Report> {
     let mut scenes = Vec::new();
     let mut strip = Vec::new();
-    for name in &opts.scenes {
-        scenes.push(compare_scene(ctx, name, opts, &mut strip)?);
+    for (label, scene) in loaded {
+        scenes.push(compare_scene(ctx, label, scene, opts, &mut strip)?);
     }
     let report = Report {
         device: ctx.info.name.clone(),

@@ -10,6 +10,12 @@ pub enum GpuError {
          `cargo xtask test`, which installs it when run as root)"
     )]
     NoAdapter { backends: String },
+    /// `WGPU_BACKEND` names no backend wgpu knows.
+    #[error(
+        "WGPU_BACKEND={value:?} names no known backend (expected a comma-separated list of \
+         vulkan, metal, dx12, gl, webgpu)"
+    )]
+    BadBackendEnv { value: String },
     /// `WGPU_ADAPTER_NAME` matched none of the adapters present.
     #[error("WGPU_ADAPTER_NAME={wanted:?} matches no adapter; available: {available}")]
     AdapterNotFound { wanted: String, available: String },
@@ -88,6 +94,11 @@ impl GpuContext {
     /// Async form of [`GpuContext::new`].
     pub async fn new_async() -> Result<Self, GpuError> {
         let backends = wgpu::Backends::from_env().unwrap_or_default();
+        if backends.is_empty() {
+            return Err(GpuError::BadBackendEnv {
+                value: std::env::var("WGPU_BACKEND").unwrap_or_default(),
+            });
+        }
         let mut desc = wgpu::InstanceDescriptor::new_without_display_handle_from_env();
         desc.backends = backends;
         let instance = wgpu::Instance::new(desc);

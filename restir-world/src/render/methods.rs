@@ -277,16 +277,50 @@ fn build_nee(
     seed: u32,
     variant: Option<&str>,
 ) -> Result<Box<dyn FrameMethod>, MethodError> {
-    if let Some(v) = variant {
-        return Err(MethodError::Variant {
-            method: "nee".into(),
-            msg: format!("has no variants (got {v:?})"),
-        });
-    }
+    nee_variant(variant)?;
     Ok(Box::new(Baseline {
         spec: spec_of("nee", variant),
         renderer: Renderer::new(ctx, scene, camera, Method::Nee, seed)?,
     }))
+}
+
+/// The candidate count of `ris[:K]`.
+fn ris_candidates(variant: Option<&str>) -> Result<u32, MethodError> {
+    let bad = |msg: String| MethodError::Variant {
+        method: "ris".into(),
+        msg,
+    };
+    let Some(v) = variant else {
+        return Ok(super::DEFAULT_CANDIDATES);
+    };
+    let k: u32 = v
+        .parse()
+        .map_err(|_| bad(format!("ris:<candidates> wants a number, got {v:?}")))?;
+    super::check_candidates(k).map_err(bad)?;
+    Ok(k)
+}
+
+fn nee_variant(variant: Option<&str>) -> Result<(), MethodError> {
+    match variant {
+        None => Ok(()),
+        Some(v) => Err(MethodError::Variant {
+            method: "nee".into(),
+            msg: format!("has no variants (got {v:?})"),
+        }),
+    }
+}
+
+/// Checks a method spec (`name` or `name:variant`) without a GPU: the name is registered and
+/// its variant parses. Tools call it before any expensive work.
+pub fn check_spec(spec: &str) -> Result<(), MethodError> {
+    let e = entry(spec)?;
+    let variant = spec.split_once(':').map(|(_, v)| v);
+    match e.name {
+        "nee" => nee_variant(variant),
+        "ris" => ris_candidates(variant).map(drop),
+        "world-restir" => world_restir_config(variant).map(drop),
+        _ => Ok(()),
+    }
 }
 
 fn build_ris(
@@ -296,16 +330,8 @@ fn build_ris(
     seed: u32,
     variant: Option<&str>,
 ) -> Result<Box<dyn FrameMethod>, MethodError> {
-    let method = match variant {
-        None => Method::Ris {
-            candidates: super::DEFAULT_CANDIDATES,
-        },
-        Some(v) => Method::Ris {
-            candidates: v.parse().map_err(|_| MethodError::Variant {
-                method: "ris".into(),
-                msg: format!("ris:<candidates> wants a number, got {v:?}"),
-            })?,
-        },
+    let method = Method::Ris {
+        candidates: ris_candidates(variant)?,
     };
     Ok(Box::new(Baseline {
         spec: spec_of("ris", variant),
@@ -380,6 +406,25 @@ mod tests {
         }
         assert_eq!(entry("ris:4").unwrap().name, "ris");
         assert!(entry("nope").is_err());
+        for good in [
+            "nee",
+            "ris",
+            "ris:4",
+            "ris:65535",
+            "world-restir:biased+spatial-passes=2",
+        ] {
+            check_spec(good).unwrap();
+        }
+        for bad in [
+            "nee:1",
+            "ris:0",
+            "ris:65536",
+            "ris:x",
+            "world-restir:bogus",
+            "nope",
+        ] {
+            assert!(check_spec(bad).is_err(), "{bad}");
+        }
     }
 
     #[test]

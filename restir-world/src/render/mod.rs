@@ -45,6 +45,59 @@ pub const PASSES_WGSL: &str = include_str!("passes.wgsl");
 pub const WORKGROUP_SIZE: u32 = 64;
 /// Default RIS candidate count (the paper's 16).
 pub const DEFAULT_CANDIDATES: u32 = 16;
+
+/// Most RIS candidates a method accepts: GPU drivers cap shader loop iterations (llvmpipe at
+/// 65,535), so more would silently give the image of this many.
+pub const MAX_CANDIDATES: u32 = 65_535;
+
+/// Storage buffers in a set of bind group layouts (one pipeline's).
+pub fn count_storage_buffers(entries: &[wgpu::BindGroupLayoutEntry]) -> u32 {
+    entries
+        .iter()
+        .filter(|e| {
+            matches!(
+                e.ty,
+                wgpu::BindingType::Buffer {
+                    ty: wgpu::BufferBindingType::Storage { .. },
+                    ..
+                }
+            )
+        })
+        .map(|e| e.count.map_or(1, std::num::NonZeroU32::get))
+        .sum()
+}
+
+/// Checks that a pipeline declaring `needed` storage buffers fits the device's
+/// `max_storage_buffers_per_shader_stage`.
+pub fn check_storage_buffers(
+    ctx: &GpuContext,
+    pipeline: &str,
+    needed: u32,
+) -> Result<(), RenderError> {
+    let limit = ctx.limits().max_storage_buffers_per_shader_stage;
+    if needed > limit {
+        return Err(RenderError::TooManyStorageBuffers {
+            pipeline: pipeline.to_owned(),
+            needed,
+            limit,
+            backend: format!("{:?}", ctx.info.backend),
+            adapter: ctx.info.name.clone(),
+        });
+    }
+    Ok(())
+}
+
+/// Checks a RIS candidate count: 1 ..= [`MAX_CANDIDATES`].
+pub fn check_candidates(candidates: u32) -> Result<(), String> {
+    if (1..=MAX_CANDIDATES).contains(&candidates) {
+        Ok(())
+    } else {
+        Err(format!(
+            "candidates {candidates} must be in 1..={MAX_CANDIDATES} (GPU drivers cap shader \
+             loop iterations)"
+        ))
+    }
+}
 /// Relative ray-origin offset off surfaces (times max(1, |coordinate|)).
 pub const RAY_EPS: f32 = 1e-4;
 /// tmax of unbounded rays.
@@ -84,6 +137,18 @@ pub enum RenderError {
     Settings(String),
     #[error("the image needs {bytes} bytes per buffer, above the adapter's limit of {limit}")]
     TooLarge { bytes: u64, limit: u64 },
+    #[error(
+        "the {pipeline} pipeline needs {needed} storage buffers per shader stage; the {backend} \
+         backend (adapter {adapter:?}) allows {limit} (max_storage_buffers_per_shader_stage). \
+         Use a backend that allows more, e.g. WGPU_BACKEND=vulkan"
+    )]
+    TooManyStorageBuffers {
+        pipeline: String,
+        needed: u32,
+        limit: u32,
+        backend: String,
+        adapter: String,
+    },
 }
 
 /// WGSL `GVertex`.
@@ -306,13 +371,13 @@ impl Renderer {
         method: Method,
         seed: u32,
     ) -> Result<Self, RenderError> {
-        if let Method::Ris { candidates } = method
-            && candidates == 0
-        {
-            return Err(RenderError::Settings(
-                "RIS needs at least one candidate".into(),
-            ));
+        if let Method::Ris { candidates } = method {
+            check_candidates(candidates).map_err(RenderError::Settings)?;
         }
+        let mut entries = bind_group_layout_entries();
+        entries.extend(trace::bind_group_layout_entries(0));
+        entries.extend(lights::bind_group_layout_entries(0));
+        check_storage_buffers(ctx, "render", count_storage_buffers(&entries))?;
         camera
             .validate()
             .map_err(|e| RenderError::Settings(e.to_string()))?;

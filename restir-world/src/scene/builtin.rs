@@ -362,9 +362,16 @@ pub const FURNACE_SIZE: f32 = 2.0;
 /// at every visible point: emitted `le`, direct lighting reflected `rho le`, one-bounce indirect
 /// `rho^2 le`, converged radiance `le / (1 - rho)`.
 pub fn furnace(rho: f32, le: f32, width: u32, height: u32) -> Result<Scene, SceneError> {
-    if !((0.0..=1.0).contains(&rho) && le.is_finite() && le >= 0.0) {
+    if !(0.0..=1.0).contains(&rho) {
         return Err(SceneError::BadOption(format!(
-            "furnace: rho {rho} must be in [0, 1] and Le {le} finite and >= 0"
+            "furnace: rho {rho} must be in [0, 1]"
+        )));
+    }
+    if !(0.0..=super::MAX_EMISSION).contains(&le) {
+        return Err(SceneError::BadOption(format!(
+            "furnace: Le {le:e} must be in [0, {:e}] (larger emission overflows the image \
+             accumulation)",
+            super::MAX_EMISSION
         )));
     }
     let mut s = Scene::default();
@@ -519,6 +526,11 @@ mod tests {
         assert_eq!(s.materials, vec![Material::new([0.5; 3], [2.0; 3])]);
         assert!(furnace(1.5, 1.0, 4, 4).is_err());
         assert!(furnace(0.5, f32::NAN, 4, 4).is_err());
+        let e = furnace(0.5, 1e38, 4, 4).unwrap_err();
+        assert!(
+            e.to_string().contains("Le 1e38 must be in [0, 1e10]"),
+            "{e}"
+        );
         let sphere = furnace_sphere(0.5, 2.0, 4, 4).unwrap();
         assert_eq!(sphere.triangles.len(), 1280);
         // Watertight: every edge is shared by exactly two triangles.

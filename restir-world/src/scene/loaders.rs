@@ -7,7 +7,8 @@
 //! triangulated. Textures are not modelled: their factors are used and [`Loaded::warnings`]
 //! says so once per file.
 
-use std::path::{Path, PathBuf};
+use std::cell::RefCell;
+use std::path::{Component, Path, PathBuf};
 
 use glam::{Mat3, Mat4, Vec3};
 
@@ -24,6 +25,17 @@ pub struct Loaded {
     pub report: SanitizeReport,
     /// Other things worth a warning (ignored textures, missing material libraries, ...).
     pub warnings: Vec<String>,
+}
+
+/// The error and its sources, joined by ": ".
+fn error_chain(e: &dyn std::error::Error) -> String {
+    let mut s = e.to_string();
+    let mut src = e.source();
+    while let Some(x) = src {
+        s.push_str(&format!(": {x}"));
+        src = x.source();
+    }
+    s
 }
 
 /// Loads a scene file by extension (.gltf, .glb, .obj) and sanitizes it.
@@ -57,11 +69,134 @@ fn parse_err(path: &Path, message: impl Into<String>) -> SceneError {
     }
 }
 
+/// Largest file (OBJ, MTL, glTF, GLB, glTF buffer) the loaders read.
+pub const MAX_SCENE_FILE_BYTES: u64 = 1 << 30;
+
+/// Reads a regular file of at most [`MAX_SCENE_FILE_BYTES`] (a device such as /dev/zero, a
+/// pipe or a directory is refused rather than read until memory runs out).
 fn read(path: &Path) -> Result<Vec<u8>, SceneError> {
-    std::fs::read(path).map_err(|source| SceneError::Io {
+    use std::io::Read;
+    let io = |source| SceneError::Io {
         path: path.to_owned(),
         source,
-    })
+    };
+    let meta = std::fs::metadata(path).map_err(io)?;
+    if !meta.is_file() {
+        return Err(parse_err(
+            path,
+            "not a regular file (a directory, device or pipe): refusing to read it",
+        ));
+    }
+    let too_big = |n: u64| {
+        parse_err(
+            path,
+            format!("is {n} bytes or more, above the limit of {MAX_SCENE_FILE_BYTES} bytes"),
+        )
+    };
+    if meta.len() > MAX_SCENE_FILE_BYTES {
+        return Err(too_big(meta.len()));
+    }
+    let mut bytes = Vec::new();
+    std::fs::File::open(path)
+        .map_err(io)?
+        .take(MAX_SCENE_FILE_BYTES + 1)
+        .read_to_end(&mut bytes)
+        .map_err(io)?;
+    if bytes.len() as u64 > MAX_SCENE_FILE_BYTES {
+        return Err(too_big(bytes.len() as u64));
+    }
+    Ok(bytes)
+}
+
+/// The file a glTF uri names, confined to the scene file's directory `dir`: no scheme, no
+/// absolute path, no `..`, and (when `resolve`) no link that leads outside.
+fn confined(path: &Path, dir: &Path, uri: &str, resolve: bool) -> Result<PathBuf, SceneError> {
+    let bad = |why: &str| {
+        parse_err(
+            path,
+            format!(
+                "glTF: uri {uri:?} {why}; uris must name files in the scene file's directory \
+                 or below"
+            ),
+        )
+    };
+    if uri.contains(':') || uri.starts_with(['/', '\\']) {
+        return Err(bad("is absolute or has a scheme"));
+    }
+    let rel = Path::new(uri);
+    if rel
+        .components()
+        .any(|c| !matches!(c, Component::Normal(_) | Component::CurDir))
+    {
+        return Err(bad("leaves the scene file's directory"));
+    }
+    let dir = if dir.as_os_str().is_empty() {
+        Path::new(".")
+    } else {
+        dir
+    };
+    let file = dir.join(rel);
+    if resolve {
+        let canon = |p: &Path| {
+            p.canonicalize().map_err(|e| {
+                parse_err(
+                    path,
+                    format!("glTF: uri {uri:?}: cannot open {}: {e}", p.display()),
+                )
+            })
+        };
+        if !canon(&file)?.starts_with(canon(dir)?) {
+            return Err(bad(
+                "leads (through a link) outside the scene file's directory",
+            ));
+        }
+    }
+    Ok(file)
+}
+
+/// Checks that a (non-sparse) accessor's elements lie inside its buffer view and the view
+/// inside its buffer, so reading it yields all `count` elements (the reader silently yields
+/// nothing otherwise).
+fn check_accessor(
+    path: &Path,
+    mesh: usize,
+    what: &str,
+    acc: &gltf::Accessor,
+    buffers: &[Vec<u8>],
+) -> Result<(), SceneError> {
+    let bad = |msg: String| {
+        parse_err(
+            path,
+            format!("glTF: mesh {mesh}: {what} accessor {}: {msg}", acc.index()),
+        )
+    };
+    if acc.count() == 0 {
+        return Err(bad("has no elements".into()));
+    }
+    if acc.sparse().is_some() {
+        return Ok(());
+    }
+    let Some(view) = acc.view() else {
+        return Err(bad("has no buffer view".into()));
+    };
+    let stride = view.stride().unwrap_or(acc.size());
+    let end = stride
+        .checked_mul(acc.count() - 1)
+        .and_then(|n| n.checked_add(acc.size()))
+        .and_then(|n| n.checked_add(acc.offset()));
+    let view_end = view.offset().checked_add(view.length());
+    let held = buffers.get(view.buffer().index()).map_or(0, Vec::len);
+    match (end, view_end) {
+        (Some(end), Some(view_end)) if end <= view.length() && view_end <= held => Ok(()),
+        _ => Err(bad(format!(
+            "declares {} elements, which do not fit its buffer view ({} bytes at offset {} of \
+             buffer {}, which holds {held} bytes): the mesh would be truncated",
+            acc.count(),
+            view.length(),
+            view.offset(),
+            view.buffer().index()
+        ))),
+    }
 }
 
 /// Decodes standard base64 (with or without padding); `None` on any invalid character.
@@ -107,7 +242,7 @@ pub fn load_gltf(path: &Path, warnings: &mut Vec<String>) -> Result<Scene, Scene
                     base64_decode(payload)
                         .ok_or_else(|| parse_err(path, "glTF: invalid base64 in a data URI"))?
                 } else {
-                    let file: PathBuf = dir.join(uri);
+                    let file = confined(path, dir, uri, true)?;
                     read(&file)
                         .map_err(|e| parse_err(path, format!("glTF: buffer {uri:?}: {e}")))?
                 }
@@ -125,6 +260,16 @@ pub fn load_gltf(path: &Path, warnings: &mut Vec<String>) -> Result<Scene, Scene
             ));
         }
         buffers.push(data);
+    }
+
+    for img in gltf.images() {
+        if let gltf::image::Source::Uri { uri, .. } = img.source()
+            && !uri.starts_with("data:")
+        {
+            // Images are not read (textures are not modelled), but a scene naming files
+            // outside its directory is refused all the same.
+            confined(path, dir, uri, false)?;
+        }
     }
 
     let mut scene = Scene::default();
@@ -176,6 +321,15 @@ pub fn load_gltf(path: &Path, warnings: &mut Vec<String>) -> Result<Scene, Scene
                 ));
                 continue;
             }
+            for (what, acc) in [
+                ("POSITION", prim.get(&gltf::Semantic::Positions)),
+                ("NORMAL", prim.get(&gltf::Semantic::Normals)),
+                ("index", prim.indices()),
+            ] {
+                if let Some(acc) = acc {
+                    check_accessor(path, mesh.index(), what, &acc, &buffers)?;
+                }
+            }
             let reader = prim.reader(|b| buffers.get(b.index()).map(Vec::as_slice));
             let positions: Vec<Vec3> = reader
                 .read_positions()
@@ -191,10 +345,51 @@ pub fn load_gltf(path: &Path, warnings: &mut Vec<String>) -> Result<Scene, Scene
                 it.map(|n| (normal_m * Vec3::from(n)).normalize_or_zero())
                     .collect()
             });
-            let indices: Vec<u32> = match reader.read_indices() {
-                Some(it) => it.into_u32().collect(),
-                None => (0..positions.len() as u32).collect(),
+            let indices: Vec<u32> = match (prim.indices(), reader.read_indices()) {
+                (Some(acc), Some(it)) => {
+                    let v: Vec<u32> = it.into_u32().collect();
+                    if v.len() != acc.count() {
+                        return Err(parse_err(
+                            path,
+                            format!(
+                                "glTF: mesh {}: index accessor {} declares {} indices, its \
+                                 buffer holds {}",
+                                mesh.index(),
+                                acc.index(),
+                                acc.count(),
+                                v.len()
+                            ),
+                        ));
+                    }
+                    v
+                }
+                (Some(acc), None) => {
+                    return Err(parse_err(
+                        path,
+                        format!(
+                            "glTF: mesh {}: index accessor {} is unreadable",
+                            mesh.index(),
+                            acc.index()
+                        ),
+                    ));
+                }
+                (None, _) => (0..positions.len() as u32).collect(),
             };
+            if !indices.len().is_multiple_of(3) {
+                return Err(parse_err(
+                    path,
+                    format!(
+                        "glTF: mesh {}: {} {} is not a multiple of 3 (triangles)",
+                        mesh.index(),
+                        indices.len(),
+                        if prim.indices().is_some() {
+                            "indices"
+                        } else {
+                            "vertices"
+                        }
+                    ),
+                ));
+            }
             if let Some(i) = indices.iter().find(|&&i| i as usize >= positions.len()) {
                 return Err(parse_err(
                     path,
@@ -247,26 +442,119 @@ pub fn load_gltf(path: &Path, warnings: &mut Vec<String>) -> Result<Scene, Scene
     Ok(scene)
 }
 
+/// Checks an MTL file's numeric lines (tobj rejects the whole library on one bad number, and
+/// panics on a colour with two numbers) and expands one-number colours to three. Errors name
+/// the line.
+fn clean_mtl(file: &Path, text: &str) -> Result<String, SceneError> {
+    let mut out = String::with_capacity(text.len());
+    for (n, line) in text.lines().enumerate() {
+        let mut words = line.split_whitespace();
+        let key = words.next().unwrap_or("");
+        let values: Vec<&str> = words.collect();
+        let numbers = || {
+            values
+                .iter()
+                .map(|v| v.parse::<f32>())
+                .collect::<Result<Vec<_>, _>>()
+        };
+        let bad = |want: &str| {
+            parse_err(
+                file,
+                format!(
+                    "MTL line {}: {key} expects {want}, got {:?}",
+                    n + 1,
+                    values.join(" ")
+                ),
+            )
+        };
+        match key {
+            "Ka" | "Kd" | "Ks" | "Ke" | "Tf" => match numbers().as_deref() {
+                Ok([r, g, b]) => out.push_str(&format!("{key} {r} {g} {b}")),
+                Ok([x]) => out.push_str(&format!("{key} {x} {x} {x}")),
+                _ => return Err(bad("1 or 3 numbers")),
+            },
+            "Ns" | "Ni" | "d" | "Tr" => match numbers().as_deref() {
+                Ok([_]) => out.push_str(line),
+                _ => return Err(bad("one number")),
+            },
+            _ => out.push_str(line),
+        }
+        out.push('\n');
+    }
+    Ok(out)
+}
+
 /// Loads an OBJ file (with its MTL libraries, relative to the file) without sanitizing it.
 pub fn load_obj(path: &Path, warnings: &mut Vec<String>) -> Result<Scene, SceneError> {
     let bytes = read(path)?;
+    let text = std::str::from_utf8(&bytes).map_err(|e| {
+        parse_err(
+            path,
+            format!(
+                "OBJ: not UTF-8 text (invalid byte at offset {}): not an OBJ file?",
+                e.valid_up_to()
+            ),
+        )
+    })?;
     let dir = path.parent().unwrap_or(Path::new(".")).to_owned();
     let opts = tobj::LoadOptions {
         triangulate: true,
         single_index: true,
         ..Default::default()
     };
-    let (models, materials) = tobj::load_obj_buf(&mut bytes.as_slice(), &opts, |mtl| {
-        tobj::load_mtl(dir.join(mtl))
+    // What went wrong with each material library, by cause (tobj only keeps a code).
+    let mtl_warnings: RefCell<Vec<String>> = RefCell::new(Vec::new());
+    let mtl_error: RefCell<Option<SceneError>> = RefCell::new(None);
+    let (models, materials) = tobj::load_obj_buf(&mut text.as_bytes(), &opts, |mtl| {
+        let file = dir.join(mtl);
+        let bytes = match read(&file) {
+            Ok(b) => b,
+            Err(e) => {
+                mtl_warnings.borrow_mut().push(format!(
+                    "{}: material library {}; its materials are grey {DEFAULT_ALBEDO:?}",
+                    path.display(),
+                    error_chain(&e)
+                ));
+                return Err(tobj::LoadError::OpenFileFailed);
+            }
+        };
+        let cleaned = std::str::from_utf8(&bytes)
+            .map_err(|_| parse_err(&file, "MTL: not UTF-8 text"))
+            .and_then(|t| clean_mtl(&file, t));
+        match cleaned {
+            Ok(t) => tobj::load_mtl_buf(&mut t.as_bytes()).inspect_err(|e| {
+                mtl_error
+                    .borrow_mut()
+                    .get_or_insert(parse_err(&file, format!("MTL: {e}")));
+            }),
+            Err(e) => {
+                mtl_error.borrow_mut().get_or_insert(e);
+                Err(tobj::LoadError::MaterialParseError)
+            }
+        }
     })
     .map_err(|e| parse_err(path, format!("OBJ: {e}")))?;
-    let materials = materials.unwrap_or_else(|e| {
-        warnings.push(format!(
-            "{}: material library: {e}; using grey {DEFAULT_ALBEDO:?}",
-            path.display()
-        ));
-        Vec::new()
-    });
+    if let Some(e) = mtl_error.into_inner() {
+        return Err(e);
+    }
+    let mtl_warnings = mtl_warnings.into_inner();
+    let libraries_ok = mtl_warnings.is_empty();
+    warnings.extend(mtl_warnings);
+    let materials = materials.unwrap_or_default();
+    // `usemtl` of a material no library defines: tobj falls back to no material (a missing
+    // library has already been warned about).
+    for (n, line) in text.lines().enumerate().filter(|_| libraries_ok) {
+        if let Some(name) = line.trim_start().strip_prefix("usemtl ").map(str::trim)
+            && !materials.iter().any(|m| m.name == name)
+        {
+            warnings.push(format!(
+                "{} line {}: usemtl {name:?} names no material of the libraries: its faces \
+                 are grey {DEFAULT_ALBEDO:?}",
+                path.display(),
+                n + 1
+            ));
+        }
+    }
     let mut scene = Scene::default();
     let mut textured = 0usize;
     for m in &materials {
@@ -352,5 +640,35 @@ mod tests {
         assert_eq!(base64_decode("aGVsbG8=").unwrap(), b"hello");
         assert_eq!(base64_decode("aGVsbG8gd29ybGQ").unwrap(), b"hello world");
         assert!(base64_decode("a*b").is_none());
+    }
+
+    #[test]
+    fn mtl_lines_are_checked_and_one_number_colours_expanded() {
+        let f = Path::new("m.mtl");
+        let t = clean_mtl(f, "newmtl a\nKd 0.5\nKe 1 2 3\nNs 10\n").unwrap();
+        assert_eq!(t, "newmtl a\nKd 0.5 0.5 0.5\nKe 1 2 3\nNs 10\n");
+        for bad in ["Ke abc def", "Kd 1 2", "Ns", "Ni x"] {
+            let e = clean_mtl(f, &format!("newmtl a\n{bad}\n")).unwrap_err();
+            assert!(e.to_string().contains("m.mtl: MTL line 2"), "{e}");
+        }
+    }
+
+    #[test]
+    fn gltf_uris_stay_in_the_scene_directory() {
+        let p = Path::new("d/s.gltf");
+        let dir = Path::new("d");
+        assert_eq!(
+            confined(p, dir, "sub/b.bin", false).unwrap(),
+            Path::new("d/sub/b.bin")
+        );
+        for bad in [
+            "/dev/zero",
+            "../../etc/passwd",
+            "a/../../b",
+            "file:///etc/passwd",
+            "C:\\x",
+        ] {
+            assert!(confined(p, dir, bad, false).is_err(), "{bad}");
+        }
     }
 }

@@ -115,6 +115,10 @@ impl Triangle {
     }
 }
 
+/// Largest emitted radiance per channel a scene may hold: accumulating many samples of a
+/// larger one overflows 32-bit floats (infinite pixels). [`Scene::sanitize`] clamps to it.
+pub const MAX_EMISSION: f32 = 1e10;
+
 /// A pinhole camera.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Camera {
@@ -136,6 +140,9 @@ impl Camera {
             return bad("eye, target and up must be finite");
         }
         let fwd = self.target - self.eye;
+        if !fwd.is_finite() || !fwd.length_squared().is_finite() {
+            return bad("eye and target are too far apart: their distance overflows 32-bit floats");
+        }
         if fwd.length_squared() == 0.0 {
             return bad("eye and target coincide");
         }
@@ -172,8 +179,9 @@ pub struct SanitizeReport {
     /// Triangles whose shading normals were non-finite or zero and were removed (the geometric
     /// normal is used instead).
     pub bad_normals: usize,
-    /// Materials whose albedo or emission was non-finite, negative or (albedo) above 1, and
-    /// was clamped into range (non-finite values become 0).
+    /// Materials whose albedo or emission was non-finite, negative, (albedo) above 1 or
+    /// (emission) above [`MAX_EMISSION`], and was clamped into range (non-finite values
+    /// become 0).
     pub clamped_materials: usize,
 }
 
@@ -193,7 +201,8 @@ impl std::fmt::Display for SanitizeReport {
         write!(
             f,
             "dropped {} triangles ({} with NaN/Inf vertices, {} degenerate, {} with a bad material \
-             index); removed bad shading normals on {}; clamped {} materials",
+             index); removed bad shading normals on {}; clamped {} materials (albedo into [0, 1], \
+             emission into [0, {MAX_EMISSION:e}])",
             self.dropped(),
             self.non_finite,
             self.degenerate,
@@ -223,7 +232,11 @@ impl Scene {
                 *a = c;
             }
             for e in &mut m.emission {
-                let c = if e.is_finite() { e.max(0.0) } else { 0.0 };
+                let c = if e.is_finite() {
+                    e.clamp(0.0, MAX_EMISSION)
+                } else {
+                    0.0
+                };
                 changed |= c != *e || e.is_nan();
                 *e = c;
             }
@@ -413,6 +426,25 @@ mod tests {
         assert!(bad.validate().is_err());
         let bad = Camera { up: Vec3::Z, ..c };
         assert!(bad.validate().is_err());
+        // Finite ends whose distance overflows f32 (issue 14): refused, not a black image.
+        let far = Camera {
+            eye: Vec3::new(0.0, 1.0, 3e38),
+            target: Vec3::new(0.0, 1.0, -3e38),
+            ..c
+        };
+        let e = far.validate().unwrap_err();
+        assert!(e.to_string().contains("too far apart"), "{e}");
+    }
+
+    #[test]
+    fn sanitize_clamps_emission_that_would_overflow() {
+        let mut s = Scene::default();
+        let m = s.add_material(Material::new([0.5; 3], [3.4e38, 1.0, 0.0]));
+        s.push_box(Vec3::ZERO, Vec3::ONE, m);
+        let r = s.sanitize("huge").unwrap();
+        assert_eq!(r.clamped_materials, 1);
+        assert_eq!(s.materials[0].emission, [MAX_EMISSION, 1.0, 0.0]);
+        assert!(r.to_string().contains("emission into [0, 1e10]"), "{r}");
     }
 
     #[test]

@@ -301,9 +301,7 @@ impl WorldRestirConfig {
     /// Checks every knob.
     pub fn validate(&self) -> Result<(), WorldRestirError> {
         let bad = |m: String| Err(WorldRestirError::Config(m));
-        if self.candidates == 0 {
-            return bad("candidates must be at least 1".into());
-        }
+        render::check_candidates(self.candidates).map_err(WorldRestirError::Config)?;
         if self.max_count == 0 {
             return bad("max_count must be at least 1".into());
         }
@@ -758,6 +756,16 @@ impl WorldRestir {
         seed: u32,
     ) -> Result<Self, WorldRestirError> {
         config.validate()?;
+        // Refuse before any work when a pipeline declares more storage buffers than the device
+        // allows (GL: 16).
+        let mut shared = render::bind_group_layout_entries();
+        shared.extend(crate::trace::bind_group_layout_entries(0));
+        shared.extend(crate::lights::bind_group_layout_entries(0));
+        let shared = render::count_storage_buffers(&shared);
+        for k in &KERNELS {
+            let own = render::count_storage_buffers(&k.layout_entries());
+            render::check_storage_buffers(ctx, &format!("world-restir {}", k.name), shared + own)?;
+        }
         let renderer = Renderer::new(
             ctx,
             scene,
