@@ -294,6 +294,29 @@ fn bad_inputs_are_refused_with_their_cause_and_leave_nothing_behind() {
             .concat(),
             ..case("eye-target-overflow", &[], 1, "too far apart")
         },
+        // 14: a long dolly used to reach the target at frame 100 and fail there.
+        case(
+            "long-dolly",
+            &[
+                "compare",
+                "--scene",
+                "cornell",
+                "--methods",
+                "nee",
+                "--camera",
+                "dolly",
+                "--frames",
+                "150",
+                "--eval-every",
+                "75",
+                "--reference-spp",
+                "2",
+                "--size",
+                "4x4",
+            ],
+            0,
+            "",
+        ),
         case(
             "orbit-zero-frames",
             &[

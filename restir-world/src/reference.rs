@@ -84,6 +84,8 @@ pub struct ReferenceRenderer {
     bvh: CwBvh,
     tris: Vec<obvhs::triangle::Triangle>,
     eps: f32,
+    /// Scene units to BVH units (1 unless the scene is smaller than 1).
+    units: f32,
 }
 
 fn u4(rng: &mut Rng) -> [f32; 4] {
@@ -115,13 +117,23 @@ impl ReferenceRenderer {
                 report: None,
             });
         }
+        let (lo, hi) = scene.bounds().unwrap_or((Vec3::ZERO, Vec3::ONE));
+        let extent = (hi - lo).max_element();
+        let extent = if extent > 0.0 && extent.is_finite() {
+            extent
+        } else {
+            1.0
+        };
+        // obvhs enters node boxes at t >= 1e-4 in its own units: a scene smaller than 1 is
+        // traced scaled up to extent 1, so that its near hits stay visible.
+        let units = 1.0 / extent.min(1.0);
         let tris: Vec<obvhs::triangle::Triangle> = scene
             .triangles
             .iter()
             .map(|t| obvhs::triangle::Triangle {
-                v0: t.v[0].into(),
-                v1: t.v[1].into(),
-                v2: t.v[2].into(),
+                v0: (t.v[0] * units).into(),
+                v1: (t.v[1] * units).into(),
+                v2: (t.v[2] * units).into(),
             })
             .collect();
         let mut build_time = std::time::Duration::ZERO;
@@ -130,14 +142,14 @@ impl ReferenceRenderer {
             BvhBuildParams::medium_build(),
             &mut build_time,
         );
-        let (lo, hi) = scene.bounds().unwrap_or((Vec3::ZERO, Vec3::ONE));
-        let eps = 1e-5 * (hi - lo).max_element().max(1e-3);
+        let eps = 1e-5 * extent;
         Ok(Self {
             scene: scene.clone(),
             lights: Lights::build(scene),
             bvh,
             tris,
             eps,
+            units,
         })
     }
 
@@ -147,13 +159,14 @@ impl ReferenceRenderer {
     }
 
     fn closest(&self, origin: Vec3, dir: Vec3) -> Option<Hit> {
-        let ray = Ray::new(Vec3A::from(origin), Vec3A::from(dir), 0.0, f32::INFINITY);
+        let o = origin * self.units;
+        let ray = Ray::new(Vec3A::from(o), Vec3A::from(dir), 0.0, f32::INFINITY);
         let mut hit = RayHit::none();
         if self.bvh.ray_traverse(ray, &mut hit, |r, id| {
             self.tris[self.bvh.primitive_indices[id] as usize].intersect(r)
         }) {
             Some(Hit {
-                t: hit.t,
+                t: hit.t / self.units,
                 triangle: self.bvh.primitive_indices[hit.primitive_id as usize] as usize,
             })
         } else {
@@ -162,7 +175,8 @@ impl ReferenceRenderer {
     }
 
     fn unoccluded(&self, origin: Vec3, dir: Vec3, tmax: f32) -> bool {
-        let ray = Ray::new(Vec3A::from(origin), Vec3A::from(dir), 0.0, tmax);
+        let o = origin * self.units;
+        let ray = Ray::new(Vec3A::from(o), Vec3A::from(dir), 0.0, tmax * self.units);
         self.bvh.ray_traverse_miss(ray, |r, id| {
             self.tris[self.bvh.primitive_indices[id] as usize].intersect(r)
         })

@@ -248,7 +248,17 @@ fn render_structs_match_wgsl_layout() {
         RenderParams,
         src,
         "RenderParams",
-        [camera, pixel_count, seed, method, candidates]
+        [
+            camera,
+            pixel_count,
+            seed,
+            method,
+            candidates,
+            ray_offset_floor,
+            _pad0,
+            _pad1,
+            _pad2
+        ]
     );
     tests::assert_wgsl_layout!(RenderState, src, "RenderState", [frame, _pad]);
     tests::assert_wgsl_layout!(
@@ -257,4 +267,88 @@ fn render_structs_match_wgsl_layout() {
         "Material",
         [albedo, _pad0, emission, _pad1]
     );
+}
+
+/// `scene` with every vertex and its camera scaled by `s` about the origin.
+fn scaled(scene: &Scene, s: f32) -> Scene {
+    let mut out = scene.clone();
+    for t in &mut out.triangles {
+        t.v = t.v.map(|p| p * s);
+    }
+    out.camera = scene.camera.map(|c| restir_world::scene::Camera {
+        eye: c.eye * s,
+        target: c.target * s,
+        ..c
+    });
+    out
+}
+
+/// The CPU reference's images of `scene` (nee, `spp` samples, seed 9) at 32x32.
+fn cpu_render(scene: &Scene, spp: u32) -> Rendered {
+    let camera = scene.camera_or_default(32, 32);
+    ReferenceRenderer::new(scene)
+        .expect("reference")
+        .render(
+            &camera,
+            &ReferenceOptions {
+                method: Method::Nee,
+                spp,
+                seed: 9,
+                threads: 0,
+            },
+            None,
+        )
+        .expect("cpu reference")
+}
+
+/// Scale invariance (issue: small-unit scenes rendered black, because ray offsets were at least
+/// 1e-4 in absolute units and both traversals entered BVH nodes only at t >= 1e-4, and
+/// triangles at 3e9 or 1e-15 were dropped as degenerate because an f32 length overflowed or
+/// underflowed): cornell in units 1e-3, 1e-4, 1e-5, 1e4 and 3e9 times its own renders the same
+/// image means with the same seed (GPU nee, 16 frames, and the CPU reference, 4 spp, at 32x32),
+/// within 2% per channel and image; no triangle is dropped. Measured: the means agree to 1e-4
+/// (CPU at 1e-10: 0.4%). Beyond the supported extents (1e-15 and 1e12 gave 33% too little direct light)
+/// the scene is refused with an error naming its size. Negative control: a planted 5% error
+/// fails the bound.
+#[test]
+fn scaled_scene_renders_the_same() {
+    const BOUND: f64 = 0.02;
+    let base = builtin("cornell", &Default::default()).expect("cornell");
+    let want_gpu = render(&base, 32, 32, Method::Nee, 5, 16);
+    let want_cpu = cpu_render(&base, 4);
+    for s in [1e-3f32, 1e-4, 1e-5, 1e-10, 1e4, 3e9] {
+        let mut scene = scaled(&base, s);
+        let report = scene.sanitize("scaled cornell").expect("sanitize");
+        assert_eq!(
+            report.degenerate, 0,
+            "scale {s}: degenerate triangles dropped"
+        );
+        let got_gpu = render(&scene, 32, 32, Method::Nee, 5, 16);
+        let got_cpu = cpu_render(&scene, 4);
+        for (name, g, w) in [
+            ("gpu direct", &got_gpu.direct, &want_gpu.direct),
+            ("gpu indirect", &got_gpu.indirect, &want_gpu.indirect),
+            ("cpu direct", &got_cpu.direct, &want_cpu.direct),
+            ("cpu indirect", &got_cpu.indirect, &want_cpu.indirect),
+        ] {
+            let (g, w) = (g.mean(), w.mean());
+            for c in 0..3 {
+                let rel = (g[c] - w[c]) / w[c];
+                eprintln!("scale {s:e} {name} channel {c}: {rel:+.5}");
+                assert!(
+                    rel.abs() < BOUND,
+                    "scale {s:e}: {name} mean off by {rel:+.4}"
+                );
+                let planted = (g[c] * 0.95 - w[c]) / w[c];
+                assert!(planted.abs() >= BOUND, "planted 5% error unnoticed");
+            }
+        }
+    }
+    for s in [1e-15f32, 1e12] {
+        let err = scaled(&base, s).sanitize("scaled cornell").unwrap_err();
+        assert!(
+            err.to_string().contains("units across"),
+            "scale {s:e}: {err}"
+        );
+    }
 }

@@ -53,9 +53,13 @@ pub enum CameraMode {
     Static,
     /// Orbits the target about the up axis, 1 degree per frame.
     Orbit,
-    /// Moves towards the target, 1% of the distance per frame.
+    /// Moves towards the target, 1% of the distance per frame, at most half of it over the run
+    /// (so that long runs never reach the target).
     Dolly,
 }
+
+/// The largest fraction of the eye-target distance a dolly covers in one run.
+const MAX_DOLLY_FRACTION: f32 = 0.5;
 
 fn camera_at(base: &Camera, mode: CameraMode, frames: u32, frame: u32) -> Camera {
     let frames = frames.max(1);
@@ -67,7 +71,7 @@ fn camera_at(base: &Camera, mode: CameraMode, frames: u32, frame: u32) -> Camera
         },
         CameraMode::Dolly => CameraPath::Dolly {
             frames,
-            fraction: 0.01 * frames as f32,
+            fraction: (0.01 * frames as f32).min(MAX_DOLLY_FRACTION),
         },
     };
     path.camera(base, frame)
@@ -1011,4 +1015,31 @@ fn run_scenes(
     };
     output::write_all(&opts.out, &report, &strip)?;
     Ok(report)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A dolly over 150 frames used to reach the target at frame 100 ("eye and target
+    /// coincide"); every frame's camera of a long run is now valid.
+    #[test]
+    fn long_dolly_never_reaches_the_target() {
+        let base = Camera {
+            eye: glam::Vec3::new(0.0, 1.0, 5.0),
+            target: glam::Vec3::new(0.0, 1.0, 0.0),
+            up: glam::Vec3::Y,
+            vfov_deg: 40.0,
+            width: 8,
+            height: 8,
+        };
+        for frames in [1, 100, 150, 10_000] {
+            for f in [0, frames / 2, frames - 1] {
+                let c = camera_at(&base, CameraMode::Dolly, frames, f);
+                c.validate()
+                    .unwrap_or_else(|e| panic!("{frames} frames, frame {f}: {e}"));
+                assert!((c.eye - c.target).length() >= 0.5 * 5.0 - 1e-4);
+            }
+        }
+    }
 }

@@ -174,6 +174,27 @@ pub struct RenderParams {
     pub seed: u32,
     pub method: u32,
     pub candidates: u32,
+    /// Smallest scale ray offsets are relative to: [`ray_offset_floor`] of the scene.
+    pub ray_offset_floor: f32,
+    pub _pad0: u32,
+    pub _pad1: u32,
+    pub _pad2: u32,
+}
+
+/// The floor of the ray-offset scale for `scene`: its extent (largest side of its bounding
+/// box), capped at 1. Offsets are `RAY_EPS` times the larger of this and the point's largest
+/// coordinate, so scenes of extent 1 and more keep absolute 1e-4 offsets near the origin while a
+/// scene in small units (a box of 1e-5) keeps the same relative ones instead of offsetting rays
+/// past its walls.
+pub fn ray_offset_floor(scene: &Scene) -> f32 {
+    let extent = scene
+        .bounds()
+        .map_or(1.0, |(lo, hi)| (hi - lo).max_element());
+    if extent.is_finite() && extent > 0.0 {
+        extent.min(1.0)
+    } else {
+        1.0
+    }
 }
 
 /// WGSL `RenderState`.
@@ -413,6 +434,10 @@ impl Renderer {
                 Method::Nee => 1,
                 Method::Ris { candidates } => candidates,
             },
+            ray_offset_floor: ray_offset_floor(scene),
+            _pad0: 0,
+            _pad1: 0,
+            _pad2: 0,
         };
         let materials: &[Material] = if scene.materials.is_empty() {
             &[Material::new([0.0; 3], [0.0; 3])]

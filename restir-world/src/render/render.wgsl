@@ -33,6 +33,10 @@ struct RenderParams {
     seed: u32,
     method: u32,
     candidates: u32,
+    ray_offset_floor: f32,
+    _pad0: u32,
+    _pad1: u32,
+    _pad2: u32,
 }
 
 // GPU-side frame counter: advanced by render_accumulate, read by every pass for its seeds.
@@ -82,7 +86,7 @@ fn render_surface(dir: vec3<f32>, hit: Hit) -> GVertex {
 
 // Origin offset off a surface along its normal, scaled with the coordinates' magnitude.
 fn render_offset(p: vec3<f32>, n: vec3<f32>) -> vec3<f32> {
-    let scale = max(1.0, max(abs(p.x), max(abs(p.y), abs(p.z))));
+    let scale = render_offset_scale(p);
     return p + n * (RENDER_RAY_EPS * scale);
 }
 
@@ -102,6 +106,13 @@ fn render_light_contribution(p: vec3<f32>, n: vec3<f32>, albedo: vec3<f32>, s: L
     return albedo * SAMPLING_INV_PI * s.emission * (cos_x * cos_l / d2);
 }
 
+// What ray offsets at p are relative to: the point's largest coordinate (float precision
+// there), at least the scene's extent capped at 1 (render_params.ray_offset_floor), so that a
+// scene in small units keeps the same relative offsets as one in metres.
+fn render_offset_scale(p: vec3<f32>) -> f32 {
+    return max(render_params.ray_offset_floor, max(abs(p.x), max(abs(p.y), abs(p.z))));
+}
+
 // Whether the segment from the surface point p (normal n) to the light point q is unoccluded.
 fn render_visible(p: vec3<f32>, n: vec3<f32>, q: vec3<f32>) -> bool {
     let o = render_offset(p, n);
@@ -114,8 +125,7 @@ fn render_visible(p: vec3<f32>, n: vec3<f32>, q: vec3<f32>) -> bool {
     ray.origin = o;
     ray.tmin = 0.0;
     ray.dir = to / d;
-    let scale = max(1.0, max(abs(q.x), max(abs(q.y), abs(q.z))));
-    ray.tmax = d - RENDER_RAY_EPS * scale;
+    ray.tmax = d - RENDER_RAY_EPS * render_offset_scale(q);
     return !trace_any(ray);
 }
 

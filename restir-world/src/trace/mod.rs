@@ -33,9 +33,11 @@ pub const KERNEL_WGSL: &str = include_str!("trace_rays.wgsl");
 pub const STACK_SIZE: u32 = 32;
 /// `Hit::prim` of a miss.
 pub const NO_HIT: u32 = u32::MAX;
-/// Nearest t at which node boxes are entered: the epsilon obvhs's CPU node test clamps to, so
-/// both traversals agree.
-pub const NODE_TMIN: f32 = 1e-4;
+/// Nearest t at which node boxes are entered (beyond the ray's own tmin). 0: obvhs's CPU node
+/// test clamps to an absolute 1e-4, which loses every hit nearer than that, and so the near
+/// walls of a scene in small units (a box of 1e-3 lost 7.6% of its indirect light); the
+/// differential tests count the few rays where only the GPU sees such a hit.
+pub const NODE_TMIN: f32 = 0.0;
 /// Workgroup size of [`TraceKernel`].
 pub const WORKGROUP_SIZE: u32 = 64;
 
