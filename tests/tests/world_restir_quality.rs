@@ -84,13 +84,13 @@ fn relative_bias(
 
 /// Bias at the shipped defaults (pairwise MIS, table sized to the frame, 16 px cells, one
 /// temporal and two spatial passes): the accumulated indirect mean of 256 static frames,
-/// averaged over 3 seeds, is within 2% of the converged reference (`ris`, 512 frames) in every
+/// averaged over 5 seeds, is within 2% of the converged reference (`ris`, 512 frames) in every
 /// channel on many-lights and the furnace at 96x96.
 ///
-/// Measured on lavapipe with these seeds: many-lights +0.6/-1.3/+0.2%, furnace +1.0%; the
-/// paper's 1/M -8.4/-8.0/-8.0%. The 256-frame mean of one run scatters with a standard deviation
+/// Measured on lavapipe with these seeds (100-104): many-lights -0.5/-1.4/-0.9%, furnace +1.0%;
+/// the paper's 1/M (seed 100) -8.7/-8.9/-7.6%. The 256-frame mean of one run scatters with a standard deviation
 /// near 1.7% (furnace at 64x64, seeds 1-6, mean -0.3%: temporal reuse keeps a rare bright sample
-/// for many frames), so 3 seeds leave about 1% of noise in the measured bias; with 1024 frames
+/// for many frames), so 5 seeds leave about 0.8% of noise in the measured bias; with 1024 frames
 /// the furnace's seeds 4-7 averaged +0.2%. Two negative controls must fail the same bound: the
 /// paper's biased 1/M combination, and the default runs' means with a planted 4% darkening.
 #[test]
@@ -98,9 +98,9 @@ fn bias_at_the_defaults_is_within_two_percent() {
     const BOUND: f64 = 0.02;
     const FRAMES: u32 = 256;
     for name in ["many-lights", "furnace"] {
-        let bias = relative_bias(name, WorldRestirConfig::default(), 100..103, FRAMES);
+        let bias = relative_bias(name, WorldRestirConfig::default(), 100..105, FRAMES);
         eprintln!(
-            "bias {name} {SIDE}x{SIDE} (defaults, 3 seeds x {FRAMES} frames): {:+.4} {:+.4} {:+.4}",
+            "bias {name} {SIDE}x{SIDE} (defaults, 5 seeds x {FRAMES} frames): {:+.4} {:+.4} {:+.4}",
             bias[0], bias[1], bias[2]
         );
         for (c, b) in bias.iter().enumerate() {
