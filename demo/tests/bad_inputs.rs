@@ -406,6 +406,11 @@ fn bad_inputs_are_refused_with_their_cause_and_leave_nothing_behind() {
             args: cpu(&corpus("ok_triangle.gltf")),
             ..case("gltf-control", &[], 0, "")
         },
+        // 8: a scene in units too small for 32-bit light densities is refused by its size.
+        Case {
+            args: cpu(&corpus("tiny_units.obj")),
+            ..case("tiny-units", &[], 1, "units across")
+        },
         // 11: lights and materials.
         Case {
             args: cpu(&corpus("no_lights.obj")),
