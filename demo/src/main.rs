@@ -10,9 +10,11 @@ use clap::{Parser, Subcommand};
 use glam::Vec3;
 use indicatif::{ProgressBar, ProgressStyle};
 use restir_world::lights::Lights;
+use restir_world::sampling::Estimator;
 use restir_world::scene::{self, Scene};
 use restir_world::{GpuContext, GpuTimer, gpu::buffers, image_io, reference, render};
 
+mod camera;
 mod render_cmd;
 
 #[derive(Parser, Debug)]
@@ -142,20 +144,6 @@ struct SceneArgs {
     scene_seed: u32,
 }
 
-#[derive(clap::ValueEnum, Debug, Clone, Copy, PartialEq, Eq)]
-enum MethodArg {
-    /// GPU: one light sample + shadow ray at each vertex.
-    Nee,
-    /// GPU: RIS over --candidates light samples, no reuse.
-    Ris,
-    /// CPU reference renderer: the nee estimator (or ris with --reference-ris), f64
-    /// accumulation, all cores.
-    CpuReference,
-    /// GPU: world-space spatiotemporal reservoir reuse (Boissé 2021) for the indirect light;
-    /// knobs below.
-    WorldRestir,
-}
-
 #[derive(clap::Args, Debug)]
 struct RenderArgs {
     /// A built-in scene (cornell, many-lights, furnace, furnace-sphere) or a .gltf/.glb/.obj
@@ -164,12 +152,17 @@ struct RenderArgs {
     scene: String,
     #[command(flatten)]
     scene_opts: SceneArgs,
-    #[arg(long, value_enum, default_value_t = MethodArg::Nee)]
-    method: MethodArg,
-    /// RIS candidates (ris, world-restir, and cpu-reference with --reference-ris), 1..=65535.
-    #[arg(long, default_value_t = 16,
+    /// A method of the registry as `name` or `name:variant` (nee, ris, ris:K, world-restir,
+    /// world-restir:VARIANT or knobs key=value joined by +, e.g.
+    /// world-restir:temporal+spatial-passes=4; see `compare --help`), or cpu-reference (the CPU
+    /// reference renderer: the nee estimator, or ris with --reference-ris; f64 accumulation, all
+    /// cores).
+    #[arg(long, default_value = "nee")]
+    method: String,
+    /// cpu-reference with --reference-ris: RIS candidates, 1..=65535 (GPU methods: ris:K).
+    #[arg(long,
           value_parser = clap::value_parser!(u32).range(1..=i64::from(restir_world::render::MAX_CANDIDATES)))]
-    candidates: u32,
+    candidates: Option<u32>,
     /// cpu-reference: use the RIS estimator instead of NEE.
     #[arg(long)]
     reference_ris: bool,
@@ -206,8 +199,11 @@ struct RenderArgs {
     #[arg(long, default_value_t = 0)]
     threads: usize,
     #[command(flatten)]
-    world: render_cmd::WorldArgs,
+    anim: render_cmd::AnimArgs,
 }
+
+/// `render --method` of the CPU reference renderer.
+const CPU_REFERENCE: &str = "cpu-reference";
 
 fn parse_size(s: &str) -> Result<(u32, u32), String> {
     let (w, h) = s
@@ -409,12 +405,20 @@ fn render(args: &RenderArgs) -> Result<()> {
     if !(args.exposure.is_finite() && args.exposure > 0.0) {
         anyhow::bail!("--exposure must be a positive number");
     }
-    if args.method == MethodArg::WorldRestir {
-        args.world.validate(args.candidates)?;
-    } else if args.world.animated() {
-        anyhow::bail!("--animation is a world-restir option (use --method world-restir)");
-    }
-    if args.method == MethodArg::CpuReference {
+    if args.method != CPU_REFERENCE {
+        restir_world::methods::check_spec(&args.method)?;
+        args.anim.validate()?;
+        if args.candidates.is_some() || args.reference_ris {
+            anyhow::bail!(
+                "--candidates and --reference-ris are cpu-reference options (GPU methods: \
+                 --method ris:K)"
+            );
+        }
+    } else if args.anim.used() {
+        anyhow::bail!(
+            "--animation and --debug-views are options of GPU methods, not cpu-reference"
+        );
+    } else {
         let bytes = reference::reference_bytes(camera.width, camera.height);
         if bytes > reference::MAX_REFERENCE_BYTES {
             anyhow::bail!(
@@ -440,14 +444,25 @@ fn render_into(
         .file_stem()
         .map(|s| s.to_string_lossy().into_owned())
         .unwrap_or_else(|| "scene".into());
-    let (method_tag, images) = match args.method {
-        MethodArg::CpuReference => {
+    let method_tag: String = args
+        .method
+        .chars()
+        .map(|c| {
+            if c.is_ascii_alphanumeric() || c == '-' {
+                c
+            } else {
+                '-'
+            }
+        })
+        .collect();
+    let images = match args.method.as_str() {
+        CPU_REFERENCE => {
             let method = if args.reference_ris {
-                reference::Method::Ris {
-                    candidates: args.candidates.max(1),
+                Estimator::Ris {
+                    candidates: args.candidates.unwrap_or(render::DEFAULT_CANDIDATES),
                 }
             } else {
-                reference::Method::Nee
+                Estimator::Nee
             };
             let r = reference::ReferenceRenderer::new(scene)?;
             let pb = progress_bar(u64::from(camera.height), "cpu-reference rows");
@@ -469,22 +484,18 @@ fn render_into(
                 camera.height,
                 start.elapsed().as_secs_f64()
             );
-            ("cpu-reference", out)
+            out
         }
-        MethodArg::Nee | MethodArg::Ris => render_gpu(args, scene, camera, samples)?,
-        MethodArg::WorldRestir => (
-            "world-restir",
-            render_cmd::render_world_restir(
-                &args.world,
-                scene,
-                camera,
-                samples,
-                args.candidates,
-                args.seed,
-                &args.out,
-                &scene_tag,
-            )?,
-        ),
+        spec => render_cmd::render_method(
+            spec,
+            &args.anim,
+            scene,
+            camera,
+            samples,
+            args.seed,
+            &args.out,
+            &format!("{scene_tag}-{method_tag}"),
+        )?,
     };
     for (kind, img) in [
         ("direct", &images.direct),
@@ -504,48 +515,6 @@ fn render_into(
         );
     }
     Ok(())
-}
-
-/// The GPU methods: `samples` frames of one sample each, accumulated.
-fn render_gpu(
-    args: &RenderArgs,
-    scene: &Scene,
-    camera: &restir_world::scene::Camera,
-    samples: u32,
-) -> Result<(&'static str, reference::Rendered)> {
-    let ctx = GpuContext::new()?;
-    eprintln!("{}", ctx.describe());
-    let (tag, method) = match args.method {
-        MethodArg::Ris => (
-            "ris",
-            render::Method::Ris {
-                candidates: args.candidates,
-            },
-        ),
-        _ => ("nee", render::Method::Nee),
-    };
-    let mut r = render::Renderer::new(&ctx, scene, camera, method, args.seed)?;
-    let pb = progress_bar(u64::from(samples), &format!("{tag} frames"));
-    let times = r.render(&ctx, samples, |f| pb.set_position(u64::from(f)))?;
-    pb.finish_and_clear();
-    match &times {
-        Some(t) => {
-            let per: Vec<String> = t
-                .per_frame()
-                .iter()
-                .map(|(n, ms)| format!("{n}={ms:.3}"))
-                .collect();
-            println!(
-                "{tag}: {} frames, GPU {:.3} ms/frame ({}) on {}",
-                t.frames,
-                t.total_ms() / f64::from(t.frames.max(1)),
-                per.join(" "),
-                ctx.info.name
-            );
-        }
-        None => println!("{tag}: {samples} frames (adapter has no timestamps)"),
-    }
-    Ok((tag, r.images(&ctx)?))
 }
 
 const SMOKE_WGSL: &str = r#"
@@ -613,7 +582,7 @@ fn smoke_into(out: &Path, (width, height): (u32, u32)) -> Result<()> {
             },
         ],
     });
-    let mut timer = GpuTimer::new(&ctx, 1);
+    let mut timer = GpuTimer::new(&ctx);
     let mut encoder = device.create_command_encoder(&Default::default());
     timer.span(&mut encoder, "smoke", |enc| {
         let mut pass = enc.begin_compute_pass(&Default::default());
@@ -631,34 +600,14 @@ fn smoke_into(out: &Path, (width, height): (u32, u32)) -> Result<()> {
     let bytes: Vec<u8> = bytemuck::cast_slice(&words[..(width * height) as usize]).to_vec();
     let img = image::RgbaImage::from_raw(width, height, bytes).context("image size")?;
     let path = out.join("smoke.png");
-    write_atomically(&path, |tmp| {
-        img.save_with_format(tmp, image::ImageFormat::Png)
-            .map_err(anyhow::Error::from)
-    })?;
+    image_io::write_png8(&path, img)?;
     println!("wrote {}", path.display());
     Ok(())
 }
 
-/// Writes through a temporary file in the same directory and renames it into place, so the
-/// output is written whole or not at all.
-fn write_atomically(path: &Path, write: impl FnOnce(&Path) -> Result<()>) -> Result<()> {
-    let tmp = path.with_extension(format!(
-        "tmp{}.{}",
-        std::process::id(),
-        path.extension().and_then(|e| e.to_str()).unwrap_or("out")
-    ));
-    let result = write(&tmp).and_then(|()| {
-        std::fs::rename(&tmp, path).with_context(|| format!("renaming into {}", path.display()))
-    });
-    if result.is_err() {
-        let _ = std::fs::remove_file(&tmp);
-    }
-    result.with_context(|| format!("writing {}", path.display()))
-}
-
 fn compare_cmd(a: CompareArgs) -> Result<()> {
     let methods = if a.methods.is_empty() {
-        restir_world::render::registry()
+        restir_world::methods::registry()
             .iter()
             .map(|e| e.name.to_owned())
             .collect()

@@ -8,8 +8,10 @@ use std::path::{Path, PathBuf};
 
 use crate::GpuContext;
 use crate::image_io::{self, Image, ImageIoError};
+use crate::methods::{FrameLoop, FrameMethod, MethodError, Readback, run_frames};
 use crate::metrics::{self, MetricsError};
-use crate::render::{Method, RenderError, Renderer};
+use crate::render::Renderer;
+use crate::sampling::Estimator;
 use crate::scene::{Camera, Scene};
 
 /// Frames recorded per submission while rendering a reference.
@@ -21,7 +23,7 @@ pub struct ReferenceSettings {
     /// Samples per pixel in total (split over the two halves; rounded up to even).
     pub spp: u32,
     /// The estimator accumulated.
-    pub method: Method,
+    pub method: Estimator,
     /// Seed of the first half (the second uses a derived seed).
     pub seed: u32,
 }
@@ -30,7 +32,7 @@ impl Default for ReferenceSettings {
     fn default() -> Self {
         Self {
             spp: 1024,
-            method: Method::Ris {
+            method: Estimator::Ris {
                 candidates: crate::render::DEFAULT_CANDIDATES,
             },
             seed: 0x5eed_0001,
@@ -61,7 +63,7 @@ pub struct GpuReference {
 #[derive(Debug, thiserror::Error)]
 pub enum ReferenceError {
     #[error(transparent)]
-    Render(#[from] RenderError),
+    Method(#[from] MethodError),
     #[error(transparent)]
     Image(#[from] ImageIoError),
     #[error(transparent)]
@@ -122,8 +124,8 @@ pub fn cache_key(scene: &Scene, camera: &Camera, settings: &ReferenceSettings) -
         .bytes(&camera.width.to_le_bytes())
         .bytes(&camera.height.to_le_bytes());
     let (m, k) = match settings.method {
-        Method::Nee => (0u32, 1u32),
-        Method::Ris { candidates } => (1, candidates),
+        Estimator::Nee => (0u32, 1u32),
+        Estimator::Ris { candidates } => (1, candidates),
     };
     for x in [settings.spp.div_ceil(2) * 2, m, k, settings.seed] {
         h.bytes(&x.to_le_bytes());
@@ -135,25 +137,24 @@ fn half(
     ctx: &GpuContext,
     scene: &Scene,
     camera: &Camera,
-    method: Method,
+    estimator: Estimator,
     seed: u32,
     frames: u32,
     progress: &mut dyn FnMut(u32),
-) -> Result<crate::reference::Rendered, RenderError> {
-    let mut r = Renderer::new(ctx, scene, camera, method, seed)?;
-    let mut done = 0;
-    while done < frames {
-        let n = FRAMES_PER_SUBMIT.min(frames - done);
-        let mut enc = ctx.device.create_command_encoder(&Default::default());
-        for _ in 0..n {
-            r.encode_frame(&mut enc, None);
-        }
-        ctx.queue.submit([enc.finish()]);
-        ctx.wait()?;
-        done += n;
-        progress(n);
-    }
-    r.images(ctx)
+) -> Result<crate::reference::Rendered, MethodError> {
+    let mut r = Renderer::new(ctx, scene, camera, estimator, seed)?;
+    let l = FrameLoop {
+        samples: frames,
+        records: 1,
+        timed: false,
+        batch: FRAMES_PER_SUBMIT,
+        ..FrameLoop::frames(1)
+    };
+    run_frames(ctx, &mut r, &l, |_, s| {
+        progress(s.frames);
+        Ok::<(), MethodError>(())
+    })?;
+    r.read(ctx, Readback::Accumulated)?.into_rendered()
 }
 
 /// Renders a reference (two halves of `spp / 2` samples each); `progress` gets the number of

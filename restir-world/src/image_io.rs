@@ -150,6 +150,19 @@ pub fn write_png(path: &Path, img: &Image, exposure: f32) -> Result<(), ImageIoE
     })
 }
 
+/// Writes an 8-bit image (already tone-mapped) as a PNG, whole or not at all.
+pub fn write_png8(path: &Path, img: impl Into<image::DynamicImage>) -> Result<(), ImageIoError> {
+    let img = img.into();
+    write_atomically(path, |tmp| {
+        img.save_with_format(tmp, image::ImageFormat::Png)
+    })
+}
+
+/// Writes `bytes` to `path`, whole or not at all (reports, plots).
+pub fn write_bytes(path: &Path, bytes: &[u8]) -> Result<(), ImageIoError> {
+    write_atomically(path, |tmp| Ok(std::fs::write(tmp, bytes)?))
+}
+
 /// Reads an OpenEXR file as linear RGB (alpha dropped).
 pub fn read_exr(path: &Path) -> Result<Image, ImageIoError> {
     let codec = |source| ImageIoError::Codec {

@@ -4,15 +4,21 @@
 //! (Boissé 2021), composed from the `gpu-scan`, `gpu-hash` and `reservoir` primitives on a
 //! software-BVH ray tracer.
 //!
-//! This crate also holds the GPU plumbing shared by the demo, the tests and the benchmarks:
-//! [`gpu::GpuContext`] (adapter + device acquisition that honours `WGPU_BACKEND` and
-//! `WGPU_ADAPTER_NAME`), [`gpu::GpuTimer`] (named timestamp spans) and the buffer
-//! upload/readback helpers in [`gpu::buffers`].
+//! Layers, each using only those below it:
+//!
+//! - [`gpu`]: device acquisition, timestamp spans, upload/readback, and the vocabulary every
+//!   pass is written in (`BindingSet`, `WgslModule`, `Kernel`, `Pass`, `FrameEncoder`).
+//! - [`scene`], [`trace`], [`lights`], [`sampling`]: the scene, the BVH tracer, light sampling.
+//! - [`render`]: the renderer's shared passes and the `nee`/`ris` baselines;
+//!   [`world_restir`] builds on it.
+//! - [`methods`]: the registry of methods, the one frame loop (`run_frames`) and readback.
+//! - [`reference`] (CPU) and [`gpu_reference`]: converged references; [`metrics`].
 
 pub mod gpu;
 pub mod gpu_reference;
 pub mod image_io;
 pub mod lights;
+pub mod methods;
 pub mod metrics;
 pub mod reference;
 pub mod render;
@@ -26,9 +32,10 @@ pub use gpu::{GpuContext, GpuError, GpuTimer};
 /// Every WGSL module this crate ships, composed as it is used, as `(name, source)`: the
 /// workspace's naga checks validate each of them.
 pub fn wgsl_modules() -> Vec<(String, String)> {
+    let lights = gpu::compose(&lights::modules(0)).expect("the lights' modules compose");
     let mut modules = vec![
         ("restir-world/sampling".into(), sampling::WGSL.into()),
-        ("restir-world/lights".into(), lights::composed_wgsl(0, 0)),
+        ("restir-world/lights".into(), lights),
     ];
     modules.extend(trace::wgsl_modules());
     modules.extend(render::wgsl_modules());

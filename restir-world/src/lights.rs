@@ -4,9 +4,8 @@
 //!
 //! GPU side: [`WGSL`] (structs `LightTriangle`, `AliasEntry`, `LightsInfo`, `LightSample`;
 //! functions `lights_pick`, `lights_sample`, `lights_pdf_area`, `lights_pdf_solid_angle`), which
-//! needs [`crate::sampling::WGSL`] and the bindings header from [`bindings_wgsl`]. Upload with
-//! [`GpuLights::new`]; describe the bindings with [`bind_group_layout_entries`] and bind with
-//! [`GpuLights::bind_group_entries`].
+//! a consumer composes from [`modules`] with the [`bindings`] at a group of its choice. Upload
+//! with [`GpuLights::new`] and bind [`GpuLights::resources`].
 //!
 //! [`Lights::pick`] and [`Lights::sample`] are the twins of `lights_pick` and `lights_sample`:
 //! the same arithmetic on the same random numbers (the picked index is identical; positions
@@ -14,10 +13,11 @@
 
 use glam::{Vec2, Vec3};
 
+use crate::gpu::{Access, BindingSet, Resource, WgslModule};
 use crate::sampling;
 use crate::scene::{Scene, builtin::luminance};
 
-/// WGSL source of the light sampling functions (no bindings; see [`bindings_wgsl`]).
+/// WGSL source of the light sampling functions (no bindings; see [`bindings`]).
 pub const WGSL: &str = include_str!("lights.wgsl");
 
 /// One emissive triangle on the GPU (WGSL `LightTriangle`).
@@ -231,36 +231,12 @@ pub fn pdf_solid_angle(pdf_area: f32, to_light: Vec3, light_normal: Vec3) -> f32
     pdf_area * d2 / cos_l
 }
 
-/// The WGSL bindings `lights_triangles` (storage, read), `lights_alias` (storage, read) and
-/// `lights_info` (uniform) at `first_binding`, +1, +2 of `group`.
-pub fn bindings_wgsl(group: u32, first_binding: u32) -> String {
-    let b = first_binding;
-    format!(
-        "@group({group}) @binding({b}) var<storage, read> lights_triangles: array<LightTriangle>;\n\
-         @group({group}) @binding({}) var<storage, read> lights_alias: array<AliasEntry>;\n\
-         @group({group}) @binding({}) var<uniform> lights_info: LightsInfo;\n",
-        b + 1,
-        b + 2
-    )
-}
-
-/// Layout entries (compute stage) matching [`bindings_wgsl`].
-pub fn bind_group_layout_entries(first_binding: u32) -> Vec<wgpu::BindGroupLayoutEntry> {
-    let storage = |binding| crate::gpu::buffers::storage_entry(binding, true);
-    vec![
-        storage(first_binding),
-        storage(first_binding + 1),
-        wgpu::BindGroupLayoutEntry {
-            binding: first_binding + 2,
-            visibility: wgpu::ShaderStages::COMPUTE,
-            ty: wgpu::BindingType::Buffer {
-                ty: wgpu::BufferBindingType::Uniform,
-                has_dynamic_offset: false,
-                min_binding_size: None,
-            },
-            count: None,
-        },
-    ]
+/// The lights' bindings: `lights_triangles`, `lights_alias` and `lights_info`.
+pub fn bindings() -> BindingSet {
+    BindingSet::new("lights")
+        .buffer("lights_triangles", "array<LightTriangle>", Access::Read)
+        .buffer("lights_alias", "array<AliasEntry>", Access::Read)
+        .buffer("lights_info", "LightsInfo", Access::Uniform)
 }
 
 /// Errors of [`GpuLights::new`].
@@ -332,34 +308,24 @@ impl GpuLights {
         })
     }
 
-    /// Bind group entries matching [`bind_group_layout_entries`].
-    pub fn bind_group_entries(&self, first_binding: u32) -> [wgpu::BindGroupEntry<'_>; 3] {
+    /// The buffers of [`bindings`], by name.
+    pub fn resources(&self) -> [(&'static str, Resource<'_>); 3] {
         [
-            wgpu::BindGroupEntry {
-                binding: first_binding,
-                resource: self.triangles.as_entire_binding(),
-            },
-            wgpu::BindGroupEntry {
-                binding: first_binding + 1,
-                resource: self.alias.as_entire_binding(),
-            },
-            wgpu::BindGroupEntry {
-                binding: first_binding + 2,
-                resource: self.info.as_entire_binding(),
-            },
+            ("lights_triangles", (&self.triangles).into()),
+            ("lights_alias", (&self.alias).into()),
+            ("lights_info", (&self.info).into()),
         ]
     }
 }
 
-/// The lights WGSL composed as a consumer uses it: sampling functions, bindings at (group,
-/// first_binding), light functions.
-pub fn composed_wgsl(group: u32, first_binding: u32) -> String {
-    format!(
-        "{}\n{}\n{}",
-        sampling::WGSL,
-        bindings_wgsl(group, first_binding),
-        WGSL
-    )
+/// The lights' WGSL modules with their bindings at `group`: `sampling`, `lights-bindings` and
+/// `lights` (the light sampling functions).
+pub fn modules(group: u32) -> Vec<WgslModule> {
+    vec![
+        WgslModule::new("sampling", &[], sampling::WGSL),
+        WgslModule::new("lights-bindings", &[], bindings().wgsl(group)),
+        WgslModule::new("lights", &["sampling", "lights-bindings"], WGSL),
+    ]
 }
 
 #[cfg(test)]

@@ -32,23 +32,13 @@ use reservoir::rng::Rng;
 
 use crate::image_io::Image;
 use crate::lights::Lights;
-use crate::sampling::{self, CameraGpu};
+use crate::sampling::{self, CameraGpu, Estimator};
 use crate::scene::{Camera, Scene, SceneError, builtin::luminance};
-
-/// Light estimator at each shading point (shared with the GPU renderer, which re-exports it as
-/// `render::Method`).
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Method {
-    /// One light sample + shadow ray.
-    Nee,
-    /// `candidates` light samples resampled by RIS + one shadow ray (default 16).
-    Ris { candidates: u32 },
-}
 
 /// Options of [`ReferenceRenderer::render`].
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ReferenceOptions {
-    pub method: Method,
+    pub method: Estimator,
     /// Samples per pixel.
     pub spp: u32,
     /// Seed of the random streams: pixel p, sample s draws from `Rng::seed(p, s, seed)`.
@@ -60,7 +50,7 @@ pub struct ReferenceOptions {
 impl Default for ReferenceOptions {
     fn default() -> Self {
         Self {
-            method: Method::Nee,
+            method: Estimator::Nee,
             spp: 64,
             seed: 0,
             threads: 0,
@@ -209,16 +199,16 @@ impl ReferenceRenderer {
     }
 
     /// One light estimate of the reflected radiance at x.
-    fn estimate(&self, method: Method, x: Vec3, n: Vec3, a: Vec3, rng: &mut Rng) -> Vec3 {
+    fn estimate(&self, method: Estimator, x: Vec3, n: Vec3, a: Vec3, rng: &mut Rng) -> Vec3 {
         if self.lights.is_empty() {
             return Vec3::ZERO;
         }
         match method {
-            Method::Nee => match self.light_term(x, n, a, u4(rng)) {
+            Estimator::Nee => match self.light_term(x, n, a, u4(rng)) {
                 Some((f, y, pdf)) if self.visible(x, n, y) => f / pdf,
                 _ => Vec3::ZERO,
             },
-            Method::Ris { candidates } => {
+            Estimator::Ris { candidates } => {
                 let k = candidates.max(1);
                 let mut w_sum = 0.0f32;
                 let mut chosen: Option<(Vec3, Vec3, f32)> = None;
@@ -263,7 +253,13 @@ impl ReferenceRenderer {
     }
 
     /// (direct, indirect) of one sample.
-    fn sample(&self, cam: &CameraGpu, px: [u32; 2], method: Method, rng: &mut Rng) -> (Vec3, Vec3) {
+    fn sample(
+        &self,
+        cam: &CameraGpu,
+        px: [u32; 2],
+        method: Estimator,
+        rng: &mut Rng,
+    ) -> (Vec3, Vec3) {
         let jitter = Vec2::new(rng.next_f32(), rng.next_f32());
         let eye = Vec3::from(cam.eye);
         let dir = cam.ray_dir(px, jitter);
@@ -389,7 +385,7 @@ mod tests {
     use crate::scene::{self, Material};
 
     /// Renders `s` and returns the channel means of (direct - Le, indirect).
-    fn furnace_means(s: &Scene, method: Method, spp: u32, seed: u32) -> ([f64; 3], [f64; 3]) {
+    fn furnace_means(s: &Scene, method: Estimator, spp: u32, seed: u32) -> ([f64; 3], [f64; 3]) {
         let r = ReferenceRenderer::new(s).unwrap();
         let out = r
             .render(
@@ -417,7 +413,7 @@ mod tests {
         // 0.25. On the icosphere furnace, 32x32 pixels x 32 spp: across seeds the image means
         // scatter by ~0.15% (reflected direct) and ~0.1% (indirect), so 1% is > 6 sd.
         let s = scene::furnace_sphere(0.5, 1.0, 32, 32).unwrap();
-        for method in [Method::Nee, Method::Ris { candidates: 4 }] {
+        for method in [Estimator::Nee, Estimator::Ris { candidates: 4 }] {
             let (d, i) = furnace_means(&s, method, 32, 1);
             for ch in 0..3 {
                 assert!(
@@ -436,7 +432,7 @@ mod tests {
         // 32x32x32 gave an indirect 15% high). This is a sanity check at 3% with 128 spp and a
         // fixed seed, not a statistical test; the tight test uses the icosphere.
         let s = scene::furnace(0.5, 1.0, 32, 32).unwrap();
-        let (d, i) = furnace_means(&s, Method::Nee, 128, 1);
+        let (d, i) = furnace_means(&s, Estimator::Nee, 128, 1);
         assert!((d[0] - 0.5).abs() < 0.015, "{d:?}");
         assert!((i[0] - 0.25).abs() < 0.0075, "{i:?}");
     }
@@ -446,7 +442,7 @@ mod tests {
         // Planted error: rho = 0.515 (3% more reflected direct light, 6% more indirect) checked
         // against the rho = 0.5 values must fall outside the 1% tolerance.
         let s = scene::furnace_sphere(0.515, 1.0, 32, 32).unwrap();
-        let (d, i) = furnace_means(&s, Method::Nee, 32, 1);
+        let (d, i) = furnace_means(&s, Estimator::Nee, 32, 1);
         assert!((d[0] - 0.5).abs() > 0.005, "{d:?}");
         assert!((i[0] - 0.25).abs() > 0.0025, "{i:?}");
     }
@@ -469,8 +465,8 @@ mod tests {
             };
             r.render(&s.camera.unwrap(), &o, None).unwrap()
         };
-        let nee = run(Method::Nee);
-        let ris = run(Method::Ris { candidates: 8 });
+        let nee = run(Estimator::Nee);
+        let ris = run(Estimator::Ris { candidates: 8 });
         let rel = |a: f64, b: f64| (a - b).abs() / b.abs().max(1e-12);
         let within = |a: &Image, b: &Image, scale: f64, tol: f64| {
             let (ma, mb) = (a.mean(), b.mean());
@@ -506,7 +502,7 @@ mod tests {
             height: 8,
         };
         let r = ReferenceRenderer::new(&s).unwrap();
-        for method in [Method::Nee, Method::Ris { candidates: 16 }] {
+        for method in [Estimator::Nee, Estimator::Ris { candidates: 16 }] {
             let out = r
                 .render(
                     &cam,
@@ -528,7 +524,7 @@ mod tests {
         let r = ReferenceRenderer::new(&s).unwrap();
         let cam = s.camera.unwrap();
         let o = |seed, threads| ReferenceOptions {
-            method: Method::Ris { candidates: 4 },
+            method: Estimator::Ris { candidates: 4 },
             spp: 2,
             seed,
             threads,

@@ -48,6 +48,16 @@ pub fn triangle_uniform(u: Vec2) -> Vec2 {
     Vec2::new(su * (1.0 - u.y), su * u.y)
 }
 
+/// The light estimator at each shading point, shared by the GPU renderer and the CPU
+/// reference.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Estimator {
+    /// One light sample + shadow ray.
+    Nee,
+    /// `candidates` light samples resampled by RIS + one shadow ray (default 16).
+    Ris { candidates: u32 },
+}
+
 /// The camera as the GPU sees it (WGSL struct `CameraGpu`): `right` and `up` are pre-scaled so
 /// the image plane at distance 1 spans [-1, 1]: |up| = tan(vfov/2), |right| = |up| * w / h.
 #[repr(C)]

@@ -78,7 +78,7 @@ fn insert_ms(ctx: &GpuContext, batch: &HashBatch, c: &Case) -> f64 {
         .expect("bind insert batch");
     let mut total = 0.0;
     for rep in 0..=REPS {
-        let mut timer = GpuTimer::new(ctx, 2);
+        let mut timer = GpuTimer::new(ctx);
         let mut enc = ctx.device.create_command_encoder(&Default::default());
         timer.span(&mut enc, "clear", |enc| c.table.encode_clear(enc));
         timer.span(&mut enc, "insert", |enc| {

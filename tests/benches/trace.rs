@@ -152,17 +152,16 @@ fn trace(c: &mut Criterion) {
                 "hits",
                 u64::from(n) * size_of::<Hit>() as u64,
             );
-            let binding = kernel.bind(&ctx.device, &gpu_bvh, &rays_buf, &hits_buf, n, any_hit);
+            let binding = kernel
+                .bind(&ctx.device, &gpu_bvh, &rays_buf, &hits_buf, n, any_hit)
+                .expect("bind");
             group.throughput(Throughput::Elements(u64::from(n)));
             group.bench_function(kind, |b| {
                 b.iter_custom(|iters| {
-                    bench::gpu_time(ctx, iters, |enc| {
-                        kernel.encode_with(&ctx.device, enc, &binding)
-                    })
+                    bench::gpu_time(ctx, iters, |enc| kernel.encode_with(enc, &binding))
                 })
             });
-            let gpu_ms =
-                bench::gpu_ms(ctx, 5, |enc| kernel.encode_with(&ctx.device, enc, &binding));
+            let gpu_ms = bench::gpu_ms(ctx, 5, |enc| kernel.encode_with(enc, &binding));
             let gpu_rps = f64::from(n) / (gpu_ms * 1e-3);
             let cpu_rps = cpu_rays_per_s(&bvh, rays, any_hit);
             lines.push((

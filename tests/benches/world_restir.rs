@@ -9,11 +9,15 @@
 //! each with the same frame's baselines measured in the same run.
 
 use criterion::{Criterion, criterion_group, criterion_main};
-use restir_world::render::methods::{WORLD_RESTIR_VARIANTS, world_restir_config};
-use restir_world::render::{Method, PassTimes, Renderer};
+use restir_world::GpuContext;
+use restir_world::gpu::{FrameEncoder, PassTimes};
+use restir_world::methods::{
+    FrameLoop, FrameMethod, MethodError, WORLD_RESTIR_VARIANTS, run_frames, world_restir_config,
+};
+use restir_world::render::Renderer;
+use restir_world::sampling::Estimator;
 use restir_world::scene::{BuiltinOptions, builtin};
-use restir_world::world_restir::{WorldRestir, WorldRestirConfig, add_times};
-use restir_world::{GpuContext, GpuTimer};
+use restir_world::world_restir::{WorldRestir, WorldRestirConfig};
 use tests::{bench, buffers, floors::CopyKernel, gpu};
 
 const FRAMES: u32 = 6;
@@ -27,11 +31,23 @@ fn ms(t: &PassTimes, names: &[&str]) -> f64 {
         .max(0.0) // an empty sum is -0.0
 }
 
-fn baseline_times(ctx: &GpuContext, r: &mut Renderer) -> PassTimes {
-    r.render(ctx, 1, |_| {}).expect("warm-up");
-    r.render(ctx, FRAMES, |_| {})
+/// Per-span GPU times of `FRAMES` frames of `m` after one warm-up frame.
+fn frame_times(ctx: &GpuContext, m: &mut dyn FrameMethod) -> PassTimes {
+    let run = |m: &mut dyn FrameMethod, frames| {
+        run_frames(ctx, m, &FrameLoop::frames(frames), |_, _| {
+            Ok::<(), MethodError>(())
+        })
         .expect("render")
         .expect("benchmark needs GPU timestamps")
+    };
+    run(m, 1);
+    run(m, FRAMES)
+}
+
+/// One frame of `m` into the caller's encoder (untimed).
+fn frame(ctx: &GpuContext, m: &mut dyn FrameMethod, enc: &mut wgpu::CommandEncoder) {
+    m.encode_frame(&mut FrameEncoder::new(&ctx.device, enc, None))
+        .expect("frame");
 }
 
 fn world_restir(c: &mut Criterion) {
@@ -49,34 +65,26 @@ fn world_restir(c: &mut Criterion) {
     let cam = scene.camera_or_default(side, side);
     let mut wr =
         WorldRestir::new(ctx, &scene, &cam, WorldRestirConfig::default(), 1).expect("world-restir");
-    let mut ris = Renderer::new(ctx, &scene, &cam, Method::Ris { candidates: 16 }, 1).expect("ris");
-    let mut nee = Renderer::new(ctx, &scene, &cam, Method::Nee, 1).expect("nee");
+    let ris = Estimator::Ris { candidates: 16 };
+    let mut ris = Renderer::new(ctx, &scene, &cam, ris, 1).expect("ris");
+    let mut nee = Renderer::new(ctx, &scene, &cam, Estimator::Nee, 1).expect("nee");
 
     let mut group = c.benchmark_group("world_restir_frame");
     group.sample_size(10);
     group.warm_up_time(std::time::Duration::from_secs(1));
     group.measurement_time(std::time::Duration::from_secs(3));
     group.bench_function(format!("world-restir_{side}"), |b| {
-        b.iter_custom(|iters| {
-            // One frame per submission (the frame writes its grid params through the queue).
-            let mut total = std::time::Duration::ZERO;
-            for _ in 0..iters {
-                total += bench::gpu_time(ctx, 1, |enc| {
-                    wr.encode_frame(&ctx.queue, enc, None).expect("frame")
-                });
-            }
-            total
-        })
+        b.iter_custom(|iters| bench::gpu_time(ctx, iters, |enc| frame(ctx, &mut wr, enc)))
     });
     for (name, r) in [("ris", &mut ris), ("nee", &mut nee)] {
         group.bench_function(format!("{name}_{side}"), |b| {
-            b.iter_custom(|iters| bench::gpu_time(ctx, iters, |enc| r.encode_frame(enc, None)))
+            b.iter_custom(|iters| bench::gpu_time(ctx, iters, |enc| frame(ctx, r, enc)))
         });
     }
     group.finish();
 
-    let t_ris = baseline_times(ctx, &mut ris);
-    let t_nee = baseline_times(ctx, &mut nee);
+    let t_ris = frame_times(ctx, &mut ris);
+    let t_nee = frame_times(ctx, &mut nee);
     eprintln!("ris per frame: {:?}", t_ris.per_frame());
     eprintln!("nee per frame: {:?}", t_nee.per_frame());
 
@@ -112,29 +120,19 @@ fn stage_result(
     t_nee: &PassTimes,
     floor_ms: f64,
 ) {
-    wr.render(ctx, 1, None, |_| {}).expect("warm-up");
-    let mut t_wr = PassTimes::default();
-    let mut timer = GpuTimer::new(ctx, 16);
-    for _ in 0..FRAMES {
-        timer.reset();
-        let mut enc = ctx.device.create_command_encoder(&Default::default());
-        wr.encode_frame(&ctx.queue, &mut enc, Some(&mut timer))
-            .expect("frame");
-        timer.resolve(&mut enc);
-        ctx.queue.submit([enc.finish()]);
-        add_times(&mut t_wr, &timer.read(ctx).expect("timestamps"));
-    }
+    let t_wr = frame_times(ctx, wr);
     let stats = wr.grid_stats(ctx).expect("stats");
     eprintln!("world-restir {variant} per frame: {:?}", t_wr.per_frame());
 
     let f = |x: f64| format!("{x:.3}");
-    let frame_wr = t_wr.total_ms() / f64::from(t_wr.frames.max(1));
-    let frame_ris = t_ris.total_ms() / f64::from(t_ris.frames.max(1));
-    let frame_nee = t_nee.total_ms() / f64::from(t_nee.frames.max(1));
+    let (frame_wr, frame_ris, frame_nee) = (
+        t_wr.ms_per_frame(),
+        t_ris.ms_per_frame(),
+        t_nee.ms_per_frame(),
+    );
     let build = ms(&t_wr, &["build"]);
-    let table = wr
-        .config()
-        .table(wr.renderer.camera.width, wr.renderer.camera.height);
+    let cam = wr.renderer().camera();
+    let table = wr.config().table(cam.width, cam.height);
     bench::print_result(
         ctx,
         "world-restir",

@@ -12,7 +12,7 @@ pub fn gpu_time(
     iters: u64,
     mut record: impl FnMut(&mut wgpu::CommandEncoder),
 ) -> Duration {
-    let mut timer = GpuTimer::new(ctx, 1);
+    let mut timer = GpuTimer::new(ctx);
     let mut encoder = ctx
         .device
         .create_command_encoder(&wgpu::CommandEncoderDescriptor {

@@ -3,6 +3,11 @@
 use std::sync::OnceLock;
 
 use restir_world::GpuContext;
+use restir_world::gpu::PassTimes;
+use restir_world::methods::{
+    FrameImages, FrameLoop, FrameMethod, MethodError, Readback, run_frames,
+};
+use restir_world::scene::CameraPath;
 
 /// The shared context. Panics with the fix (install lavapipe) when no adapter exists: GPU tests
 /// must fail loudly, never pass vacuously.
@@ -77,4 +82,30 @@ pub fn block_on<F: std::future::Future>(f: F) -> F::Output {
         }
         std::thread::yield_now();
     }
+}
+
+/// `frames` timed frames of `m` on the shared context (static camera), through the one frame
+/// loop; the span totals when the adapter has timestamps.
+pub fn render(m: &mut dyn FrameMethod, frames: u32) -> Option<PassTimes> {
+    render_path(m, frames, CameraPath::Static)
+}
+
+/// [`render`] with the camera moving along `path` (frame indices from 0, from the method's
+/// camera when called).
+pub fn render_path(m: &mut dyn FrameMethod, frames: u32, path: CameraPath) -> Option<PassTimes> {
+    let l = FrameLoop {
+        path,
+        ..FrameLoop::frames(frames)
+    };
+    run_frames(context(), m, &l, |_, _| Ok::<(), MethodError>(())).expect("render")
+}
+
+/// The accumulated images of `m`.
+pub fn images(m: &dyn FrameMethod) -> FrameImages {
+    m.read(context(), Readback::Accumulated).expect("images")
+}
+
+/// The last frame's images of `m`.
+pub fn last_frame(m: &dyn FrameMethod) -> FrameImages {
+    m.read(context(), Readback::LastFrame).expect("last frame")
 }

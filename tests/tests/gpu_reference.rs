@@ -4,7 +4,7 @@
 
 use restir_world::gpu_reference::{self, ReferenceSettings};
 use restir_world::metrics;
-use restir_world::render::Method;
+use restir_world::sampling::Estimator;
 use restir_world::scene::builtin;
 use tests::gpu;
 
@@ -13,7 +13,7 @@ const SIDE: u32 = 24;
 fn settings(spp: u32, seed: u32) -> ReferenceSettings {
     ReferenceSettings {
         spp,
-        method: Method::Ris { candidates: 16 },
+        method: Estimator::Ris { candidates: 16 },
         seed,
     }
 }

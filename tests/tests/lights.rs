@@ -3,6 +3,7 @@
 //! controls).
 
 use glam::{Vec2, Vec3};
+use restir_world::gpu::{Access, Kernel, Resource, WgslModule};
 use restir_world::lights::{self, AliasEntry, GpuLights, LightTriangle, Lights, LightsInfo};
 use restir_world::sampling::{self, CameraGpu};
 use restir_world::scene::{self, Material, Scene, Triangle};
@@ -10,7 +11,7 @@ use tests::{buffers, gpu};
 
 #[test]
 fn gpu_structs_match_naga_layouts() {
-    let src = lights::composed_wgsl(0, 0);
+    let src = restir_world::gpu::compose(&lights::modules(0)).expect("compose");
     tests::assert_wgsl_layout!(
         LightTriangle,
         src,
@@ -35,10 +36,7 @@ fn gpu_structs_match_naga_layouts() {
 /// Per invocation i: 4 uniforms from rng_seed(i, 7, 3); a light sample; an ONB, a cosine
 /// direction and a camera ray derived from them. 6 vec4 per invocation.
 const KERNEL: &str = r#"
-@group(0) @binding(3) var<storage, read_write> out: array<vec4<f32>>;
-@group(0) @binding(4) var<uniform> cam: CameraGpu;
-
-@compute @workgroup_size(64)
+@compute @workgroup_size(WORKGROUP_SIZE)
 fn main(@builtin(global_invocation_id) id: vec3<u32>) {
     let i = id.x;
     if i >= arrayLength(&out) / 6u { return; }
@@ -61,63 +59,32 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
 fn run_kernel(l: &Lights, cam: &CameraGpu, n: u32) -> Vec<[f32; 4]> {
     let ctx = gpu::context();
     let device = &ctx.device;
-    let src = format!(
-        "{}\n{}\n{}",
-        reservoir::rng::WGSL,
-        lights::composed_wgsl(0, 0),
-        KERNEL
-    );
-    let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
-        label: Some("lights test"),
-        source: wgpu::ShaderSource::Wgsl(src.into()),
-    });
-    let mut entries = lights::bind_group_layout_entries(0);
-    for (binding, ty) in [
-        (3, wgpu::BufferBindingType::Storage { read_only: false }),
-        (4, wgpu::BufferBindingType::Uniform),
-    ] {
-        entries.push(tests::buffers::layout_entry(binding, ty));
+    let set = lights::bindings()
+        .buffer("out", "array<vec4<f32>>", Access::ReadWrite)
+        .buffer("cam", "CameraGpu", Access::Uniform);
+    // The lights' bindings header becomes the whole set's (lights + out + cam).
+    let mut modules = lights::modules(0);
+    for m in &mut modules {
+        if m.name == "lights-bindings" {
+            m.source = set.wgsl(0);
+        }
     }
-    let bgl = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-        label: Some("lights test"),
-        entries: &entries,
-    });
-    let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-        label: Some("lights test"),
-        bind_group_layouts: &[Some(&bgl)],
-        immediate_size: 0,
-    });
-    let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-        label: Some("lights test"),
-        layout: Some(&layout),
-        module: &module,
-        entry_point: Some("main"),
-        compilation_options: Default::default(),
-        cache: None,
-    });
+    modules.extend([
+        WgslModule::new("rng", &[], reservoir::rng::WGSL),
+        WgslModule::new("workgroup", &[], restir_world::gpu::workgroup_size_wgsl()),
+        WgslModule::new("kernel", &["rng", "lights", "workgroup"], KERNEL),
+    ]);
+    let layout = set.layout(device);
+    let src = restir_world::gpu::compose(&modules).expect("compose");
+    let kernel = Kernel::new(device, "lights test", &src, &[&layout], &["main"]);
     let gl = GpuLights::new(device, l).unwrap();
     let out = buffers::storage_zeroed(device, "out", u64::from(n) * 6 * 16);
     let cam_buf = buffers::with_usage(device, "cam", &[*cam], wgpu::BufferUsages::UNIFORM);
-    let mut bg_entries = gl.bind_group_entries(0).to_vec();
-    bg_entries.push(wgpu::BindGroupEntry {
-        binding: 3,
-        resource: out.as_entire_binding(),
-    });
-    bg_entries.push(wgpu::BindGroupEntry {
-        binding: 4,
-        resource: cam_buf.as_entire_binding(),
-    });
-    let bg = device.create_bind_group(&wgpu::BindGroupDescriptor {
-        label: Some("lights test"),
-        layout: &bgl,
-        entries: &bg_entries,
-    });
-    gpu::run(ctx, |enc| {
-        let mut pass = enc.begin_compute_pass(&Default::default());
-        pass.set_pipeline(&pipeline);
-        pass.set_bind_group(0, &bg, &[]);
-        pass.dispatch_workgroups(n.div_ceil(64), 1, 1);
-    });
+    let mut res: Vec<(&str, Resource)> = gl.resources().into();
+    res.extend([("out", (&out).into()), ("cam", (&cam_buf).into())]);
+    let group = layout.bind(device, res).expect("bind");
+    let pass = kernel.pass(device, "main", &[&group], n);
+    gpu::run(ctx, |enc| pass.record(enc));
     buffers::read(ctx, &out).unwrap()
 }
 

@@ -2,20 +2,22 @@
 //! determinism for a seed.
 
 use restir_world::image_io::Image;
+use restir_world::methods::render_frames;
 use restir_world::reference::{ReferenceOptions, ReferenceRenderer, Rendered};
-use restir_world::render::{Method, Renderer, ris};
+use restir_world::render::{Renderer, ris};
+use restir_world::sampling::Estimator;
 use restir_world::scene::{Scene, builtin, furnace};
 use tests::gpu;
 
-fn render(scene: &Scene, w: u32, h: u32, method: Method, seed: u32, frames: u32) -> Rendered {
+fn render(scene: &Scene, w: u32, h: u32, method: Estimator, seed: u32, frames: u32) -> Rendered {
     let ctx = gpu::context();
     let camera = scene.camera_or_default(w, h);
     let mut r = Renderer::new(ctx, scene, &camera, method, seed).expect("renderer");
-    let times = r.render(ctx, frames, |_| {}).expect("render");
+    let (images, times) = render_frames(ctx, &mut r, frames).expect("render");
     if let Some(t) = times {
-        eprintln!("{method:?}: {:?}", t.per_frame());
+        eprintln!("{method:?}: {}", t.line());
     }
-    r.images(ctx).expect("images")
+    images.into_rendered().expect("images")
 }
 
 /// Largest relative error of the image means against the furnace's analytic values:
@@ -41,7 +43,7 @@ fn furnace_error(img: &Rendered, rho: f64, le: f64) -> f64 {
 fn furnace_matches_analytic_nee_and_ris() {
     let (rho, le) = (0.5f32, 1.0f32);
     let scene = furnace(rho, le, 64, 64).expect("furnace");
-    for method in [Method::Nee, ris()] {
+    for method in [Estimator::Nee, ris()] {
         let img = render(&scene, 64, 64, method, 1, 64);
         let err = furnace_error(&img, f64::from(rho), f64::from(le));
         eprintln!(
@@ -61,7 +63,7 @@ fn no_emitters_renders_black_without_nan() {
     for m in &mut scene.materials {
         m.emission = [0.0; 3];
     }
-    for method in [Method::Nee, ris()] {
+    for method in [Estimator::Nee, ris()] {
         let img = render(&scene, 24, 24, method, 3, 2);
         assert!(
             img.combined.pixels.iter().flatten().all(|&v| v == 0.0),
@@ -128,7 +130,7 @@ fn gpu_matches_cpu_reference_on_cornell() {
     let (w, h, n) = (32, 32, 256);
     let camera = scene.camera_or_default(w, h);
     let reference = ReferenceRenderer::new(&scene).expect("reference");
-    for method in [Method::Nee, ris()] {
+    for method in [Estimator::Nee, ris()] {
         let gpu_a = render(&scene, w, h, method, 21, n);
         let gpu_b = render(&scene, w, h, method, 22, n);
         let cpu = reference
@@ -217,19 +219,19 @@ fn bad_settings_are_errors() {
     let ctx = gpu::context();
     let scene = builtin("cornell", &Default::default()).expect("cornell");
     let camera = scene.camera_or_default(8, 8);
-    let zero_k = Method::Ris { candidates: 0 };
+    let zero_k = Estimator::Ris { candidates: 0 };
     assert!(Renderer::new(ctx, &scene, &camera, zero_k, 0).is_err());
     let huge = scene.camera_or_default(16384, 16384);
     assert!(matches!(
-        Renderer::new(ctx, &scene, &huge, Method::Nee, 0),
-        Err(restir_world::render::RenderError::TooLarge { .. })
+        Renderer::new(ctx, &scene, &huge, Estimator::Nee, 0),
+        Err(restir_world::render::RenderError::Gpu(
+            restir_world::GpuError::TooLarge { .. }
+        ))
     ));
-    assert!(
-        restir_world::render::render_images(ctx, &scene, &camera, Method::Nee, 0, 0, |_| {})
-            .is_err()
-    );
+    let mut r = Renderer::new(ctx, &scene, &camera, Estimator::Nee, 0).expect("renderer");
+    assert!(render_frames(ctx, &mut r, 0).is_err());
     let empty = restir_world::scene::Scene::default();
-    assert!(Renderer::new(ctx, &empty, &camera, Method::Nee, 0).is_err());
+    assert!(Renderer::new(ctx, &empty, &camera, Estimator::Nee, 0).is_err());
 }
 
 #[test]
@@ -291,7 +293,7 @@ fn cpu_render(scene: &Scene, spp: u32) -> Rendered {
         .render(
             &camera,
             &ReferenceOptions {
-                method: Method::Nee,
+                method: Estimator::Nee,
                 spp,
                 seed: 9,
                 threads: 0,
@@ -314,7 +316,7 @@ fn cpu_render(scene: &Scene, spp: u32) -> Rendered {
 fn scaled_scene_renders_the_same() {
     const BOUND: f64 = 0.02;
     let base = builtin("cornell", &Default::default()).expect("cornell");
-    let want_gpu = render(&base, 32, 32, Method::Nee, 5, 16);
+    let want_gpu = render(&base, 32, 32, Estimator::Nee, 5, 16);
     let want_cpu = cpu_render(&base, 4);
     for s in [1e-3f32, 1e-4, 1e-5, 1e-10, 1e4, 3e9] {
         let mut scene = scaled(&base, s);
@@ -323,7 +325,7 @@ fn scaled_scene_renders_the_same() {
             report.degenerate, 0,
             "scale {s}: degenerate triangles dropped"
         );
-        let got_gpu = render(&scene, 32, 32, Method::Nee, 5, 16);
+        let got_gpu = render(&scene, 32, 32, Estimator::Nee, 5, 16);
         let got_cpu = cpu_render(&scene, 4);
         for (name, g, w) in [
             ("gpu direct", &got_gpu.direct, &want_gpu.direct),

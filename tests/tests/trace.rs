@@ -172,15 +172,17 @@ fn gpu_trace(bvh: &Bvh, rays: &[Ray], any_hit: bool) -> Vec<Hit> {
     let hits_buf =
         buffers::storage_zeroed(&ctx.device, "hits", (rays.len() * size_of::<Hit>()) as u64);
     gpu::run(ctx, |enc| {
-        kernel.encode(
-            &ctx.device,
-            enc,
-            &gpu_bvh,
-            &rays_buf,
-            &hits_buf,
-            rays.len() as u32,
-            any_hit,
-        )
+        kernel
+            .encode(
+                &ctx.device,
+                enc,
+                &gpu_bvh,
+                &rays_buf,
+                &hits_buf,
+                rays.len() as u32,
+                any_hit,
+            )
+            .expect("trace")
     });
     let mut hits: Vec<Hit> = buffers::read(ctx, &hits_buf).expect("readback");
     hits.truncate(rays.len());
@@ -350,7 +352,7 @@ fn empty_scene_is_an_error() {
 
 #[test]
 fn gpu_structs_match_wgsl_layout() {
-    let src = trace::composed_library(1, 0);
+    let src = trace::kernel_source();
     tests::assert_wgsl_layout!(
         trace::BvhNode,
         src,

@@ -1,10 +1,12 @@
 //! World-space ReSTIR GI: layouts, grid build by readback, reuse-off equivalence with the `ris`
 //! baseline (with a planted-bias control), determinism, and no NaN/Inf over many frames.
 
-use restir_world::render::{Method, Renderer};
-use restir_world::scene::{BuiltinOptions, Camera, Scene, builtin};
+use restir_world::methods::FrameMethod;
+use restir_world::render::Renderer;
+use restir_world::sampling::Estimator;
+use restir_world::scene::{BuiltinOptions, Camera, CameraPath, Scene, builtin};
 use restir_world::world_restir::{
-    self, CameraPath, DebugView, WorldRestir, WorldRestirConfig, WrParams, WrPass, WrReservoir,
+    self, DebugView, WorldRestir, WorldRestirConfig, WrParams, WrPass, WrReservoir,
 };
 use tests::gpu;
 
@@ -77,7 +79,7 @@ fn grid_build_stores_every_vertex_once() {
     let cam = s.camera_or_default(40, 40);
     let mut wr = WorldRestir::new(ctx, &s, &cam, small(), 3).expect("world-restir");
     for frame in 0..2 {
-        wr.render(ctx, 1, None, |_| {}).expect("render");
+        gpu::render(&mut wr, 1);
         let g = wr.grid(ctx).expect("grid");
         let stats = wr.grid_stats(ctx).expect("stats");
         assert_eq!(stats.overflows, 0);
@@ -117,26 +119,11 @@ fn grid_build_stores_every_vertex_once() {
 }
 
 /// Per-frame mean luminance of the indirect image over `frames` frames.
-fn frame_means_wr(wr: &mut WorldRestir, frames: u32) -> Vec<f64> {
-    let ctx = gpu::context();
+fn frame_means(m: &mut dyn FrameMethod, frames: u32) -> Vec<f64> {
     (0..frames)
         .map(|_| {
-            wr.render(ctx, 1, None, |_| {}).expect("render");
-            mean_lum(&wr.last_frame(ctx).expect("frame").indirect)
-        })
-        .collect()
-}
-
-fn frame_means_baseline(r: &mut Renderer, frames: u32) -> Vec<f64> {
-    let ctx = gpu::context();
-    (0..frames)
-        .map(|_| {
-            r.render(ctx, 1, |_| {}).expect("render");
-            mean_lum(
-                &world_restir::read_last_frame(ctx, r)
-                    .expect("frame")
-                    .indirect,
-            )
+            gpu::render(m, 1);
+            mean_lum(&gpu::last_frame(m).indirect)
         })
         .collect()
 }
@@ -184,11 +171,11 @@ fn reuse_off_equals_ris_in_expectation() {
             11,
         )
         .expect("world-restir");
-        let mut ris =
-            Renderer::new(ctx, &s, &cam, Method::Ris { candidates: 16 }, 12).expect("ris");
+        let ris = Estimator::Ris { candidates: 16 };
+        let mut ris = Renderer::new(ctx, &s, &cam, ris, 12).expect("ris");
         let frames = 96;
-        let a = frame_means_wr(&mut wr, frames);
-        let b = frame_means_baseline(&mut ris, frames);
+        let a = frame_means(&mut wr, frames);
+        let b = frame_means(&mut ris, frames);
         let (ok, rel, se) = equivalent(&a, &b, MARGIN);
         eprintln!("{name}: reuse off vs ris: rel diff {rel:+.4}, rel se {se:.4}");
         assert!(
@@ -210,8 +197,8 @@ fn same_seed_same_images() {
     let cam = s.camera_or_default(32, 32);
     let run = |seed| {
         let mut wr = WorldRestir::new(ctx, &s, &cam, small(), seed).expect("world-restir");
-        wr.render(ctx, 3, None, |_| {}).expect("render");
-        wr.images(ctx).expect("images")
+        gpu::render(&mut wr, 3);
+        gpu::images(&wr)
     };
     let a = run(5);
     let b = run(5);
@@ -251,10 +238,10 @@ fn no_nan_over_many_frames_overflow_and_camera_cut() {
             let mut overflows = 0u32;
             for f in 0..frames {
                 if f == frames / 2 {
-                    wr.set_camera(&ctx.queue, &cut).expect("cut");
+                    wr.set_camera(&cut).expect("cut");
                 }
-                wr.render(ctx, 1, None, |_| {}).expect("render");
-                let img = wr.last_frame(ctx).expect("frame");
+                gpu::render(&mut wr, 1);
+                let img = gpu::last_frame(&wr);
                 assert_finite(&format!("{name} {label} frame {f}"), &img.indirect);
                 assert_finite(&format!("{name} {label} frame {f}"), &img.direct);
                 overflows = overflows.max(wr.grid_stats(ctx).expect("stats").overflows);
@@ -280,9 +267,8 @@ fn orbit_and_debug_views() {
         frames: 8,
         degrees: 20.0,
     };
-    wr.render(ctx, 8, Some((&path, &cam)), |_| {})
-        .expect("render");
-    assert_finite("orbit", &wr.images(ctx).expect("images").indirect);
+    gpu::render_path(&mut wr, 8, path);
+    assert_finite("orbit", &gpu::images(&wr).indirect);
     let cells = wr.debug_image(ctx, DebugView::Cells).expect("cells");
     let distinct: std::collections::HashSet<[u32; 3]> =
         cells.iter().map(|c| c.map(f32::to_bits)).collect();
@@ -293,11 +279,26 @@ fn orbit_and_debug_views() {
     );
     let m = wr.debug_image(ctx, DebugView::M).expect("m");
     assert!(m.iter().any(|c| c.iter().any(|&v| v > 0.0)));
-    let o = wr.debug_image(ctx, DebugView::Overflow).expect("overflow");
-    assert!(o.iter().all(|c| c[1] >= 0.0), "overflow view");
-    assert!(
-        !o.iter().any(|c| c == &[1.0, 0.0, 0.0]),
-        "no overflow expected"
+    // The overflow view is red exactly at the vertices the grid left out: none with the
+    // defaults, as many as the table's statistics count with a table too small for the frame.
+    let red = |wr: &WorldRestir| {
+        let o = wr.debug_image(ctx, DebugView::Overflow).expect("overflow");
+        o.iter().filter(|c| *c == &[1.0, 0.0, 0.0]).count() as u32
+    };
+    assert_eq!(red(&wr), 0, "no overflow expected with the defaults");
+    let tiny = WorldRestirConfig {
+        buckets: Some(4),
+        slots: 2,
+        ..small()
+    };
+    let mut wr = WorldRestir::new(ctx, &s, &cam, tiny, 2).expect("world-restir");
+    gpu::render(&mut wr, 2);
+    let overflows = wr.grid_stats(ctx).expect("stats").overflows;
+    assert!(overflows > 0, "the tiny table did not overflow");
+    assert_eq!(
+        red(&wr),
+        overflows,
+        "overflow view against the grid's count"
     );
 }
 
@@ -333,8 +334,8 @@ fn other_knobs_render_finite_non_black() {
     ];
     for config in configs {
         let mut wr = WorldRestir::new(ctx, &s, &cam, config, 4).expect("world-restir");
-        wr.render(ctx, 4, None, |_| {}).expect("render");
-        let img = wr.images(ctx).expect("images");
+        gpu::render(&mut wr, 4);
+        let img = gpu::images(&wr);
         assert_finite("knobs", &img.indirect);
         assert!(mean_lum(&img.indirect) > 0.0, "{config:?}: black indirect");
     }
@@ -362,19 +363,18 @@ fn five_hundred_frames_every_scene_overflowing_with_cut() {
             frames: 250,
             degrees: 40.0,
         };
-        wr.render(ctx, 1, None, |_| {}).expect("render");
+        gpu::render(&mut wr, 1);
         let overflows = wr.grid_stats(ctx).expect("stats").overflows;
         assert!(overflows > 0, "{name}: the tiny table did not overflow");
-        wr.render(ctx, 249, Some((&orbit, &cam)), |_| {})
-            .expect("render");
+        gpu::render_path(&mut wr, 249, orbit);
         let cut = Camera {
             eye: cam.target + (cam.target - cam.eye) * 0.3,
             target: cam.target + (cam.target - cam.eye),
             ..cam
         };
-        wr.set_camera(&ctx.queue, &cut).expect("cut");
-        wr.render(ctx, 250, None, |_| {}).expect("render");
-        let img = wr.images(ctx).expect("images");
+        wr.set_camera(&cut).expect("cut");
+        gpu::render(&mut wr, 250);
+        let img = gpu::images(&wr);
         assert_eq!(img.frames, 500);
         assert_finite(&format!("{name} 500 frames"), &img.indirect);
         assert_finite(&format!("{name} 500 frames"), &img.direct);

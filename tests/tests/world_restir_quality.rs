@@ -3,9 +3,10 @@
 //! against the `ris` and `nee` baselines at the same sample count, at 96x96 and 64x64.
 
 use restir_world::metrics;
-use restir_world::render::{Method, Renderer};
+use restir_world::render::Renderer;
+use restir_world::sampling::Estimator;
 use restir_world::scene::{BuiltinOptions, Camera, Scene, builtin};
-use restir_world::world_restir::{self, Combine, WorldRestir, WorldRestirConfig};
+use restir_world::world_restir::{Combine, WorldRestir, WorldRestirConfig};
 use std::sync::Mutex;
 
 use tests::gpu;
@@ -43,11 +44,10 @@ fn reference(name: &str, side: u32) -> Vec<[f32; 3]> {
     }
     let ctx = gpu::context();
     let (s, cam) = scene(name, side);
-    let mut r = Renderer::new(ctx, &s, &cam, Method::Ris { candidates: 16 }, 1000).expect("ris");
-    r.render(ctx, REFERENCE_FRAMES, |_| {}).expect("render");
-    let img = world_restir::read_accumulated(ctx, &r)
-        .expect("images")
-        .indirect;
+    let ris = Estimator::Ris { candidates: 16 };
+    let mut r = Renderer::new(ctx, &s, &cam, ris, 1000).expect("ris");
+    gpu::render(&mut r, REFERENCE_FRAMES);
+    let img = gpu::images(&r).indirect;
     cache.push((name.to_owned(), side, img.clone()));
     img
 }
@@ -73,8 +73,8 @@ fn relative_bias(
     let mut got = [0.0; 3];
     for seed in seeds {
         let mut wr = WorldRestir::new(ctx, &s, &cam, config, seed).expect("wr");
-        wr.render(ctx, frames, None, |_| {}).expect("render");
-        let m = channel_means(&wr.images(ctx).expect("images").indirect);
+        gpu::render(&mut wr, frames);
+        let m = channel_means(&gpu::images(&wr).indirect);
         for c in 0..3 {
             got[c] += m[c] / runs;
         }
@@ -158,14 +158,12 @@ fn single_frame_noise_lower_than_ris_and_nee_on_many_lights() {
     let (s, cam) = scene("many-lights", NOISE_SIDE);
     let reference = reference("many-lights", NOISE_SIDE);
     let mut base = Vec::new();
-    for method in [Method::Ris { candidates: 16 }, Method::Nee] {
-        let mut r = Renderer::new(ctx, &s, &cam, method, 300).expect("baseline");
+    for estimator in [Estimator::Ris { candidates: 16 }, Estimator::Nee] {
+        let mut r = Renderer::new(ctx, &s, &cam, estimator, 300).expect("baseline");
         base.push(frame_errors(
             || {
-                r.render(ctx, 1, |_| {}).expect("render");
-                world_restir::read_last_frame(ctx, &r)
-                    .expect("frame")
-                    .indirect
+                gpu::render(&mut r, 1);
+                gpu::last_frame(&r).indirect
             },
             &reference,
         ));
@@ -175,11 +173,11 @@ fn single_frame_noise_lower_than_ris_and_nee_on_many_lights() {
     for seed in 200..203 {
         let mut wr =
             WorldRestir::new(ctx, &s, &cam, WorldRestirConfig::default(), seed).expect("wr");
-        wr.render(ctx, 8, None, |_| {}).expect("warmup");
+        gpu::render(&mut wr, 8);
         let e = frame_errors(
             || {
-                wr.render(ctx, 1, None, |_| {}).expect("render");
-                wr.last_frame(ctx).expect("frame").indirect
+                gpu::render(&mut wr, 1);
+                gpu::last_frame(&wr).indirect
             },
             &reference,
         );

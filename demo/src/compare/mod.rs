@@ -10,13 +10,12 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result, bail};
 use indicatif::{ProgressBar, ProgressStyle};
-use restir_world::gpu::buffers;
+use restir_world::GpuContext;
+use restir_world::gpu::PassTimes;
 use restir_world::gpu_reference::{self, GpuReference, ReferenceSettings};
+use restir_world::methods::{self, FrameLoop, FrameMethod, Readback, run_frames};
 use restir_world::metrics;
-use restir_world::render::{self, FrameMethod};
 use restir_world::scene::{self, BuiltinOptions, Camera, Scene};
-use restir_world::world_restir::CameraPath;
-use restir_world::{GpuContext, GpuTimer};
 use serde::Serialize;
 
 /// A linear RGB image's pixels.
@@ -45,36 +44,11 @@ pub struct CompareOptions {
     pub progress: bool,
 }
 
-/// How the camera moves over the frames (restir-world's camera paths).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum, Serialize)]
-#[serde(rename_all = "kebab-case")]
-pub enum CameraMode {
-    /// The scene's camera, every frame.
-    Static,
-    /// Orbits the target about the up axis, 1 degree per frame.
-    Orbit,
-    /// Moves towards the target, 1% of the distance per frame, at most half of it over the run
-    /// (so that long runs never reach the target).
-    Dolly,
-}
-
-/// The largest fraction of the eye-target distance a dolly covers in one run.
-const MAX_DOLLY_FRACTION: f32 = 0.5;
+/// How the camera moves over the frames.
+pub use crate::camera::Motion as CameraMode;
 
 fn camera_at(base: &Camera, mode: CameraMode, frames: u32, frame: u32) -> Camera {
-    let frames = frames.max(1);
-    let path = match mode {
-        CameraMode::Static => CameraPath::Static,
-        CameraMode::Orbit => CameraPath::Orbit {
-            frames,
-            degrees: frames as f32,
-        },
-        CameraMode::Dolly => CameraPath::Dolly {
-            frames,
-            fraction: (0.01 * frames as f32).min(MAX_DOLLY_FRACTION),
-        },
-    };
-    path.camera(base, frame)
+    mode.per_frame(frames).camera(base, frame)
 }
 
 // ---------------------------------------------------------------- report data (report.json)
@@ -323,10 +297,9 @@ fn run_method(
     bar: &ProgressBar,
     keep_last: &mut Option<Vec<[f32; 3]>>,
 ) -> Result<MethodRun> {
-    let entry = render::methods::entry(spec)?;
-    let mut m: Box<dyn FrameMethod> = render::build_method(spec, ctx, scene, base, opts.seed)?;
-    let pixels = m.renderer().pixels() as usize;
-    let mut timer = GpuTimer::new(ctx, m.spans_per_frame());
+    let entry = methods::entry(spec)?;
+    let mut m: Box<dyn FrameMethod> = methods::build_method(spec, ctx, scene, base, opts.seed)?;
+    let pixels = (base.width * base.height) as usize;
     let static_camera = opts.camera == CameraMode::Static;
     let mut acc_ind = vec![[0f64; 3]; pixels];
     let mut acc_dir = vec![[0f64; 3]; pixels];
@@ -337,57 +310,31 @@ fn run_method(
     // Per channel: sums of the method's and the reference's pixels over the evaluated frames.
     let mut sums_indirect: Option<[[f64; 3]; 2]> = None;
     let mut sums_combined: Option<[[f64; 3]; 2]> = None;
-    for f in 0..frames {
-        if !static_camera {
-            m.set_camera(ctx, &camera_at(base, opts.camera, opts.frames, f))?;
+    // The spans of the record in progress (spp frames, one submission each).
+    let mut stages = PassTimes::default();
+    let l = FrameLoop {
+        records: frames,
+        samples: spp,
+        path: opts.camera.per_frame(opts.frames),
+        restart: true,
+        ..FrameLoop::frames(frames)
+    };
+    run_frames(ctx, m.as_mut(), &l, |m, s| -> Result<()> {
+        if let Some(t) = s.times {
+            stages.add(t);
         }
-        // One submission per sample (methods may write uniforms through the queue between
-        // frames); the accumulation buffers are cleared first so they hold this frame only.
-        let mut frame_ms: Option<f64> = timer.is_available().then_some(0.0);
-        let mut stages: Vec<Stage> = Vec::new();
-        for sub in 0..spp {
-            timer.reset();
-            let mut enc = ctx.device.create_command_encoder(&Default::default());
-            if sub == 0 {
-                enc.clear_buffer(&m.renderer().buffers.accum_direct, 0, None);
-                enc.clear_buffer(&m.renderer().buffers.accum_indirect, 0, None);
-            }
-            m.encode_frame(ctx, &mut enc, Some(&mut timer))?;
-            timer.resolve(&mut enc);
-            ctx.queue.submit([enc.finish()]);
-            match timer.read(ctx) {
-                Ok(t) => {
-                    for (name, ms) in &t.0 {
-                        match stages.iter_mut().find(|s| &s.name == name) {
-                            Some(s) => s.ms += ms,
-                            None => stages.push(Stage {
-                                name: name.clone(),
-                                ms: *ms,
-                            }),
-                        }
-                    }
-                    frame_ms = frame_ms.map(|f| f + t.total());
-                }
-                Err(_) => {
-                    ctx.wait()?;
-                    frame_ms = None;
-                }
-            }
+        if !s.record_done {
+            return Ok(());
         }
-        let gpu_ms = frame_ms;
+        let f = s.record;
+        let timed = std::mem::take(&mut stages);
+        let gpu_ms = s.times.map(|_| timed.total_ms());
         if let Some(ms) = gpu_ms {
             cumulative += ms;
         }
-        let read = |b: &wgpu::Buffer| -> Result<Vec<[f32; 3]>> {
-            let v: Vec<[f32; 4]> = buffers::read(ctx, b)?;
-            let s = 1.0 / spp as f32;
-            Ok(v[..pixels]
-                .iter()
-                .map(|p| [p[0] * s, p[1] * s, p[2] * s])
-                .collect())
-        };
-        let direct = read(&m.renderer().buffers.accum_direct)?;
-        let mut indirect = read(&m.renderer().buffers.accum_indirect)?;
+        let images = m.read(ctx, Readback::Accumulated)?;
+        let direct = images.direct;
+        let mut indirect = images.indirect;
         if let Some(b) = bias {
             for p in &mut indirect {
                 *p = p.map(|v| v * b);
@@ -402,7 +349,11 @@ fn run_method(
             frame: f,
             gpu_ms,
             cumulative_gpu_ms: gpu_ms.map(|_| cumulative),
-            stages,
+            stages: timed
+                .passes
+                .into_iter()
+                .map(|(name, ms)| Stage { name, ms })
+                .collect(),
             indirect: None,
             combined: None,
             accumulated_rel_mse_indirect: None,
@@ -446,7 +397,8 @@ fn run_method(
         }
         records.push(rec);
         bar.inc(1);
-    }
+        Ok(())
+    })?;
 
     let half = frames / 2;
     let mean_err = |pick: fn(&FrameRecord) -> Option<Err2>| -> Option<Err2> {
@@ -465,7 +417,7 @@ fn run_method(
     let frame_indirect = mean_err(|r| r.indirect);
     let frame_combined = mean_err(|r| r.combined);
     let timed = &records[TIMING_WARMUP_FRAMES.min(frames.saturating_sub(1)) as usize..];
-    let times = TimeSummary::of(timed, timer.is_available());
+    let times = TimeSummary::of(timed, ctx.features.timestamps);
     let mut run = MethodRun {
         method: spec.to_owned(),
         about: entry.about.to_owned(),
@@ -700,8 +652,7 @@ fn equal_time_target(opts: &CompareOptions, runs: &[MethodRun]) -> Option<usize>
         return runs.iter().position(|r| &r.method == t);
     }
     if let Some(i) = runs.iter().position(|r| {
-        render::methods::entry(&r.method).is_ok_and(|e| e.equal_time_target)
-            && r.planted_bias.is_none()
+        methods::entry(&r.method).is_ok_and(|e| e.equal_time_target) && r.planted_bias.is_none()
     }) {
         return Some(i);
     }
@@ -923,7 +874,7 @@ pub fn check(opts: &CompareOptions) -> Result<()> {
         bail!("--scene is empty");
     }
     for (i, m) in opts.methods.iter().enumerate() {
-        render::methods::check_spec(m).with_context(|| format!("--methods {m}"))?;
+        methods::check_spec(m).with_context(|| format!("--methods {m}"))?;
         if opts.methods[..i].contains(m) {
             bail!("--methods lists {m:?} twice (a method compared with itself)");
         }
@@ -1015,31 +966,4 @@ fn run_scenes(
     };
     output::write_all(&opts.out, &report, &strip)?;
     Ok(report)
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    /// A dolly over 150 frames used to reach the target at frame 100 ("eye and target
-    /// coincide"); every frame's camera of a long run is now valid.
-    #[test]
-    fn long_dolly_never_reaches_the_target() {
-        let base = Camera {
-            eye: glam::Vec3::new(0.0, 1.0, 5.0),
-            target: glam::Vec3::new(0.0, 1.0, 0.0),
-            up: glam::Vec3::Y,
-            vfov_deg: 40.0,
-            width: 8,
-            height: 8,
-        };
-        for frames in [1, 100, 150, 10_000] {
-            for f in [0, frames / 2, frames - 1] {
-                let c = camera_at(&base, CameraMode::Dolly, frames, f);
-                c.validate()
-                    .unwrap_or_else(|e| panic!("{frames} frames, frame {f}: {e}"));
-                assert!((c.eye - c.target).length() >= 0.5 * 5.0 - 1e-4);
-            }
-        }
-    }
 }

@@ -3,8 +3,8 @@
 use std::fmt::Write as _;
 use std::path::Path;
 
-use anyhow::{Context, Result};
-use restir_world::image_io::tone_map;
+use anyhow::Result;
+use restir_world::image_io::{self, tone_map};
 use restir_world::metrics;
 
 use super::{Err2, Report, plot};
@@ -31,11 +31,7 @@ pub fn write_all(out: &Path, report: &Report, strip: &[StripRow]) -> Result<()> 
 }
 
 fn write(dir: &Path, name: &str, bytes: &[u8]) -> Result<()> {
-    let path = dir.join(name);
-    let tmp = dir.join(format!(".{name}.tmp{}", std::process::id()));
-    std::fs::write(&tmp, bytes).with_context(|| format!("writing {}", tmp.display()))?;
-    std::fs::rename(&tmp, &path).with_context(|| format!("writing {}", path.display()))?;
-    Ok(())
+    Ok(image_io::write_bytes(&dir.join(name), bytes)?)
 }
 
 /// A perceptually ordered dark-to-bright colour map (black, purple, red, orange, pale yellow)
@@ -89,8 +85,7 @@ fn write_strip(path: &Path, rows: &[StripRow]) -> Result<()> {
         }
         y0 += row.height + GAP;
     }
-    img.save_with_format(path, image::ImageFormat::Png)
-        .with_context(|| format!("writing {}", path.display()))
+    Ok(image_io::write_png8(path, img)?)
 }
 
 fn sci(v: Option<f64>) -> String {

@@ -35,6 +35,30 @@ pub enum GpuError {
     /// The feature is not available on this adapter.
     #[error("{0} is unavailable on this adapter")]
     Unavailable(&'static str),
+    /// A bind group was bound with a missing, unknown or repeated name (a programming error
+    /// caught before wgpu's validation).
+    #[error("{0}")]
+    Binding(String),
+    /// A pipeline declares more storage buffers than the device allows.
+    #[error(
+        "the {pipeline} pipeline needs {needed} storage buffers per shader stage; the {backend} \
+         backend (adapter {adapter:?}) allows {limit} (max_storage_buffers_per_shader_stage). \
+         Use a backend that allows more, e.g. WGPU_BACKEND=vulkan"
+    )]
+    TooManyStorageBuffers {
+        pipeline: String,
+        needed: u32,
+        limit: u32,
+        backend: String,
+        adapter: String,
+    },
+    /// A buffer larger than the device allows in one binding.
+    #[error("{what} needs {bytes} bytes in one buffer, above the adapter's limit of {limit}")]
+    TooLarge {
+        what: String,
+        bytes: u64,
+        limit: u64,
+    },
 }
 
 /// Optional adapter features this project uses when they are present.
@@ -179,8 +203,47 @@ impl GpuContext {
 
     /// Largest number of `u32` one storage binding can hold on this device.
     pub fn max_storage_u32s(&self) -> u64 {
+        self.max_binding_bytes() / 4
+    }
+
+    /// Largest size in bytes of one storage binding on this device.
+    pub fn max_binding_bytes(&self) -> u64 {
         let l = self.limits();
-        l.max_storage_buffer_binding_size.min(l.max_buffer_size) / 4
+        l.max_storage_buffer_binding_size.min(l.max_buffer_size)
+    }
+
+    /// Checks that a buffer of `bytes` for `what` fits one storage binding.
+    pub fn check_binding_size(&self, what: &str, bytes: u64) -> Result<(), GpuError> {
+        let limit = self.max_binding_bytes();
+        if bytes > limit {
+            return Err(GpuError::TooLarge {
+                what: what.to_owned(),
+                bytes,
+                limit,
+            });
+        }
+        Ok(())
+    }
+
+    /// Checks that a pipeline whose bind groups are `sets` fits the device's
+    /// `max_storage_buffers_per_shader_stage`.
+    pub fn check_storage_buffers(
+        &self,
+        pipeline: &str,
+        sets: &[&super::BindingSet],
+    ) -> Result<(), GpuError> {
+        let needed = sets.iter().map(|s| s.storage_buffers()).sum();
+        let limit = self.limits().max_storage_buffers_per_shader_stage;
+        if needed > limit {
+            return Err(GpuError::TooManyStorageBuffers {
+                pipeline: pipeline.to_owned(),
+                needed,
+                limit,
+                backend: format!("{:?}", self.info.backend),
+                adapter: self.info.name.clone(),
+            });
+        }
+        Ok(())
     }
 
     /// Blocks until all submitted work is done.

@@ -2,12 +2,13 @@ use std::fmt;
 
 use super::{GpuContext, GpuError, buffers};
 
-/// Named GPU timestamp spans inside one command encoder.
+/// Named GPU timestamp spans inside one command encoder, as many as are recorded (the query
+/// sets grow by [`SPANS_PER_SET`] spans when full).
 ///
 /// ```no_run
 /// # use restir_world::{GpuContext, GpuTimer};
 /// # let ctx = GpuContext::new()?;
-/// let mut timer = GpuTimer::new(&ctx, 16);
+/// let mut timer = GpuTimer::new(&ctx);
 /// let mut encoder = ctx.device.create_command_encoder(&Default::default());
 /// timer.span(&mut encoder, "my pass", |enc| {
 ///     // record compute passes into `enc`
@@ -25,16 +26,20 @@ use super::{GpuContext, GpuError, buffers};
 /// still run, and [`GpuTimer::read`] answers [`GpuError::Unavailable`]: never a time of 0.
 #[derive(Debug)]
 pub struct GpuTimer {
-    queries: Option<Queries>,
-    capacity: u32,
+    /// `None` without timestamp queries.
+    device: Option<wgpu::Device>,
+    sets: Vec<QuerySet>,
+    period_ns: f32,
     names: Vec<String>,
 }
 
+/// Spans per query set.
+pub const SPANS_PER_SET: u32 = 16;
+
 #[derive(Debug)]
-struct Queries {
+struct QuerySet {
     set: wgpu::QuerySet,
     resolve: wgpu::Buffer,
-    period_ns: f32,
 }
 
 /// Milliseconds per named span, in recording order.
@@ -73,33 +78,19 @@ impl fmt::Display for SpanTimes {
 }
 
 impl GpuTimer {
-    /// A timer with room for `capacity` spans per recording.
-    pub fn new(ctx: &GpuContext, capacity: u32) -> Self {
-        let capacity = capacity.max(1);
-        let queries = ctx.features.timestamps.then(|| Queries {
-            set: ctx.device.create_query_set(&wgpu::QuerySetDescriptor {
-                label: Some("GpuTimer queries"),
-                ty: wgpu::QueryType::Timestamp,
-                count: capacity * 2,
-            }),
-            resolve: ctx.device.create_buffer(&wgpu::BufferDescriptor {
-                label: Some("GpuTimer resolve"),
-                size: u64::from(capacity) * 16,
-                usage: wgpu::BufferUsages::QUERY_RESOLVE | wgpu::BufferUsages::COPY_SRC,
-                mapped_at_creation: false,
-            }),
-            period_ns: ctx.queue.get_timestamp_period(),
-        });
+    /// A timer on `ctx`'s device (inert when the adapter has no timestamp queries).
+    pub fn new(ctx: &GpuContext) -> Self {
         Self {
-            queries,
-            capacity,
+            device: ctx.features.timestamps.then(|| ctx.device.clone()),
+            sets: Vec::new(),
+            period_ns: ctx.queue.get_timestamp_period(),
             names: Vec::new(),
         }
     }
 
     /// Whether this timer records anything (the adapter has timestamp queries).
     pub fn is_available(&self) -> bool {
-        self.queries.is_some()
+        self.device.is_some()
     }
 
     /// Forgets the recorded spans so the timer can be used for another encoder.
@@ -108,54 +99,82 @@ impl GpuTimer {
     }
 
     /// Records `body` into `encoder` between two timestamps named `name`.
-    ///
-    /// # Panics
-    /// When more than `capacity` spans are recorded before [`GpuTimer::reset`]: a programming
-    /// error, not a runtime condition.
     pub fn span<R>(
         &mut self,
         encoder: &mut wgpu::CommandEncoder,
         name: &str,
         body: impl FnOnce(&mut wgpu::CommandEncoder) -> R,
     ) -> R {
-        let index = self.names.len() as u32;
-        assert!(
-            index < self.capacity,
-            "GpuTimer: more than {} spans recorded",
-            self.capacity
-        );
-        self.names.push(name.to_owned());
-        if let Some(q) = &self.queries {
-            encoder.write_timestamp(&q.set, index * 2);
-        }
+        let index = self.begin(encoder, name);
         let out = body(encoder);
-        if let Some(q) = &self.queries {
-            encoder.write_timestamp(&q.set, index * 2 + 1);
-        }
+        self.end(encoder, index);
         out
     }
 
-    /// Records the copy of the timestamps into the resolve buffer; call once after the spans.
+    /// Opens the span `name` (the first timestamp); returns its index for [`GpuTimer::end`].
+    pub fn begin(&mut self, encoder: &mut wgpu::CommandEncoder, name: &str) -> u32 {
+        let index = self.names.len() as u32;
+        self.names.push(name.to_owned());
+        if let Some(device) = &self.device {
+            if index / SPANS_PER_SET >= self.sets.len() as u32 {
+                self.sets.push(QuerySet {
+                    set: device.create_query_set(&wgpu::QuerySetDescriptor {
+                        label: Some("GpuTimer queries"),
+                        ty: wgpu::QueryType::Timestamp,
+                        count: SPANS_PER_SET * 2,
+                    }),
+                    resolve: device.create_buffer(&wgpu::BufferDescriptor {
+                        label: Some("GpuTimer resolve"),
+                        size: u64::from(SPANS_PER_SET) * 16,
+                        usage: wgpu::BufferUsages::QUERY_RESOLVE | wgpu::BufferUsages::COPY_SRC,
+                        mapped_at_creation: false,
+                    }),
+                });
+            }
+            self.write(encoder, index, 0);
+        }
+        index
+    }
+
+    /// Closes the span `index` (the second timestamp).
+    pub fn end(&mut self, encoder: &mut wgpu::CommandEncoder, index: u32) {
+        if self.device.is_some() {
+            self.write(encoder, index, 1);
+        }
+    }
+
+    fn write(&self, encoder: &mut wgpu::CommandEncoder, index: u32, which: u32) {
+        let set = &self.sets[(index / SPANS_PER_SET) as usize].set;
+        encoder.write_timestamp(set, (index % SPANS_PER_SET) * 2 + which);
+    }
+
+    /// Records the copy of the timestamps into the resolve buffers; call once after the spans.
     pub fn resolve(&self, encoder: &mut wgpu::CommandEncoder) {
-        if let Some(q) = &self.queries
-            && !self.names.is_empty()
-        {
-            encoder.resolve_query_set(&q.set, 0..self.names.len() as u32 * 2, &q.resolve, 0);
+        let spans = self.names.len() as u32;
+        for (i, q) in self.sets.iter().enumerate() {
+            let first = i as u32 * SPANS_PER_SET;
+            if first < spans {
+                let n = (spans - first).min(SPANS_PER_SET);
+                encoder.resolve_query_set(&q.set, 0..n * 2, &q.resolve, 0);
+            }
         }
     }
 
     /// Reads the span times back (blocks). Call after the encoder was submitted.
     pub fn read(&self, ctx: &GpuContext) -> Result<SpanTimes, GpuError> {
-        let q = self
-            .queries
-            .as_ref()
-            .ok_or(GpuError::Unavailable("GPU timestamp queries"))?;
-        if self.names.is_empty() {
-            return Ok(SpanTimes::default());
+        if self.device.is_none() {
+            return Err(GpuError::Unavailable("GPU timestamp queries"));
         }
-        let ticks: Vec<u64> =
-            buffers::read_range(ctx, &q.resolve, 0, self.names.len() as u64 * 16)?;
-        let ms_per_tick = f64::from(q.period_ns) * 1e-6;
+        let mut ticks: Vec<u64> = Vec::new();
+        let spans = self.names.len() as u64;
+        for (i, q) in self.sets.iter().enumerate() {
+            let first = i as u64 * u64::from(SPANS_PER_SET);
+            if first < spans {
+                let n = (spans - first).min(u64::from(SPANS_PER_SET));
+                ticks.extend(buffers::read_range::<u64>(ctx, &q.resolve, 0, n * 16)?);
+            }
+        }
+        let ms_per_tick = f64::from(self.period_ns) * 1e-6;
         Ok(SpanTimes(
             self.names
                 .iter()
@@ -166,5 +185,59 @@ impl GpuTimer {
                 })
                 .collect(),
         ))
+    }
+}
+
+/// Total GPU milliseconds per span name over a number of frames: the one place span times
+/// are folded.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct PassTimes {
+    pub frames: u32,
+    pub passes: Vec<(String, f64)>,
+}
+
+impl PassTimes {
+    /// Adds one frame's spans (same names add up, new names go last).
+    pub fn add_frame(&mut self, times: &SpanTimes) {
+        self.add(times);
+        self.frames += 1;
+    }
+
+    /// Adds spans without counting a frame.
+    pub fn add(&mut self, times: &SpanTimes) {
+        for (name, ms) in &times.0 {
+            match self.passes.iter_mut().find(|(n, _)| n == name) {
+                Some((_, total)) => *total += ms,
+                None => self.passes.push((name.clone(), *ms)),
+            }
+        }
+    }
+
+    /// Total over all passes and frames.
+    pub fn total_ms(&self) -> f64 {
+        self.passes.iter().map(|(_, ms)| ms).sum()
+    }
+
+    /// Mean milliseconds of a frame.
+    pub fn ms_per_frame(&self) -> f64 {
+        self.total_ms() / f64::from(self.frames.max(1))
+    }
+
+    /// Mean milliseconds per frame of each pass.
+    pub fn per_frame(&self) -> Vec<(String, f64)> {
+        let f = f64::from(self.frames.max(1));
+        self.passes
+            .iter()
+            .map(|(n, ms)| (n.clone(), ms / f))
+            .collect()
+    }
+
+    /// `name=ms ...` per frame, for logs.
+    pub fn line(&self) -> String {
+        self.per_frame()
+            .iter()
+            .map(|(n, ms)| format!("{n}={ms:.3}"))
+            .collect::<Vec<_>>()
+            .join(" ")
     }
 }

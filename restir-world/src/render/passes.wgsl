@@ -2,17 +2,11 @@
 // render_primary -> render_gi -> [world-space ReSTIR passes go here] -> render_shade_direct,
 // render_shade_indirect -> render_accumulate.
 
-override WORKGROUP_SIZE: u32 = 64u;
-
-fn render_index(gid: vec3<u32>, groups: vec3<u32>) -> u32 {
-    return gid.x + gid.y * groups.x * WORKGROUP_SIZE;
-}
-
 // Camera ray with a uniform sub-pixel jitter (box filter) -> G-buffer.
 @compute @workgroup_size(WORKGROUP_SIZE)
 fn render_primary(@builtin(global_invocation_id) gid: vec3<u32>,
                   @builtin(num_workgroups) groups: vec3<u32>) {
-    let i = render_index(gid, groups);
+    let i = item_index(gid, groups);
     if i >= render_params.pixel_count {
         return;
     }
@@ -31,7 +25,7 @@ fn render_primary(@builtin(global_invocation_id) gid: vec3<u32>,
 @compute @workgroup_size(WORKGROUP_SIZE)
 fn render_gi(@builtin(global_invocation_id) gid: vec3<u32>,
              @builtin(num_workgroups) groups: vec3<u32>) {
-    let i = render_index(gid, groups);
+    let i = item_index(gid, groups);
     if i >= render_params.pixel_count {
         return;
     }
@@ -56,7 +50,7 @@ fn render_gi(@builtin(global_invocation_id) gid: vec3<u32>,
 @compute @workgroup_size(WORKGROUP_SIZE)
 fn render_shade_direct(@builtin(global_invocation_id) gid: vec3<u32>,
                        @builtin(num_workgroups) groups: vec3<u32>) {
-    let i = render_index(gid, groups);
+    let i = item_index(gid, groups);
     if i >= render_params.pixel_count {
         return;
     }
@@ -74,7 +68,7 @@ fn render_shade_direct(@builtin(global_invocation_id) gid: vec3<u32>,
 @compute @workgroup_size(WORKGROUP_SIZE)
 fn render_shade_indirect(@builtin(global_invocation_id) gid: vec3<u32>,
                          @builtin(num_workgroups) groups: vec3<u32>) {
-    let i = render_index(gid, groups);
+    let i = item_index(gid, groups);
     if i >= render_params.pixel_count {
         return;
     }
@@ -92,7 +86,7 @@ fn render_shade_indirect(@builtin(global_invocation_id) gid: vec3<u32>,
 @compute @workgroup_size(WORKGROUP_SIZE)
 fn render_accumulate(@builtin(global_invocation_id) gid: vec3<u32>,
                      @builtin(num_workgroups) groups: vec3<u32>) {
-    let i = render_index(gid, groups);
+    let i = item_index(gid, groups);
     if i == 0u {
         render_state.frame += 1u;
     }

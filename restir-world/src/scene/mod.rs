@@ -174,6 +174,47 @@ impl Camera {
     }
 }
 
+/// A camera animation over `frames` frames (then it repeats).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum CameraPath {
+    Static,
+    /// Orbit around the target by `degrees` about the up axis over `frames` frames.
+    Orbit {
+        frames: u32,
+        degrees: f32,
+    },
+    /// Move towards the target by `fraction` of the eye-target distance over `frames` frames.
+    Dolly {
+        frames: u32,
+        fraction: f32,
+    },
+}
+
+impl CameraPath {
+    /// The camera of frame `frame` of the path starting at `base`.
+    pub fn camera(&self, base: &Camera, frame: u32) -> Camera {
+        match *self {
+            CameraPath::Static => *base,
+            CameraPath::Orbit { frames, degrees } => {
+                let t = (frame % frames.max(1)) as f32 / frames.max(1) as f32;
+                let rot =
+                    glam::Quat::from_axis_angle(base.up.normalize(), (degrees * t).to_radians());
+                Camera {
+                    eye: base.target + rot * (base.eye - base.target),
+                    ..*base
+                }
+            }
+            CameraPath::Dolly { frames, fraction } => {
+                let t = (frame % frames.max(1)) as f32 / frames.max(1) as f32;
+                Camera {
+                    eye: base.eye + (base.target - base.eye) * (fraction * t),
+                    ..*base
+                }
+            }
+        }
+    }
+}
+
 /// A scene ready to render: triangles with materials, and an optional camera from the file.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct Scene {
@@ -378,6 +419,26 @@ impl Scene {
 
 #[cfg(test)]
 mod tests {
+    #[test]
+    fn orbit_keeps_the_distance_to_the_target() {
+        let base = Camera {
+            eye: glam::Vec3::new(0.0, 1.0, -5.0),
+            target: glam::Vec3::ZERO,
+            up: glam::Vec3::Y,
+            vfov_deg: 40.0,
+            width: 8,
+            height: 8,
+        };
+        let path = CameraPath::Orbit {
+            frames: 10,
+            degrees: 90.0,
+        };
+        for f in 0..10 {
+            let c = path.camera(&base, f);
+            assert!(((c.eye - c.target).length() - (base.eye - base.target).length()).abs() < 1e-4);
+        }
+    }
+
     use super::*;
 
     fn tri(a: [f32; 3], b: [f32; 3], c: [f32; 3]) -> Triangle {

@@ -5,11 +5,9 @@
 //! The CPU twin ([`Bvh::closest_hit`], [`Bvh::any_hit`]) runs obvhs's own CPU traversal with the
 //! same watertight triangle test, so GPU results can be compared hit for hit.
 //!
-//! WGSL composition (see the crate docs): a consumer concatenates [`constants_wgsl`],
-//! [`bindings_wgsl`] (declares `bvh_nodes`, `bvh_triangles`), [`WGSL`] (structs `BvhNode`,
-//! `BvhTriangle`, `Ray`, `Hit`; functions `trace_closest`, `trace_any`, `bvh_traverse`) and its own
-//! kernel. [`TraceKernel`] is the standalone "trace a buffer of rays" kernel used by the tests
-//! and the benchmark.
+//! WGSL: a consumer composes [`modules`] (the traversal library and its [`bindings`] at a group
+//! of its choice) with its own kernel. [`TraceKernel`] is the standalone "trace a buffer of
+//! rays" kernel used by the tests and the benchmark.
 
 use std::time::{Duration, Instant};
 
@@ -20,9 +18,12 @@ use obvhs::{
     ray::{Ray as ObvhsRay, RayHit},
 };
 
-use crate::GpuContext;
-use crate::gpu::buffers;
+use crate::gpu::{
+    Access, BindGroupLayout, BindingSet, Kernel, Pass, Resource, WgslModule, buffers, compose,
+    workgroup_size_wgsl,
+};
 use crate::scene::Scene;
+use crate::{GpuContext, GpuError};
 
 /// The traversal library (structs and functions, no bindings).
 pub const WGSL: &str = include_str!("trace.wgsl");
@@ -38,8 +39,6 @@ pub const NO_HIT: u32 = u32::MAX;
 /// walls of a scene in small units (a box of 1e-3 lost 7.6% of its indirect light); the
 /// differential tests count the few rays where only the GPU sees such a hit.
 pub const NODE_TMIN: f32 = 0.0;
-/// Workgroup size of [`TraceKernel`].
-pub const WORKGROUP_SIZE: u32 = 64;
 
 /// Errors building or uploading the BVH.
 #[derive(Debug, thiserror::Error)]
@@ -135,31 +134,22 @@ pub fn constants_wgsl() -> String {
     )
 }
 
-/// Declares `bvh_nodes` and `bvh_triangles` at `@group(group) @binding(first_binding + 0/1)`.
-pub fn bindings_wgsl(group: u32, first_binding: u32) -> String {
-    format!(
-        "@group({group}) @binding({}) var<storage, read> bvh_nodes: array<BvhNode>;\n\
-         @group({group}) @binding({}) var<storage, read> bvh_triangles: array<BvhTriangle>;\n",
-        first_binding,
-        first_binding + 1
-    )
+/// The BVH's bindings: `bvh_nodes` and `bvh_triangles`.
+pub fn bindings() -> BindingSet {
+    BindingSet::new("bvh")
+        .buffer("bvh_nodes", "array<BvhNode>", Access::Read)
+        .buffer("bvh_triangles", "array<BvhTriangle>", Access::Read)
 }
 
-/// Layout entries matching [`bindings_wgsl`] (visible to compute).
-pub fn bind_group_layout_entries(first_binding: u32) -> Vec<wgpu::BindGroupLayoutEntry> {
-    (0..2)
-        .map(|i| crate::gpu::buffers::storage_entry(first_binding + i, true))
-        .collect()
-}
-
-/// The library as a consumer composes it (constants + bindings at group 1 + library).
-pub fn composed_library(group: u32, first_binding: u32) -> String {
-    format!(
-        "{}{}{}",
-        constants_wgsl(),
-        bindings_wgsl(group, first_binding),
-        WGSL
-    )
+/// The tracer's WGSL modules with its bindings at `group`: `bvh-constants`, `bvh-bindings`
+/// and `trace` (structs `BvhNode`, `BvhTriangle`, `Ray`, `Hit`; functions `trace_closest`,
+/// `trace_any`, `bvh_traverse`).
+pub fn modules(group: u32) -> Vec<WgslModule> {
+    vec![
+        WgslModule::new("bvh-constants", &[], constants_wgsl()),
+        WgslModule::new("bvh-bindings", &[], bindings().wgsl(group)),
+        WgslModule::new("trace", &["bvh-constants", "bvh-bindings"], WGSL),
+    ]
 }
 
 /// Per-ray constants of the watertight test.
@@ -368,86 +358,64 @@ pub struct GpuBvh {
 }
 
 impl GpuBvh {
-    /// Bind group entries matching [`bind_group_layout_entries`].
-    pub fn bind_group_entries(&self, first_binding: u32) -> Vec<wgpu::BindGroupEntry<'_>> {
-        vec![
-            wgpu::BindGroupEntry {
-                binding: first_binding,
-                resource: self.nodes.as_entire_binding(),
-            },
-            wgpu::BindGroupEntry {
-                binding: first_binding + 1,
-                resource: self.triangles.as_entire_binding(),
-            },
+    /// The buffers of [`bindings`], by name.
+    pub fn resources(&self) -> [(&'static str, Resource<'_>); 2] {
+        [
+            ("bvh_nodes", (&self.nodes).into()),
+            ("bvh_triangles", (&self.triangles).into()),
         ]
     }
 }
 
+/// The ray and hit buffers of [`TraceKernel`].
+pub fn io_bindings() -> BindingSet {
+    BindingSet::new("trace_rays io")
+        .buffer("trace_rays_in", "array<Ray>", Access::Read)
+        .buffer("trace_hits_out", "array<Hit>", Access::ReadWrite)
+        .buffer("trace_params", "TraceParams", Access::Uniform)
+}
+
 /// Composed source of [`TraceKernel`].
 pub fn kernel_source() -> String {
-    format!("{}{}", composed_library(1, 0), KERNEL_WGSL)
+    let mut m = modules(1);
+    m.push(WgslModule::new("workgroup", &[], workgroup_size_wgsl()));
+    m.push(WgslModule::new("trace-io", &[], io_bindings().wgsl(0)));
+    m.push(WgslModule::new(
+        "trace_rays",
+        &["trace", "trace-io", "workgroup"],
+        KERNEL_WGSL,
+    ));
+    compose(&m).expect("the tracer's modules compose")
 }
 
 /// Traces a buffer of [`Ray`]s into a buffer of [`Hit`]s (closest or any hit).
 #[derive(Debug)]
 pub struct TraceKernel {
-    pipeline: wgpu::ComputePipeline,
-    params_layout: wgpu::BindGroupLayout,
-    bvh_layout: wgpu::BindGroupLayout,
+    kernel: Kernel,
+    io_layout: BindGroupLayout,
+    bvh_layout: BindGroupLayout,
 }
 
 impl TraceKernel {
     pub fn new(device: &wgpu::Device) -> Self {
-        let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
-            label: Some("trace_rays"),
-            source: wgpu::ShaderSource::Wgsl(kernel_source().into()),
-        });
-        let storage = crate::gpu::buffers::storage_entry;
-        let params_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("trace_rays io"),
-            entries: &[
-                storage(0, true),
-                storage(1, false),
-                wgpu::BindGroupLayoutEntry {
-                    binding: 2,
-                    visibility: wgpu::ShaderStages::COMPUTE,
-                    ty: wgpu::BindingType::Buffer {
-                        ty: wgpu::BufferBindingType::Uniform,
-                        has_dynamic_offset: false,
-                        min_binding_size: None,
-                    },
-                    count: None,
-                },
-            ],
-        });
-        let bvh_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("bvh"),
-            entries: &bind_group_layout_entries(0),
-        });
-        let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-            label: Some("trace_rays"),
-            bind_group_layouts: &[Some(&params_layout), Some(&bvh_layout)],
-            immediate_size: 0,
-        });
-        let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-            label: Some("trace_rays"),
-            layout: Some(&layout),
-            module: &module,
-            entry_point: Some("trace_rays"),
-            compilation_options: wgpu::PipelineCompilationOptions {
-                constants: &[("WORKGROUP_SIZE", f64::from(WORKGROUP_SIZE))],
-                ..Default::default()
-            },
-            cache: None,
-        });
+        let io_layout = io_bindings().layout(device);
+        let bvh_layout = bindings().layout(device);
+        let kernel = Kernel::new(
+            device,
+            "trace_rays",
+            &kernel_source(),
+            &[&io_layout, &bvh_layout],
+            &["trace_rays"],
+        );
         Self {
-            pipeline,
-            params_layout,
+            kernel,
+            io_layout,
             bvh_layout,
         }
     }
 
-    /// Bind groups for one ray/hit buffer pair; reuse them across [`Self::encode_with`] calls.
+    /// The dispatch of `count` rays from `rays` into `hits`; record it with
+    /// [`Self::encode_with`] as often as needed.
     pub fn bind(
         &self,
         device: &wgpu::Device,
@@ -456,60 +424,33 @@ impl TraceKernel {
         hits: &wgpu::Buffer,
         count: u32,
         any_hit: bool,
-    ) -> TraceBinding {
+    ) -> Result<TraceBinding, GpuError> {
         let params = buffers::with_usage(
             device,
             "trace_rays params",
             &[count, u32::from(any_hit), 0, 0],
             wgpu::BufferUsages::UNIFORM,
         );
-        let io = device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("trace_rays io"),
-            layout: &self.params_layout,
-            entries: &[
-                wgpu::BindGroupEntry {
-                    binding: 0,
-                    resource: rays.as_entire_binding(),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 1,
-                    resource: hits.as_entire_binding(),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 2,
-                    resource: params.as_entire_binding(),
-                },
+        let io = self.io_layout.bind(
+            device,
+            [
+                ("trace_rays_in", rays.into()),
+                ("trace_hits_out", hits.into()),
+                ("trace_params", (&params).into()),
             ],
-        });
-        let bvh_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("bvh"),
-            layout: &self.bvh_layout,
-            entries: &bvh.bind_group_entries(0),
-        });
-        TraceBinding {
-            io,
-            bvh: bvh_group,
+        )?;
+        let bvh = self.bvh_layout.bind(device, bvh.resources())?;
+        Ok(TraceBinding(self.kernel.pass(
+            device,
+            "trace_rays",
+            &[&io, &bvh],
             count,
-        }
+        )))
     }
 
-    /// Records the trace of `binding.count` rays.
-    pub fn encode_with(
-        &self,
-        device: &wgpu::Device,
-        encoder: &mut wgpu::CommandEncoder,
-        binding: &TraceBinding,
-    ) {
-        let max = device.limits().max_compute_workgroups_per_dimension;
-        let (x, y) = dispatch_2d(binding.count.div_ceil(WORKGROUP_SIZE), max);
-        let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
-            label: Some("trace_rays"),
-            timestamp_writes: None,
-        });
-        pass.set_pipeline(&self.pipeline);
-        pass.set_bind_group(0, &binding.io, &[]);
-        pass.set_bind_group(1, &binding.bvh, &[]);
-        pass.dispatch_workgroups(x, y, 1);
+    /// Records the trace of a bound dispatch.
+    pub fn encode_with(&self, encoder: &mut wgpu::CommandEncoder, binding: &TraceBinding) {
+        binding.0.record(encoder);
     }
 
     /// Records the trace of `count` rays from `rays` into `hits`.
@@ -523,35 +464,24 @@ impl TraceKernel {
         hits: &wgpu::Buffer,
         count: u32,
         any_hit: bool,
-    ) {
-        let binding = self.bind(device, bvh, rays, hits, count, any_hit);
-        self.encode_with(device, encoder, &binding);
+    ) -> Result<(), GpuError> {
+        let binding = self.bind(device, bvh, rays, hits, count, any_hit)?;
+        self.encode_with(encoder, &binding);
+        Ok(())
     }
 }
 
-/// Splits `groups` workgroups into an `(x, y)` dispatch within `max_per_dim` per dimension;
-/// kernels recover the linear index as `gid.x + gid.y * num_workgroups.x * WORKGROUP_SIZE`.
-pub fn dispatch_2d(groups: u32, max_per_dim: u32) -> (u32, u32) {
-    if groups <= max_per_dim {
-        (groups, 1)
-    } else {
-        let y = groups.div_ceil(max_per_dim);
-        (groups.div_ceil(y), y)
-    }
-}
-
-/// Bind groups of one [`TraceKernel`] dispatch.
+/// One bound [`TraceKernel`] dispatch.
 #[derive(Debug)]
-pub struct TraceBinding {
-    io: wgpu::BindGroup,
-    bvh: wgpu::BindGroup,
-    count: u32,
-}
+pub struct TraceBinding(Pass);
 
 /// The WGSL modules of the tracer, composed as used.
 pub fn wgsl_modules() -> Vec<(String, String)> {
     vec![
-        ("restir-world/trace".into(), composed_library(1, 0)),
+        (
+            "restir-world/trace".into(),
+            compose(&modules(1)).expect("the tracer's modules compose"),
+        ),
         ("restir-world/trace_rays".into(), kernel_source()),
     ]
 }
@@ -604,8 +534,12 @@ mod tests {
         );
     }
 
+    /// Rays through points of the diagonal edge two triangles share (points where x + y
+    /// rounds to 1 either way) hit at least one of them from both sides: the watertight test
+    /// never lets a ray slip between them. Control: the same rays moved off the quad hit
+    /// nothing, so the count can fail.
     #[test]
-    fn watertight_hits_a_shared_edge_once_from_both_sides() {
+    fn watertight_never_lets_a_ray_through_a_shared_edge() {
         let t0 = BvhTriangle {
             v0: [0.0, 0.0, 0.0],
             material: 0,
@@ -620,14 +554,23 @@ mod tests {
             v2: [0.0, 1.0, 0.0],
             ..t0
         };
-        for dz in [-1.0f32, 1.0] {
-            let origin = Vec3::new(0.5, 0.5, -dz);
-            let wt = Watertight::new(Vec3::new(0.0, 0.0, dz));
-            let hits = [t0, t1]
+        let hits = |origin: Vec3, dir: Vec3| {
+            let wt = Watertight::new(dir);
+            [t0, t1]
                 .iter()
                 .filter(|t| wt.intersect(origin, 0.0, f32::INFINITY, t).is_some())
-                .count();
-            assert!(hits >= 1, "ray through the shared edge leaked (dz {dz})");
+                .count()
+        };
+        for i in 1..1000 {
+            let x = i as f32 / 1000.0;
+            for dz in [-1.0f32, 1.0] {
+                let dir = Vec3::new(0.0, 0.0, dz);
+                let on_edge = Vec3::new(x, 1.0 - x, -dz);
+                let n = hits(on_edge, dir);
+                assert!((1..=2).contains(&n), "{n} hits at x {x} (dz {dz})");
+                let off_quad = Vec3::new(x + 1.0, 1.0 - x, -dz);
+                assert_eq!(hits(off_quad, dir), 0, "phantom hit at x {x}");
+            }
         }
     }
 }

@@ -1,5 +1,6 @@
 // Kernel: trace a buffer of rays (closest hit or any hit) and write one Hit per ray.
-// Composed as: constants header + bvh bindings header (group 1) + trace.wgsl + this file.
+// Composed by `trace::kernel_source` (needs the trace library, its bindings at group 1, and
+// the io bindings of `trace::io_bindings` at group 0).
 
 struct TraceParams {
     count: u32,
@@ -8,16 +9,10 @@ struct TraceParams {
     _pad1: u32,
 }
 
-@group(0) @binding(0) var<storage, read> trace_rays_in: array<Ray>;
-@group(0) @binding(1) var<storage, read_write> trace_hits_out: array<Hit>;
-@group(0) @binding(2) var<uniform> trace_params: TraceParams;
-
-override WORKGROUP_SIZE: u32 = 64u;
-
 @compute @workgroup_size(WORKGROUP_SIZE)
 fn trace_rays(@builtin(global_invocation_id) gid: vec3<u32>,
               @builtin(num_workgroups) groups: vec3<u32>) {
-    let i = gid.x + gid.y * groups.x * WORKGROUP_SIZE;
+    let i = item_index(gid, groups);
     if i >= trace_params.count {
         return;
     }

@@ -24,15 +24,15 @@
 //! table role (insert) or the lookup role (reuse) + this module's constants and group-3 header +
 //! `world_restir.wgsl` + the kernel file. No scan, hash or reservoir math is written here.
 
-use glam::Vec3;
 use gpu_hash::{CellSizing, HashGridParams, HashStats, HashTable, TableConfig};
 use gpu_scan::{Scan, ScanBinding, ScanDescriptor, ScanKind};
 
-use crate::gpu::{SpanTimes, buffers};
-use crate::render::{self, Method, PassTimes, RenderError, Renderer};
+use crate::gpu::{
+    Access, BindGroupLayout, BindingSet, FrameEncoder, GpuContext, GpuError, Kernel, Pass,
+    Resource, WgslModule, buffers,
+};
+use crate::render::{self, RenderError, Renderer, SharedGroups, shared_bindings};
 use crate::scene::{Camera, Scene};
-use crate::trace::dispatch_2d;
-use crate::{GpuContext, GpuError, GpuTimer};
 
 /// Library WGSL (structs and helpers shared by the passes).
 pub const WGSL: &str = include_str!("world_restir.wgsl");
@@ -400,7 +400,7 @@ pub fn constants_wgsl() -> String {
          const WR_PASS_TEMPORAL: u32 = {PASS_TEMPORAL}u;\nconst WR_PASS_SPATIAL: u32 = {PASS_SPATIAL}u;\n\
          const WR_NO_SLOT: u32 = {:#x}u;\nconst WR_FULL: u32 = {:#x}u;\n\
          const WR_FIRST_SENTINEL: u32 = {:#x}u;\nconst WR_VIEW_CELLS: u32 = {}u;\n\
-         const WR_VIEW_M: u32 = {}u;\noverride WORKGROUP_SIZE: u32 = {}u;\n\
+         const WR_VIEW_M: u32 = {}u;\n\
          const WR_COMBINE_BIASED: u32 = {}u;\nconst WR_COMBINE_ONE_OVER_Z: u32 = {}u;\n\
          const WR_COMBINE_PAIRWISE: u32 = {}u;\n",
         gpu_hash::HASH_NOT_FOUND,
@@ -408,182 +408,138 @@ pub fn constants_wgsl() -> String {
         gpu_hash::HASH_FIRST_SENTINEL,
         DebugView::Cells as u32,
         DebugView::M as u32,
-        render::WORKGROUP_SIZE,
         Combine::Biased as u32,
         Combine::OneOverZ as u32,
         Combine::Pairwise as u32,
     )
 }
 
+/// Which gpu-hash role a kernel composes (its bindings follow the kernel's own).
 #[derive(Clone, Copy, PartialEq, Eq)]
-enum Access {
-    Uniform,
-    Read,
-    ReadWrite,
+enum HashRole {
+    Table,
+    Lookup,
 }
 
-/// One kernel module's own group-3 buffers (before any gpu-hash role, which follows them).
-struct Kernel {
+/// One kernel module: its own group-3 buffers and gpu-hash role, its WGSL and entry points.
+struct KernelDef {
     name: &'static str,
-    entry: &'static [&'static str],
+    entries: &'static [&'static str],
     source: &'static str,
     own: &'static [(&'static str, &'static str, Access)],
-    hash_table: bool,
-    hash_lookup: bool,
+    hash: Option<HashRole>,
 }
 
 const RES: &str = "array<WrReservoir>";
-const KERNELS: [Kernel; 6] = [
-    Kernel {
-        name: "generate",
-        entry: &["wr_generate"],
-        source: GENERATE_WGSL,
-        own: &[
-            ("wr_params", "WrParams", Access::Uniform),
-            ("wr_out", RES, Access::ReadWrite),
-        ],
-        hash_table: false,
-        hash_lookup: false,
-    },
-    Kernel {
-        name: "insert",
-        entry: &["wr_insert"],
-        source: INSERT_WGSL,
-        own: &[
-            ("wr_params", "WrParams", Access::Uniform),
-            ("wr_vertex_slot", "array<vec2<u32>>", Access::ReadWrite),
-        ],
-        hash_table: true,
-        hash_lookup: false,
-    },
-    Kernel {
-        name: "scatter",
-        entry: &["wr_scatter", "wr_sort_cells"],
-        source: SCATTER_WGSL,
-        own: &[
-            ("wr_vertex_slot", "array<vec2<u32>>", Access::Read),
-            ("wr_offsets", "array<u32>", Access::Read),
-            ("wr_counters", "array<u32>", Access::Read),
-            ("wr_cells", "array<u32>", Access::ReadWrite),
-        ],
-        hash_table: false,
-        hash_lookup: false,
-    },
-    Kernel {
-        name: "reuse",
-        entry: &["wr_reuse"],
-        source: REUSE_WGSL,
-        own: &[
-            ("wr_params", "WrParams", Access::Uniform),
-            ("wr_pass", "WrPass", Access::Read),
-            ("wr_src", RES, Access::Read),
-            ("wr_self", RES, Access::Read),
-            ("wr_out", RES, Access::ReadWrite),
-            ("wr_lookup_offsets", "array<u32>", Access::Read),
-            ("wr_lookup_cells", "array<u32>", Access::Read),
-            ("wr_prev_vertices", "array<GVertex>", Access::Read),
-        ],
-        hash_table: false,
-        hash_lookup: true,
-    },
-    Kernel {
-        name: "shade",
-        entry: &["wr_shade"],
-        source: SHADE_WGSL,
-        own: &[
-            ("wr_params", "WrParams", Access::Uniform),
-            ("wr_final", RES, Access::Read),
-        ],
-        hash_table: false,
-        hash_lookup: false,
-    },
-    Kernel {
-        name: "debug",
-        entry: &["wr_debug_view"],
-        source: DEBUG_WGSL,
-        own: &[
-            ("wr_params", "WrParams", Access::Uniform),
-            ("wr_final", RES, Access::Read),
-            ("wr_vertex_slot", "array<vec2<u32>>", Access::Read),
-            ("wr_debug", "array<vec4<f32>>", Access::ReadWrite),
-        ],
-        hash_table: false,
-        hash_lookup: false,
-    },
-];
+const PARAMS: (&str, &str, Access) = ("wr_params", "WrParams", Access::Uniform);
+const GENERATE: KernelDef = KernelDef {
+    name: "generate",
+    entries: &["wr_generate"],
+    source: GENERATE_WGSL,
+    own: &[PARAMS, ("wr_out", RES, Access::ReadWrite)],
+    hash: None,
+};
+const INSERT: KernelDef = KernelDef {
+    name: "insert",
+    entries: &["wr_insert"],
+    source: INSERT_WGSL,
+    own: &[
+        PARAMS,
+        ("wr_vertex_slot", "array<vec2<u32>>", Access::ReadWrite),
+    ],
+    hash: Some(HashRole::Table),
+};
+const SCATTER: KernelDef = KernelDef {
+    name: "scatter",
+    entries: &["wr_scatter", "wr_sort_cells"],
+    source: SCATTER_WGSL,
+    own: &[
+        ("wr_vertex_slot", "array<vec2<u32>>", Access::Read),
+        ("wr_offsets", "array<u32>", Access::Read),
+        ("wr_counters", "array<u32>", Access::Read),
+        ("wr_cells", "array<u32>", Access::ReadWrite),
+    ],
+    hash: None,
+};
+const REUSE: KernelDef = KernelDef {
+    name: "reuse",
+    entries: &["wr_reuse"],
+    source: REUSE_WGSL,
+    own: &[
+        PARAMS,
+        ("wr_pass", "WrPass", Access::Read),
+        ("wr_src", RES, Access::Read),
+        ("wr_self", RES, Access::Read),
+        ("wr_out", RES, Access::ReadWrite),
+        ("wr_lookup_offsets", "array<u32>", Access::Read),
+        ("wr_lookup_cells", "array<u32>", Access::Read),
+        ("wr_prev_vertices", "array<GVertex>", Access::Read),
+    ],
+    hash: Some(HashRole::Lookup),
+};
+const SHADE: KernelDef = KernelDef {
+    name: "shade",
+    entries: &["wr_shade"],
+    source: SHADE_WGSL,
+    own: &[PARAMS, ("wr_final", RES, Access::Read)],
+    hash: None,
+};
+const DEBUG: KernelDef = KernelDef {
+    name: "debug",
+    entries: &["wr_debug_view"],
+    source: DEBUG_WGSL,
+    own: &[
+        PARAMS,
+        ("wr_final", RES, Access::Read),
+        ("wr_vertex_slot", "array<vec2<u32>>", Access::Read),
+        ("wr_debug", "array<vec4<f32>>", Access::ReadWrite),
+    ],
+    hash: None,
+};
+const KERNELS: [&KernelDef; 6] = [&GENERATE, &INSERT, &SCATTER, &REUSE, &SHADE, &DEBUG];
 
-const K_GENERATE: usize = 0;
-const K_INSERT: usize = 1;
-const K_SCATTER: usize = 2;
-const K_REUSE: usize = 3;
-const K_SHADE: usize = 4;
-const K_DEBUG: usize = 5;
-
-impl Kernel {
-    fn header(&self) -> String {
-        self.own
-            .iter()
-            .enumerate()
-            .map(|(b, (name, ty, access))| {
-                let a = match access {
-                    Access::Uniform => "uniform",
-                    Access::Read => "storage, read",
-                    Access::ReadWrite => "storage, read_write",
-                };
-                format!("@group({GROUP}) @binding({b}) var<{a}> {name}: {ty};\n")
-            })
-            .collect()
+impl KernelDef {
+    /// Group 3: the kernel's own buffers, then its gpu-hash role's as the block `wr_hash`.
+    fn bindings(&self) -> BindingSet {
+        let mut set = BindingSet::new(self.name);
+        for (name, ty, access) in self.own {
+            set = set.buffer(name, ty, *access);
+        }
+        match self.hash {
+            Some(HashRole::Table) => set.block("wr_hash", gpu_hash::bind_group_layout_entries),
+            Some(HashRole::Lookup) => {
+                set.block("wr_hash", gpu_hash::lookup_bind_group_layout_entries)
+            }
+            None => set,
+        }
     }
 
-    fn hash_first(&self) -> u32 {
-        self.own.len() as u32
-    }
-
-    /// The composed module.
-    fn source(&self) -> String {
+    /// The modules composed after the render library.
+    fn modules(&self) -> Vec<WgslModule> {
         let at = gpu_hash::wgsl::BindAt {
             group: GROUP,
-            first_binding: self.hash_first(),
+            first_binding: self.own.len() as u32,
         };
-        let mut parts = vec![render::library()];
-        if self.hash_table || self.hash_lookup {
-            parts.push(gpu_hash::wgsl::compose(
-                self.hash_table.then_some(at),
-                self.hash_lookup.then_some(at),
-            ));
-        }
-        parts.push(constants_wgsl());
-        parts.push(self.header());
-        parts.push(WGSL.to_string());
-        parts.push(self.source.to_string());
-        parts.join("\n")
-    }
-
-    fn layout_entries(&self) -> Vec<wgpu::BindGroupLayoutEntry> {
-        let mut v: Vec<wgpu::BindGroupLayoutEntry> = self
-            .own
-            .iter()
-            .enumerate()
-            .map(|(b, (_, _, access))| {
-                crate::gpu::buffers::layout_entry(
-                    b as u32,
-                    match access {
-                        Access::Uniform => wgpu::BufferBindingType::Uniform,
-                        Access::Read => wgpu::BufferBindingType::Storage { read_only: true },
-                        Access::ReadWrite => wgpu::BufferBindingType::Storage { read_only: false },
-                    },
-                )
-            })
-            .collect();
-        if self.hash_table {
-            v.extend(gpu_hash::bind_group_layout_entries(self.hash_first()));
-        }
-        if self.hash_lookup {
-            v.extend(gpu_hash::lookup_bind_group_layout_entries(
-                self.hash_first(),
-            ));
-        }
-        v
+        let role = |r| (self.hash == Some(r)).then_some(at);
+        let hash = match self.hash {
+            Some(_) => gpu_hash::wgsl::compose(role(HashRole::Table), role(HashRole::Lookup)),
+            None => String::new(),
+        };
+        vec![
+            WgslModule::new("wr-constants", &[], constants_wgsl()),
+            WgslModule::new("wr-bindings", &[], self.bindings().wgsl(GROUP)),
+            WgslModule::new("gpu-hash", &[], hash),
+            WgslModule::new(
+                "world-restir",
+                &["render", "reservoir", "wr-constants"],
+                WGSL,
+            ),
+            WgslModule::new(
+                self.name,
+                &["world-restir", "wr-bindings", "gpu-hash", "workgroup"],
+                self.source,
+            ),
+        ]
     }
 }
 
@@ -591,156 +547,220 @@ impl Kernel {
 pub fn wgsl_modules() -> Vec<(String, String)> {
     KERNELS
         .iter()
-        .map(|k| (format!("restir-world/world_restir/{}", k.name), k.source()))
+        .map(|k| {
+            (
+                format!("restir-world/world_restir/{}", k.name),
+                render::compose_with_library(k.modules()),
+            )
+        })
         .collect()
 }
 
-/// Accumulated images read back from a renderer's sums, linear HDR RGB, row-major.
-#[derive(Debug, Clone, PartialEq)]
-pub struct FrameImages {
-    pub width: u32,
-    pub height: u32,
-    /// Frames averaged.
-    pub frames: u32,
-    pub direct: Vec<[f32; 3]>,
-    pub indirect: Vec<[f32; 3]>,
+/// World-space ReSTIR's buffers besides the hash tables.
+#[derive(Debug)]
+struct WrBuffers {
+    params: wgpu::Buffer,
+    offsets: [wgpu::Buffer; 2],
+    cells: [wgpu::Buffer; 2],
+    vertex_slot: wgpu::Buffer,
+    reservoirs: [wgpu::Buffer; 2],
+    prev_reservoirs: wgpu::Buffer,
+    /// Last frame's secondary vertices (the temporal pass's MIS weights).
+    prev_vertices: wgpu::Buffer,
+    debug: wgpu::Buffer,
 }
 
-impl FrameImages {
-    /// direct + indirect.
-    pub fn combined(&self) -> Vec<[f32; 3]> {
-        self.direct
-            .iter()
-            .zip(&self.indirect)
-            .map(|(a, b)| [a[0] + b[0], a[1] + b[1], a[2] + b[2]])
-            .collect()
+impl WrBuffers {
+    fn new(
+        ctx: &GpuContext,
+        config: &WorldRestirConfig,
+        pixels: u32,
+        slots: u64,
+    ) -> Result<Self, WorldRestirError> {
+        let px = u64::from(pixels);
+        let res_bytes = px * size_of::<WrReservoir>() as u64;
+        ctx.check_binding_size("the world-restir reservoirs", res_bytes)?;
+        let zeroed = |label: &str, size: u64| buffers::storage_zeroed(&ctx.device, label, size);
+        let pair = |label: &str, size: u64| [0, 1].map(|p| zeroed(&format!("{label} {p}"), size));
+        let wr_params = WrParams {
+            candidates: config.candidates,
+            max_count: config.max_count,
+            normal_threshold: config.normal_threshold,
+            temporal_m_cap: config.temporal_m_cap.saturating_mul(config.candidates),
+            jitter: u32::from(config.jitter),
+            combine: config.combine as u32,
+            gi_stride: config.gi_stride,
+            debug_view: 0,
+        };
+        Ok(Self {
+            params: buffers::with_usage(
+                &ctx.device,
+                "wr params",
+                &[wr_params],
+                wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+            ),
+            offsets: pair("wr offsets", slots * 4),
+            cells: pair("wr cells", px * 4),
+            vertex_slot: zeroed("wr vertex slot", px * 8),
+            reservoirs: pair("wr reservoirs", res_bytes),
+            prev_reservoirs: zeroed("wr prev reservoirs", res_bytes),
+            prev_vertices: zeroed("wr prev vertices", px * size_of::<render::GVertex>() as u64),
+            debug: zeroed("wr debug", px * 16),
+        })
     }
 }
 
-fn read_rgb(
-    ctx: &GpuContext,
-    b: &wgpu::Buffer,
-    n: usize,
-    scale: f32,
-) -> Result<Vec<[f32; 3]>, GpuError> {
-    let v: Vec<[f32; 4]> = buffers::read(ctx, b)?;
-    Ok(v.iter()
-        .take(n)
-        .map(|p| [p[0] * scale, p[1] * scale, p[2] * scale])
-        .collect())
+/// The frame's passes; `[p]`: for the frame of parity p.
+#[derive(Debug)]
+struct WrPasses {
+    generate: Pass,
+    insert: [Pass; 2],
+    scatter: [Pass; 2],
+    sort: Option<[Pass; 2]>,
+    temporal: Option<[Pass; 2]>,
+    spatial: [Vec<Pass>; 2],
+    shade: Pass,
+    debug: Pass,
+    /// The reservoirs the shade pass reads.
+    final_index: usize,
 }
 
-/// The accumulated (mean) images of any renderer (baselines included).
-pub fn read_accumulated(ctx: &GpuContext, r: &Renderer) -> Result<FrameImages, GpuError> {
-    let n = r.pixels() as usize;
-    let scale = if r.frames() == 0 {
-        0.0
-    } else {
-        1.0 / r.frames() as f32
-    };
-    Ok(FrameImages {
-        width: r.camera.width,
-        height: r.camera.height,
-        frames: r.frames(),
-        direct: read_rgb(ctx, &r.buffers.accum_direct, n, scale)?,
-        indirect: read_rgb(ctx, &r.buffers.accum_indirect, n, scale)?,
-    })
-}
-
-/// The last frame's images (one sample per pixel) of any renderer.
-pub fn read_last_frame(ctx: &GpuContext, r: &Renderer) -> Result<FrameImages, GpuError> {
-    let n = r.pixels() as usize;
-    Ok(FrameImages {
-        width: r.camera.width,
-        height: r.camera.height,
-        frames: 1,
-        direct: read_rgb(ctx, &r.buffers.direct_frame, n, 1.0)?,
-        indirect: read_rgb(ctx, &r.buffers.indirect_frame, n, 1.0)?,
-    })
-}
-
-/// Adds one frame's span times to a running total.
-pub fn add_times(total: &mut PassTimes, frame: &SpanTimes) {
-    for (name, ms) in &frame.0 {
-        match total.passes.iter_mut().find(|(n, _)| n == name) {
-            Some((_, t)) => *t += ms,
-            None => total.passes.push((name.clone(), *ms)),
-        }
-    }
-    total.frames += 1;
-}
-
-/// A camera animation over `frames` frames (then it repeats).
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub enum CameraPath {
-    Static,
-    /// Orbit around the target by `degrees` about the up axis over `frames` frames.
-    Orbit {
-        frames: u32,
-        degrees: f32,
-    },
-    /// Move towards the target by `fraction` of the eye-target distance over `frames` frames.
-    Dolly {
-        frames: u32,
-        fraction: f32,
-    },
-}
-
-impl CameraPath {
-    /// The camera of frame `frame` of the path starting at `base`.
-    pub fn camera(&self, base: &Camera, frame: u32) -> Camera {
-        match *self {
-            CameraPath::Static => *base,
-            CameraPath::Orbit { frames, degrees } => {
-                let t = (frame % frames.max(1)) as f32 / frames.max(1) as f32;
-                let rot =
-                    glam::Quat::from_axis_angle(base.up.normalize(), (degrees * t).to_radians());
-                Camera {
-                    eye: base.target + rot * (base.eye - base.target),
-                    ..*base
-                }
+impl WrPasses {
+    /// Binds every pass. Reservoir chain: generate -> R0; temporal R0 -> R1; spatial
+    /// ping-pong; shade reads the last.
+    fn new(
+        ctx: &GpuContext,
+        shared: &SharedGroups,
+        b: &WrBuffers,
+        tables: &[HashTable; 2],
+        config: &WorldRestirConfig,
+    ) -> Result<Self, WorldRestirError> {
+        let device = &ctx.device;
+        let kernel = |k: &KernelDef| -> Result<(Kernel, BindGroupLayout), GpuError> {
+            let sets = shared_bindings();
+            let own = k.bindings();
+            let name = format!("world-restir {}", k.name);
+            ctx.check_storage_buffers(&name, &[&sets[0], &sets[1], &sets[2], &own])?;
+            let layout = own.layout(device);
+            let kernel = shared.kernel(device, &name, k.modules(), Some(&layout), k.entries);
+            Ok((kernel, layout))
+        };
+        let [generate, insert, scatter, reuse, shade, debug] = KERNELS.map(kernel);
+        let (generate, insert, scatter) = (generate?, insert?, scatter?);
+        let (reuse, shade, debug) = (reuse?, shade?, debug?);
+        let pass =
+            |(k, layout): &(Kernel, BindGroupLayout), entry: &str, res: Vec<(&str, Resource)>| {
+                let group = layout.bind(device, res)?;
+                Ok::<Pass, GpuError>(shared.pass(device, k, entry, Some(&group)))
+            };
+        let params = || ("wr_params", Resource::from(&b.params));
+        let both = |f: &dyn Fn(usize) -> Result<Pass, GpuError>| -> Result<[Pass; 2], GpuError> {
+            Ok([f(0)?, f(1)?])
+        };
+        let insert_p = |p: usize| {
+            let hash = Resource::Block(tables[p].bind_group_entries(INSERT.own.len() as u32));
+            let res = vec![
+                params(),
+                ("wr_vertex_slot", (&b.vertex_slot).into()),
+                ("wr_hash", hash),
+            ];
+            pass(&insert, "wr_insert", res)
+        };
+        let scatter_p = |entry: &str, p: usize| {
+            let res = vec![
+                ("wr_vertex_slot", (&b.vertex_slot).into()),
+                ("wr_offsets", (&b.offsets[p]).into()),
+                ("wr_counters", tables[p].counters().into()),
+                ("wr_cells", (&b.cells[p]).into()),
+            ];
+            pass(&scatter, entry, res)
+        };
+        // One reuse pass: reads `src` (and `own` for the receiver), writes `out`, looks up the
+        // grid of parity `grid`.
+        let reuse_pass =
+            |index: u32, temporal: bool, [src, own, out]: [&wgpu::Buffer; 3], grid: usize| {
+                let u = WrPass {
+                    pass_index: index,
+                    temporal: u32::from(temporal),
+                    ..Default::default()
+                };
+                let u = buffers::with_usage(device, "wr pass", &[u], wgpu::BufferUsages::STORAGE);
+                let hash = tables[grid].lookup_bind_group_entries(REUSE.own.len() as u32);
+                let res = vec![
+                    params(),
+                    ("wr_pass", (&u).into()),
+                    ("wr_src", src.into()),
+                    ("wr_self", own.into()),
+                    ("wr_out", out.into()),
+                    ("wr_lookup_offsets", (&b.offsets[grid]).into()),
+                    ("wr_lookup_cells", (&b.cells[grid]).into()),
+                    ("wr_prev_vertices", (&b.prev_vertices).into()),
+                    ("wr_hash", Resource::Block(hash)),
+                ];
+                pass(&reuse, "wr_reuse", res)
+            };
+        let r = &b.reservoirs;
+        let mut cur = 0;
+        let temporal = match config.temporal {
+            true => {
+                cur = 1;
+                let src = [&b.prev_reservoirs, &r[0], &r[1]];
+                Some(both(&|p| reuse_pass(0, true, src, 1 - p))?)
             }
-            CameraPath::Dolly { frames, fraction } => {
-                let t = (frame % frames.max(1)) as f32 / frames.max(1) as f32;
-                Camera {
-                    eye: base.eye + (base.target - base.eye) * (fraction * t),
-                    ..*base
-                }
+            false => None,
+        };
+        let mut spatial: [Vec<Pass>; 2] = [Vec::new(), Vec::new()];
+        for j in 0..config.spatial_passes {
+            for (p, list) in spatial.iter_mut().enumerate() {
+                list.push(reuse_pass(j, false, [&r[cur], &r[cur], &r[1 - cur]], p)?);
             }
+            cur = 1 - cur;
         }
+        let last = ("wr_final", Resource::from(&r[cur]));
+        let debug_res = vec![
+            params(),
+            last,
+            ("wr_vertex_slot", (&b.vertex_slot).into()),
+            ("wr_debug", (&b.debug).into()),
+        ];
+        Ok(Self {
+            generate: pass(
+                &generate,
+                "wr_generate",
+                vec![params(), ("wr_out", (&r[0]).into())],
+            )?,
+            insert: both(&insert_p)?,
+            scatter: both(&|p| scatter_p("wr_scatter", p))?,
+            sort: match config.sort_cells {
+                true => Some(both(&|p| scatter_p("wr_sort_cells", p))?),
+                false => None,
+            },
+            temporal,
+            spatial,
+            shade: pass(
+                &shade,
+                "wr_shade",
+                vec![params(), ("wr_final", (&r[cur]).into())],
+            )?,
+            debug: pass(&debug, "wr_debug_view", debug_res)?,
+            final_index: cur,
+        })
     }
 }
 
 /// World-space ReSTIR GI on top of a [`Renderer`] (which it owns and drives).
 #[derive(Debug)]
 pub struct WorldRestir {
-    pub renderer: Renderer,
+    renderer: Renderer,
     config: WorldRestirConfig,
     grid_params: HashGridParams,
     tables: [HashTable; 2],
-    offsets: [wgpu::Buffer; 2],
-    cells: [wgpu::Buffer; 2],
-    vertex_slot: wgpu::Buffer,
-    reservoirs: [wgpu::Buffer; 2],
-    prev_reservoirs: wgpu::Buffer,
-    /// Last frame's secondary vertices (the temporal pass's 1/Z test).
-    prev_vertices: wgpu::Buffer,
-    params: wgpu::Buffer,
-    debug: wgpu::Buffer,
+    buffers: WrBuffers,
     scan: Scan,
     /// The slot-offset scan of table p's counters into offsets[p], bound once.
     scan_bindings: [ScanBinding; 2],
-    pipelines: Vec<Vec<wgpu::ComputePipeline>>,
-    generate_group: wgpu::BindGroup,
-    insert_groups: [wgpu::BindGroup; 2],
-    scatter_groups: [wgpu::BindGroup; 2],
-    temporal_groups: Option<[wgpu::BindGroup; 2]>,
-    spatial_groups: [Vec<wgpu::BindGroup>; 2],
-    shade_group: wgpu::BindGroup,
-    debug_group: wgpu::BindGroup,
-    final_index: usize,
+    passes: WrPasses,
     parity: usize,
-    max_groups_per_dim: u32,
 }
 
 impl WorldRestir {
@@ -756,261 +776,33 @@ impl WorldRestir {
         seed: u32,
     ) -> Result<Self, WorldRestirError> {
         config.validate()?;
-        // Refuse before any work when a pipeline declares more storage buffers than the device
-        // allows (GL: 16).
-        let mut shared = render::bind_group_layout_entries();
-        shared.extend(crate::trace::bind_group_layout_entries(0));
-        shared.extend(crate::lights::bind_group_layout_entries(0));
-        let shared = render::count_storage_buffers(&shared);
-        for k in &KERNELS {
-            let own = render::count_storage_buffers(&k.layout_entries());
-            render::check_storage_buffers(ctx, &format!("world-restir {}", k.name), shared + own)?;
-        }
-        let renderer = Renderer::new(
-            ctx,
-            scene,
-            camera,
-            Method::Ris {
-                candidates: render::DEFAULT_CANDIDATES,
-            },
-            seed,
-        )?;
+        let renderer = Renderer::new(ctx, scene, camera, render::ris(), seed)?;
         let device = &ctx.device;
-        let limits = ctx.limits();
         let table = config.table(camera.width, camera.height);
         let grid_params = HashGridParams::new(&table, &config.sizing(camera), camera.eye)?;
-        let tables = [
-            HashTable::new(device, &ctx.queue, &grid_params)?,
-            HashTable::new(device, &ctx.queue, &grid_params)?,
-        ];
-        let slots = table.num_slots();
-        let slots_u32 = u32::try_from(slots)
-            .map_err(|_| WorldRestirError::Config(format!("{slots} slots do not fit u32")))?;
-        let px = u64::from(renderer.pixels());
-        let res_bytes = px * size_of::<WrReservoir>() as u64;
-        let limit = limits
-            .max_storage_buffer_binding_size
-            .min(limits.max_buffer_size);
-        if res_bytes > limit {
-            return Err(RenderError::TooLarge {
-                bytes: res_bytes,
-                limit,
-            }
-            .into());
-        }
-        let zeroed = |label: &str, size: u64| buffers::storage_zeroed(device, label, size);
-        let offsets = [
-            zeroed("wr offsets 0", slots * 4),
-            zeroed("wr offsets 1", slots * 4),
-        ];
-        let cells = [zeroed("wr cells 0", px * 4), zeroed("wr cells 1", px * 4)];
-        let vertex_slot = zeroed("wr vertex slot", px * 8);
-        let reservoirs = [
-            zeroed("wr reservoirs 0", res_bytes),
-            zeroed("wr reservoirs 1", res_bytes),
-        ];
-        let prev_reservoirs = zeroed("wr prev reservoirs", res_bytes);
-        let prev_vertices = zeroed("wr prev vertices", renderer.buffers.secondary.size());
-        let debug = zeroed("wr debug", px * 16);
-        let wr_params = WrParams {
-            candidates: config.candidates,
-            max_count: config.max_count,
-            normal_threshold: config.normal_threshold,
-            temporal_m_cap: config.temporal_m_cap.saturating_mul(config.candidates),
-            jitter: u32::from(config.jitter),
-            combine: config.combine as u32,
-            gi_stride: config.gi_stride,
-            debug_view: 0,
-        };
-        let params = buffers::with_usage(
-            device,
-            "wr params",
-            &[wr_params],
-            wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
-        );
-        let scan = Scan::new(
-            device,
-            &ScanDescriptor::for_device(device, slots_u32.max(1)),
-        )?;
+        let tables = [0, 1].map(|_| HashTable::new(device, &ctx.queue, &grid_params));
+        let [t0, t1] = tables;
+        let tables = [t0?, t1?];
+        let slots = u32::try_from(table.num_slots()).map_err(|_| {
+            WorldRestirError::Config(format!("{} slots do not fit u32", table.num_slots()))
+        })?;
+        let buffers = WrBuffers::new(ctx, &config, renderer.pixels(), table.num_slots())?;
+        let scan = Scan::new(device, &ScanDescriptor::for_device(device, slots.max(1)))?;
         let bind_scan = |p: usize| {
-            scan.bind(
-                device,
-                tables[p].counters(),
-                &offsets[p],
-                slots_u32,
-                ScanKind::Exclusive,
-                None,
-            )
+            let (counters, offsets) = (tables[p].counters(), &buffers.offsets[p]);
+            scan.bind(device, counters, offsets, slots, ScanKind::Exclusive, None)
         };
         let scan_bindings = [bind_scan(0)?, bind_scan(1)?];
-
-        // Pipelines, one layout per kernel module.
-        let (render_group, render_layout) = renderer.bind_group();
-        let _ = render_group;
-        let [(_, bvh_layout), (_, lights_layout)] = renderer.scene_bind_groups();
-        let mut layouts = Vec::new();
-        let mut pipelines = Vec::new();
-        for k in &KERNELS {
-            let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-                label: Some(k.name),
-                entries: &k.layout_entries(),
-            });
-            let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
-                label: Some(k.name),
-                source: wgpu::ShaderSource::Wgsl(k.source().into()),
-            });
-            let pl = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-                label: Some(k.name),
-                bind_group_layouts: &[
-                    Some(render_layout),
-                    Some(bvh_layout),
-                    Some(lights_layout),
-                    Some(&layout),
-                ],
-                immediate_size: 0,
-            });
-            pipelines.push(
-                k.entry
-                    .iter()
-                    .map(|e| {
-                        device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-                            label: Some(e),
-                            layout: Some(&pl),
-                            module: &module,
-                            entry_point: Some(e),
-                            compilation_options: wgpu::PipelineCompilationOptions {
-                                constants: &[("WORKGROUP_SIZE", f64::from(render::WORKGROUP_SIZE))],
-                                ..Default::default()
-                            },
-                            cache: None,
-                        })
-                    })
-                    .collect::<Vec<_>>(),
-            );
-            layouts.push(layout);
-        }
-        let group = |k: usize, bufs: &[&wgpu::Buffer], extra: Vec<wgpu::BindGroupEntry<'_>>| {
-            let mut entries: Vec<wgpu::BindGroupEntry<'_>> = bufs
-                .iter()
-                .enumerate()
-                .map(|(i, b)| wgpu::BindGroupEntry {
-                    binding: i as u32,
-                    resource: b.as_entire_binding(),
-                })
-                .collect();
-            entries.extend(extra);
-            device.create_bind_group(&wgpu::BindGroupDescriptor {
-                label: Some(KERNELS[k].name),
-                layout: &layouts[k],
-                entries: &entries,
-            })
-        };
-        let generate_group = group(K_GENERATE, &[&params, &reservoirs[0]], vec![]);
-        let insert_groups = [0, 1].map(|p| {
-            group(
-                K_INSERT,
-                &[&params, &vertex_slot],
-                tables[p].bind_group_entries(KERNELS[K_INSERT].hash_first()),
-            )
-        });
-        let scatter_groups = [0, 1].map(|p| {
-            group(
-                K_SCATTER,
-                &[&vertex_slot, &offsets[p], tables[p].counters(), &cells[p]],
-                vec![],
-            )
-        });
-        let pass_uniform = |index: u32, temporal: bool| {
-            buffers::with_usage(
-                device,
-                "wr pass",
-                &[WrPass {
-                    pass_index: index,
-                    temporal: u32::from(temporal),
-                    ..Default::default()
-                }],
-                wgpu::BufferUsages::STORAGE,
-            )
-        };
-        let reuse_first = KERNELS[K_REUSE].hash_first();
-        // Reservoir chain: generate -> R0; temporal R0 -> R1; spatial ping-pong.
-        let mut cur = 0usize;
-        let temporal_groups = if config.temporal {
-            let u = pass_uniform(0, true);
-            let g = [0, 1].map(|p| {
-                let prev = 1 - p;
-                group(
-                    K_REUSE,
-                    &[
-                        &params,
-                        &u,
-                        &prev_reservoirs,
-                        &reservoirs[0],
-                        &reservoirs[1],
-                        &offsets[prev],
-                        &cells[prev],
-                        &prev_vertices,
-                    ],
-                    tables[prev].lookup_bind_group_entries(reuse_first),
-                )
-            });
-            cur = 1;
-            Some(g)
-        } else {
-            None
-        };
-        let mut spatial_groups: [Vec<wgpu::BindGroup>; 2] = [Vec::new(), Vec::new()];
-        for j in 0..config.spatial_passes {
-            let u = pass_uniform(j, false);
-            for (p, list) in spatial_groups.iter_mut().enumerate() {
-                list.push(group(
-                    K_REUSE,
-                    &[
-                        &params,
-                        &u,
-                        &reservoirs[cur],
-                        &reservoirs[cur],
-                        &reservoirs[1 - cur],
-                        &offsets[p],
-                        &cells[p],
-                        &prev_vertices,
-                    ],
-                    tables[p].lookup_bind_group_entries(reuse_first),
-                ));
-            }
-            cur = 1 - cur;
-        }
-        let shade_group = group(K_SHADE, &[&params, &reservoirs[cur]], vec![]);
-        let debug_group = group(
-            K_DEBUG,
-            &[&params, &reservoirs[cur], &vertex_slot, &debug],
-            vec![],
-        );
+        let passes = WrPasses::new(ctx, &renderer.shared, &buffers, &tables, &config)?;
         Ok(Self {
-            max_groups_per_dim: limits.max_compute_workgroups_per_dimension,
             renderer,
             config,
             grid_params,
             tables,
-            offsets,
-            cells,
-            vertex_slot,
-            reservoirs,
-            prev_reservoirs,
-            prev_vertices,
-            params,
-            debug,
+            buffers,
             scan,
             scan_bindings,
-            pipelines,
-            generate_group,
-            insert_groups,
-            scatter_groups,
-            temporal_groups,
-            spatial_groups,
-            shade_group,
-            debug_group,
-            final_index: cur,
+            passes,
             parity: 0,
         })
     }
@@ -1019,206 +811,57 @@ impl WorldRestir {
         &self.config
     }
 
-    fn dispatch(
-        &self,
-        encoder: &mut wgpu::CommandEncoder,
-        label: &str,
-        pipeline: &wgpu::ComputePipeline,
-        group: &wgpu::BindGroup,
-    ) {
-        let (x, y) = dispatch_2d(
-            self.renderer.pixels().div_ceil(render::WORKGROUP_SIZE),
-            self.max_groups_per_dim,
-        );
-        let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
-            label: Some(label),
-            timestamp_writes: None,
-        });
-        pass.set_pipeline(pipeline);
-        pass.set_bind_group(0, self.renderer.bind_group().0, &[]);
-        let [(bvh, _), (lights, _)] = self.renderer.scene_bind_groups();
-        pass.set_bind_group(1, bvh, &[]);
-        pass.set_bind_group(2, lights, &[]);
-        pass.set_bind_group(GROUP, group, &[]);
-        pass.dispatch_workgroups(x, y, 1);
+    /// The renderer underneath (camera, frame counters).
+    pub fn renderer(&self) -> &Renderer {
+        &self.renderer
     }
 
-    fn span<R>(
-        timer: &mut Option<&mut GpuTimer>,
-        encoder: &mut wgpu::CommandEncoder,
-        name: &str,
-        body: impl FnOnce(&mut wgpu::CommandEncoder) -> R,
-    ) -> R {
-        match timer {
-            Some(t) => t.span(encoder, name, body),
-            None => body(encoder),
-        }
-    }
-
-    /// Moves the camera for the next frame (the grid of this frame keeps this frame's eye for
-    /// the temporal lookup of the next).
-    pub fn set_camera(
-        &mut self,
-        queue: &wgpu::Queue,
-        camera: &Camera,
-    ) -> Result<(), WorldRestirError> {
-        self.renderer.set_camera(queue, camera)?;
+    /// Moves the camera from the next recorded frame on (the grid of the last frame keeps its
+    /// own eye for the temporal lookup of the next).
+    pub fn set_camera(&mut self, camera: &Camera) -> Result<(), WorldRestirError> {
+        self.renderer.set_camera(camera)?;
         Ok(())
     }
 
-    /// Records one whole frame. Writes this frame's grid params (eye) through `queue`, so
-    /// submit each frame before encoding the next.
-    pub fn encode_frame(
-        &mut self,
-        queue: &wgpu::Queue,
-        encoder: &mut wgpu::CommandEncoder,
-        mut timer: Option<&mut GpuTimer>,
-    ) -> Result<(), WorldRestirError> {
-        let p = self.parity;
-        let eye: Vec3 = self.renderer.camera.eye;
-        self.tables[p].set_params(queue, &self.grid_params.with_eye(eye)?)?;
-        self.renderer
-            .encode_primary_and_gi(encoder, timer.as_deref_mut());
-        Self::span(&mut timer, encoder, "generate", |enc| {
-            self.dispatch(
-                enc,
-                "wr generate",
-                &self.pipelines[K_GENERATE][0],
-                &self.generate_group,
-            )
-        });
-        Self::span(
-            &mut timer,
-            encoder,
-            "build",
-            |enc| -> Result<(), WorldRestirError> {
-                self.tables[p].encode_clear(enc);
-                self.dispatch(
-                    enc,
-                    "wr insert",
-                    &self.pipelines[K_INSERT][0],
-                    &self.insert_groups[p],
-                );
-                self.scan.encode(enc, &self.scan_bindings[p])?;
-                self.dispatch(
-                    enc,
-                    "wr scatter",
-                    &self.pipelines[K_SCATTER][0],
-                    &self.scatter_groups[p],
-                );
-                if self.config.sort_cells {
-                    self.dispatch(
-                        enc,
-                        "wr sort",
-                        &self.pipelines[K_SCATTER][1],
-                        &self.scatter_groups[p],
-                    );
-                }
-                Ok(())
-            },
-        )?;
-        if let Some(groups) = &self.temporal_groups {
-            Self::span(&mut timer, encoder, "temporal", |enc| {
-                self.dispatch(enc, "wr temporal", &self.pipelines[K_REUSE][0], &groups[p])
+    /// Records one whole frame.
+    pub fn encode_frame(&mut self, f: &mut FrameEncoder) -> Result<(), WorldRestirError> {
+        let (p, passes, b) = (self.parity, &self.passes, &self.buffers);
+        let grid = self.grid_params.with_eye(self.renderer.camera().eye)?;
+        f.upload(self.tables[p].params(), 0, &grid);
+        self.renderer.encode_primary_and_gi(f);
+        f.span("generate", |f| f.dispatch(&passes.generate));
+        f.span("build", |f| -> Result<(), WorldRestirError> {
+            self.tables[p].encode_clear(f.raw());
+            f.dispatch(&passes.insert[p]);
+            self.scan.encode(f.raw(), &self.scan_bindings[p])?;
+            f.dispatch(&passes.scatter[p]);
+            passes.sort.iter().for_each(|sort| f.dispatch(&sort[p]));
+            Ok(())
+        })?;
+        if let Some(temporal) = &passes.temporal {
+            f.span("temporal", |f| f.dispatch(&temporal[p]));
+        }
+        if !passes.spatial[p].is_empty() {
+            f.span("spatial", |f| {
+                passes.spatial[p].iter().for_each(|s| f.dispatch(s))
             });
         }
-        if !self.spatial_groups[p].is_empty() {
-            Self::span(&mut timer, encoder, "spatial", |enc| {
-                for g in &self.spatial_groups[p] {
-                    self.dispatch(enc, "wr spatial", &self.pipelines[K_REUSE][0], g);
-                }
-            });
-        }
-        Self::span(&mut timer, encoder, "shade", |enc| {
-            self.dispatch(
-                enc,
-                "wr shade",
-                &self.pipelines[K_SHADE][0],
-                &self.shade_group,
-            )
-        });
-        self.renderer
-            .encode_shade_direct(encoder, timer.as_deref_mut());
+        f.span("shade", |f| f.dispatch(&passes.shade));
+        self.renderer.encode_shade_direct(f);
         if self.config.temporal {
-            Self::span(&mut timer, encoder, "persist", |enc| {
-                enc.copy_buffer_to_buffer(
-                    &self.reservoirs[self.final_index],
-                    0,
-                    &self.prev_reservoirs,
-                    0,
-                    None,
-                );
-                enc.copy_buffer_to_buffer(
-                    &self.renderer.buffers.secondary,
-                    0,
-                    &self.prev_vertices,
-                    0,
-                    None,
-                );
+            f.span("persist", |f| {
+                f.copy(&b.reservoirs[passes.final_index], &b.prev_reservoirs);
+                f.copy(&self.renderer.buffers.secondary, &b.prev_vertices);
             });
         }
-        self.renderer.encode_accumulate(encoder, timer);
+        self.renderer.encode_accumulate(f);
         self.parity = 1 - p;
         Ok(())
     }
 
-    /// Renders `frames` frames, one submission each, moving the camera along `path` (frame
-    /// numbers continue from the frames already rendered). Returns the per-pass GPU times when
-    /// the adapter has timestamps.
-    pub fn render(
-        &mut self,
-        ctx: &GpuContext,
-        frames: u32,
-        path: Option<(&CameraPath, &Camera)>,
-        mut progress: impl FnMut(u32),
-    ) -> Result<Option<PassTimes>, WorldRestirError> {
-        let mut timer = GpuTimer::new(ctx, 16);
-        let mut times = timer.is_available().then(PassTimes::default);
-        for f in 0..frames {
-            if let Some((path, base)) = path {
-                let cam = path.camera(base, self.renderer.frames());
-                self.set_camera(&ctx.queue, &cam)?;
-            }
-            timer.reset();
-            let mut encoder = ctx
-                .device
-                .create_command_encoder(&wgpu::CommandEncoderDescriptor {
-                    label: Some("world-restir frame"),
-                });
-            self.encode_frame(&ctx.queue, &mut encoder, Some(&mut timer))?;
-            timer.resolve(&mut encoder);
-            ctx.queue.submit([encoder.finish()]);
-            if let Some(t) = times.as_mut() {
-                add_times(t, &timer.read(ctx)?);
-            } else {
-                ctx.wait()?;
-            }
-            progress(f + 1);
-        }
-        Ok(times)
-    }
-
-    /// Clears the accumulation, the frame counter and the temporal history (last grid and
-    /// reservoirs): the next frames repeat the first ones for the same seed and camera.
-    pub fn reset(&mut self, ctx: &GpuContext) {
-        self.renderer.reset(ctx);
-        let mut encoder = ctx.device.create_command_encoder(&Default::default());
-        for t in &self.tables {
-            t.encode_clear(&mut encoder);
-        }
-        encoder.clear_buffer(&self.prev_reservoirs, 0, None);
-        ctx.queue.submit([encoder.finish()]);
-        self.parity = 0;
-    }
-
-    /// The accumulated images.
-    pub fn images(&self, ctx: &GpuContext) -> Result<FrameImages, GpuError> {
-        read_accumulated(ctx, &self.renderer)
-    }
-
-    /// The last frame's images.
-    pub fn last_frame(&self, ctx: &GpuContext) -> Result<FrameImages, GpuError> {
-        read_last_frame(ctx, &self.renderer)
+    /// Clears the accumulated images (the temporal history stays).
+    pub fn restart_accumulation(&mut self, f: &mut FrameEncoder) {
+        self.renderer.restart_accumulation(f);
     }
 
     /// Statistics of the last built grid (overflows = vertices left out of it).
@@ -1230,7 +873,8 @@ impl WorldRestir {
 
     /// The last frame's final reservoirs, per pixel.
     pub fn reservoirs(&self, ctx: &GpuContext) -> Result<Vec<WrReservoir>, GpuError> {
-        let mut v: Vec<WrReservoir> = buffers::read(ctx, &self.reservoirs[self.final_index])?;
+        let last = &self.buffers.reservoirs[self.passes.final_index];
+        let mut v: Vec<WrReservoir> = buffers::read(ctx, last)?;
         v.truncate(self.renderer.pixels() as usize);
         Ok(v)
     }
@@ -1240,14 +884,14 @@ impl WorldRestir {
     pub fn grid(&self, ctx: &GpuContext) -> Result<GridReadback, GpuError> {
         let p = 1 - self.parity;
         let n = self.renderer.pixels() as usize;
-        let mut vertex_slot: Vec<[u32; 2]> = buffers::read(ctx, &self.vertex_slot)?;
+        let mut vertex_slot: Vec<[u32; 2]> = buffers::read(ctx, &self.buffers.vertex_slot)?;
         vertex_slot.truncate(n);
-        let mut cells: Vec<u32> = buffers::read(ctx, &self.cells[p])?;
+        let mut cells: Vec<u32> = buffers::read(ctx, &self.buffers.cells[p])?;
         cells.truncate(n);
         Ok(GridReadback {
             vertex_slot,
             counters: buffers::read(ctx, self.tables[p].counters())?,
-            offsets: buffers::read(ctx, &self.offsets[p])?,
+            offsets: buffers::read(ctx, &self.buffers.offsets[p])?,
             cells,
         })
     }
@@ -1259,19 +903,18 @@ impl WorldRestir {
         view: DebugView,
     ) -> Result<Vec<[f32; 3]>, GpuError> {
         ctx.queue.write_buffer(
-            &self.params,
+            &self.buffers.params,
             std::mem::offset_of!(WrParams, debug_view) as u64,
             bytemuck::bytes_of(&(view as u32)),
         );
         let mut encoder = ctx.device.create_command_encoder(&Default::default());
-        self.dispatch(
-            &mut encoder,
-            "wr debug",
-            &self.pipelines[K_DEBUG][0],
-            &self.debug_group,
-        );
+        self.passes.debug.record(&mut encoder);
         ctx.queue.submit([encoder.finish()]);
-        read_rgb(ctx, &self.debug, self.renderer.pixels() as usize, 1.0)
+        let v: Vec<[f32; 4]> = buffers::read(ctx, &self.buffers.debug)?;
+        Ok(v.iter()
+            .take(self.renderer.pixels() as usize)
+            .map(|p| [p[0], p[1], p[2]])
+            .collect())
     }
 }
 
@@ -1393,25 +1036,5 @@ mod tests {
             ..c
         };
         assert_eq!(paper.table(96, 96).num_buckets, 100_000);
-    }
-
-    #[test]
-    fn orbit_keeps_the_distance_to_the_target() {
-        let base = Camera {
-            eye: Vec3::new(0.0, 1.0, -5.0),
-            target: Vec3::ZERO,
-            up: Vec3::Y,
-            vfov_deg: 40.0,
-            width: 8,
-            height: 8,
-        };
-        let path = CameraPath::Orbit {
-            frames: 10,
-            degrees: 90.0,
-        };
-        for f in 0..10 {
-            let c = path.camera(&base, f);
-            assert!(((c.eye - c.target).length() - (base.eye - base.target).length()).abs() < 1e-4);
-        }
     }
 }

@@ -85,7 +85,7 @@ fn wr_merged_m(i: u32, j: u32, v: GVertex, temporal: bool, cap: u32) -> u32 {
 @compute @workgroup_size(WORKGROUP_SIZE)
 fn wr_reuse(@builtin(global_invocation_id) gid: vec3<u32>,
             @builtin(num_workgroups) groups: vec3<u32>) {
-    let i = gid.x + gid.y * groups.x * WORKGROUP_SIZE;
+    let i = item_index(gid, groups);
     if i >= render_params.pixel_count {
         return;
     }

@@ -5,7 +5,7 @@
 @compute @workgroup_size(WORKGROUP_SIZE)
 fn wr_shade(@builtin(global_invocation_id) gid: vec3<u32>,
             @builtin(num_workgroups) groups: vec3<u32>) {
-    let i = gid.x + gid.y * groups.x * WORKGROUP_SIZE;
+    let i = item_index(gid, groups);
     if i >= render_params.pixel_count {
         return;
     }

@@ -18,12 +18,4 @@ pub fn wgsl_modules() -> Vec<(String, String)> {
     ]
 }
 
-/// Splits `groups` workgroups into an `(x, y)` dispatch within the 65535-per-dimension limit.
-pub fn dispatch_2d(groups: u32, max_per_dim: u32) -> (u32, u32) {
-    if groups <= max_per_dim {
-        (groups, 1)
-    } else {
-        let y = groups.div_ceil(max_per_dim);
-        (groups.div_ceil(y), y)
-    }
-}
+pub use restir_world::gpu::dispatch_2d;

@@ -1,15 +1,20 @@
-//! The registry of rendering methods: every method the tools can run (render, compare) is one
-//! [`MethodEntry`] here, built by name into a [`FrameMethod`]. A new method (world-space
-//! ReSTIR and its variants) plugs in as one more entry; the tools need no special cases.
+//! The registry of rendering methods, above the renderers: every method the tools run
+//! (render, compare, the viewer) is one [`MethodEntry`], built from a spec into a
+//! [`FrameMethod`], driven by the one frame loop [`run_frames`] and read back as
+//! [`FrameImages`]. A new method plugs in as one more entry; the tools need no special cases.
 //!
-//! A method spec is `name` or `name:variant` (e.g. `ris:4` = RIS with 4 candidates).
+//! A method spec is `name` or `name:variant` (e.g. `ris:4` = RIS with 4 candidates,
+//! `world-restir:temporal+spatial-passes=4`).
 
 use std::fmt;
 
-use super::{Method, RenderError, Renderer};
-use crate::scene::{Camera, Scene};
-use crate::world_restir::{Combine, WorldRestir, WorldRestirConfig, WorldRestirError};
-use crate::{GpuContext, GpuTimer};
+use crate::gpu::{FrameEncoder, GpuContext, GpuError, GpuTimer, PassTimes, SpanTimes};
+use crate::image_io::Image;
+use crate::reference::Rendered;
+use crate::render::{self, RenderError, Renderer};
+use crate::sampling::Estimator;
+use crate::scene::{Camera, CameraPath, Scene};
+use crate::world_restir::{Combine, DebugView, WorldRestir, WorldRestirConfig, WorldRestirError};
 
 /// What can go wrong building or running a method.
 #[derive(Debug, thiserror::Error)]
@@ -18,115 +23,273 @@ pub enum MethodError {
     Render(#[from] RenderError),
     #[error(transparent)]
     WorldRestir(#[from] WorldRestirError),
+    #[error(transparent)]
+    Gpu(#[from] GpuError),
     #[error("unknown method {name:?}; known: {known}")]
     Unknown { name: String, known: String },
     #[error("method {method}: {msg}")]
     Variant { method: String, msg: String },
 }
 
-/// One rendering method as the tools drive it: one frame (one sample per pixel of this
-/// method) at a time, recorded into the caller's encoder. Each frame leaves its image in the
-/// renderer's `direct_frame` / `indirect_frame` buffers and adds it to the accumulation
-/// buffers (`accum_direct` / `accum_indirect`), which the caller may clear between frames.
-pub trait FrameMethod: fmt::Debug {
-    /// The spec it was built from (`name` or `name:variant`).
-    fn spec(&self) -> &str;
-    /// The renderer whose buffers hold the images.
-    fn renderer(&self) -> &Renderer;
-    /// Records one frame into `encoder`, one named timestamp span per stage. A method may
-    /// write small uniforms through `ctx.queue` (world-space ReSTIR does): callers that record
-    /// several frames of such a method submit after each (see [`FrameMethod::one_frame_per_submit`]).
-    fn encode_frame(
-        &mut self,
-        ctx: &GpuContext,
-        encoder: &mut wgpu::CommandEncoder,
-        timer: Option<&mut GpuTimer>,
-    ) -> Result<(), MethodError>;
-    /// The most timestamp spans one frame records (the timer's capacity per frame).
-    fn spans_per_frame(&self) -> u32;
-    /// Whether each frame must be submitted before the next is recorded.
-    fn one_frame_per_submit(&self) -> bool {
-        false
+/// Images read back from a method, linear HDR RGB, row-major.
+#[derive(Debug, Clone, PartialEq)]
+pub struct FrameImages {
+    pub width: u32,
+    pub height: u32,
+    /// Frames averaged.
+    pub frames: u32,
+    pub direct: Vec<[f32; 3]>,
+    pub indirect: Vec<[f32; 3]>,
+}
+
+impl FrameImages {
+    /// direct + indirect.
+    pub fn combined(&self) -> Vec<[f32; 3]> {
+        self.direct
+            .iter()
+            .zip(&self.indirect)
+            .map(|(a, b)| [a[0] + b[0], a[1] + b[1], a[2] + b[2]])
+            .collect()
     }
-    /// Moves the camera for the next frames (same image size).
-    fn set_camera(&mut self, ctx: &GpuContext, camera: &Camera) -> Result<(), MethodError>;
+
+    /// As the three images the CPU reference returns.
+    pub fn into_rendered(self) -> Result<Rendered, MethodError> {
+        let (w, h) = (self.width, self.height);
+        let image = |p| {
+            Image::from_pixels(w, h, p)
+                .map_err(|e| MethodError::from(RenderError::Settings(e.to_string())))
+        };
+        let combined = self.combined();
+        Ok(Rendered {
+            direct: image(self.direct)?,
+            indirect: image(self.indirect)?,
+            combined: image(combined)?,
+        })
+    }
+}
+
+/// Which images [`FrameMethod::read`] returns.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Readback {
+    /// The mean of the frames accumulated since creation or the last restart.
+    Accumulated,
+    /// The last frame alone.
+    LastFrame,
+}
+
+/// The renderer's images, as every method reads them back.
+fn read_renderer(
+    ctx: &GpuContext,
+    r: &Renderer,
+    which: Readback,
+) -> Result<FrameImages, MethodError> {
+    let b = &r.buffers;
+    let (sums, frames, scale) = match which {
+        Readback::Accumulated => {
+            let n = r.accumulated();
+            let scale = if n == 0 { 0.0 } else { 1.0 / n as f32 };
+            ([&b.accum_direct, &b.accum_indirect], n, scale)
+        }
+        Readback::LastFrame => ([&b.direct_frame, &b.indirect_frame], 1, 1.0),
+    };
+    let [direct, indirect] = r.read_rgb(ctx, sums, scale)?;
+    Ok(FrameImages {
+        width: r.camera().width,
+        height: r.camera().height,
+        frames,
+        direct,
+        indirect,
+    })
+}
+
+/// One rendering method as the tools drive it: one frame (one sample per pixel) at a time,
+/// recorded into a [`FrameEncoder`], one named span per stage. Frames record back to back:
+/// several may share one encoder.
+pub trait FrameMethod: fmt::Debug {
+    /// The renderer underneath (camera, size, frame counters).
+    fn renderer(&self) -> &Renderer;
+    /// Records one frame.
+    fn encode_frame(&mut self, f: &mut FrameEncoder) -> Result<(), MethodError>;
+    /// Moves the camera from the next recorded frame on (same image size).
+    fn set_camera(&mut self, camera: &Camera) -> Result<(), MethodError>;
+    /// Clears the accumulated images (from the next recorded frame on).
+    fn restart_accumulation(&mut self, f: &mut FrameEncoder);
+    /// Reads images back (blocks).
+    fn read(&self, ctx: &GpuContext, which: Readback) -> Result<FrameImages, MethodError> {
+        read_renderer(ctx, self.renderer(), which)
+    }
     /// Vertices left out of the last frame's hash grid (bucket full), for methods with one.
     fn grid_overflows(&self, _ctx: &GpuContext) -> Result<Option<u32>, MethodError> {
         Ok(None)
     }
-}
-
-/// A baseline (`nee`, `ris`): the renderer itself.
-#[derive(Debug)]
-pub struct Baseline {
-    spec: String,
-    pub renderer: Renderer,
-}
-
-impl FrameMethod for Baseline {
-    fn spec(&self) -> &str {
-        &self.spec
-    }
-    fn renderer(&self) -> &Renderer {
-        &self.renderer
-    }
-    fn encode_frame(
-        &mut self,
+    /// A debug view of the last frame (RGB per pixel), for methods with a hash grid.
+    fn debug_image(
+        &self,
         _ctx: &GpuContext,
-        encoder: &mut wgpu::CommandEncoder,
-        timer: Option<&mut GpuTimer>,
-    ) -> Result<(), MethodError> {
-        self.renderer.encode_frame(encoder, timer);
+        _view: DebugView,
+    ) -> Result<Option<Vec<[f32; 3]>>, MethodError> {
+        Ok(None)
+    }
+}
+
+impl FrameMethod for Renderer {
+    fn renderer(&self) -> &Renderer {
+        self
+    }
+    fn encode_frame(&mut self, f: &mut FrameEncoder) -> Result<(), MethodError> {
+        Renderer::encode_frame(self, f);
         Ok(())
     }
-    fn spans_per_frame(&self) -> u32 {
-        5
+    fn set_camera(&mut self, camera: &Camera) -> Result<(), MethodError> {
+        Ok(Renderer::set_camera(self, camera)?)
     }
-    fn set_camera(&mut self, ctx: &GpuContext, camera: &Camera) -> Result<(), MethodError> {
-        Ok(self.renderer.set_camera(&ctx.queue, camera)?)
+    fn restart_accumulation(&mut self, f: &mut FrameEncoder) {
+        Renderer::restart_accumulation(self, f);
     }
 }
 
-/// World-space ReSTIR GI (and its variants).
-#[derive(Debug)]
-pub struct WorldRestirMethod {
-    spec: String,
-    pub inner: WorldRestir,
-}
-
-impl FrameMethod for WorldRestirMethod {
-    fn spec(&self) -> &str {
-        &self.spec
-    }
+impl FrameMethod for WorldRestir {
     fn renderer(&self) -> &Renderer {
-        &self.inner.renderer
+        WorldRestir::renderer(self)
     }
-    fn encode_frame(
-        &mut self,
-        ctx: &GpuContext,
-        encoder: &mut wgpu::CommandEncoder,
-        timer: Option<&mut GpuTimer>,
-    ) -> Result<(), MethodError> {
-        Ok(self.inner.encode_frame(&ctx.queue, encoder, timer)?)
+    fn encode_frame(&mut self, f: &mut FrameEncoder) -> Result<(), MethodError> {
+        Ok(WorldRestir::encode_frame(self, f)?)
     }
-    fn spans_per_frame(&self) -> u32 {
-        // primary, gi, generate, build, temporal, spatial, shade, shade_direct, persist,
-        // accumulate.
-        10
+    fn set_camera(&mut self, camera: &Camera) -> Result<(), MethodError> {
+        Ok(WorldRestir::set_camera(self, camera)?)
     }
-    fn one_frame_per_submit(&self) -> bool {
-        true
-    }
-    fn set_camera(&mut self, ctx: &GpuContext, camera: &Camera) -> Result<(), MethodError> {
-        Ok(self.inner.set_camera(&ctx.queue, camera)?)
+    fn restart_accumulation(&mut self, f: &mut FrameEncoder) {
+        WorldRestir::restart_accumulation(self, f);
     }
     fn grid_overflows(&self, ctx: &GpuContext) -> Result<Option<u32>, MethodError> {
-        let stats = self
-            .inner
-            .grid_stats(ctx)
-            .map_err(|e| MethodError::WorldRestir(e.into()))?;
-        Ok(Some(stats.overflows))
+        Ok(Some(self.grid_stats(ctx)?.overflows))
     }
+    fn debug_image(
+        &self,
+        ctx: &GpuContext,
+        view: DebugView,
+    ) -> Result<Option<Vec<[f32; 3]>>, MethodError> {
+        Ok(Some(WorldRestir::debug_image(self, ctx, view)?))
+    }
+}
+
+/// How [`run_frames`] drives a method: `records` records of `samples` frames each, the camera
+/// of record `r` on `path` (from the method's camera when the loop starts), `batch` frames
+/// per submission (1 when timing, so that each span is one frame's).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct FrameLoop {
+    pub records: u32,
+    pub samples: u32,
+    pub path: CameraPath,
+    /// Restart the accumulation at the start of each record (its images are then its own).
+    pub restart: bool,
+    /// GPU timestamp spans (when the adapter has them).
+    pub timed: bool,
+    pub batch: u32,
+}
+
+impl FrameLoop {
+    /// `frames` timed frames, one per submission, accumulated, static camera.
+    pub fn frames(frames: u32) -> Self {
+        Self {
+            records: frames,
+            samples: 1,
+            path: CameraPath::Static,
+            restart: false,
+            timed: true,
+            batch: 1,
+        }
+    }
+}
+
+/// One submission of [`run_frames`].
+#[derive(Debug)]
+pub struct Submitted<'a> {
+    /// The record it belongs to (its camera's index on the path).
+    pub record: u32,
+    /// Frames in this submission.
+    pub frames: u32,
+    /// Whether the record is complete (its images can be read).
+    pub record_done: bool,
+    /// The submission's spans (`None` without timestamps or when not timed).
+    pub times: Option<&'a SpanTimes>,
+}
+
+/// The one frame loop: runs `l` on `m`, calling `after` after each submission (the GPU is
+/// done with it), and returns every span's total (`None` without timestamps).
+pub fn run_frames<E: From<MethodError>>(
+    ctx: &GpuContext,
+    m: &mut dyn FrameMethod,
+    l: &FrameLoop,
+    mut after: impl FnMut(&mut dyn FrameMethod, &Submitted) -> Result<(), E>,
+) -> Result<Option<PassTimes>, E> {
+    let mut timer = l
+        .timed
+        .then(|| GpuTimer::new(ctx))
+        .filter(GpuTimer::is_available);
+    let mut total = timer.as_ref().map(|_| PassTimes::default());
+    let batch = if timer.is_some() { 1 } else { l.batch.max(1) };
+    let base = *m.renderer().camera();
+    for record in 0..l.records {
+        if l.path != CameraPath::Static {
+            m.set_camera(&l.path.camera(&base, record))?;
+        }
+        let mut done = 0;
+        while done < l.samples {
+            let n = batch.min(l.samples - done);
+            let mut encoder = ctx.device.create_command_encoder(&Default::default());
+            if let Some(t) = timer.as_mut() {
+                t.reset();
+            }
+            let mut f = FrameEncoder::new(&ctx.device, &mut encoder, timer.as_mut());
+            if done == 0 && l.restart {
+                m.restart_accumulation(&mut f);
+            }
+            for _ in 0..n {
+                m.encode_frame(&mut f)?;
+            }
+            if let Some(t) = timer.as_ref() {
+                t.resolve(&mut encoder);
+            }
+            ctx.queue.submit([encoder.finish()]);
+            let times = match timer.as_ref() {
+                Some(t) => Some(t.read(ctx).map_err(MethodError::from)?),
+                None => {
+                    ctx.wait().map_err(MethodError::from)?;
+                    None
+                }
+            };
+            if let (Some(total), Some(t)) = (total.as_mut(), times.as_ref()) {
+                total.add(t);
+                total.frames += n;
+            }
+            done += n;
+            let s = Submitted {
+                record,
+                frames: n,
+                record_done: done == l.samples,
+                times: times.as_ref(),
+            };
+            after(m, &s)?;
+        }
+    }
+    Ok(total)
+}
+
+/// Renders `frames` frames of `m` (static camera, timed) and returns its accumulated images
+/// and span totals.
+pub fn render_frames(
+    ctx: &GpuContext,
+    m: &mut dyn FrameMethod,
+    frames: u32,
+) -> Result<(FrameImages, Option<PassTimes>), MethodError> {
+    if frames == 0 {
+        return Err(RenderError::Settings("render at least one frame".into()).into());
+    }
+    let times = run_frames(ctx, m, &FrameLoop::frames(frames), |_, _| {
+        Ok::<(), MethodError>(())
+    })?;
+    Ok((m.read(ctx, Readback::Accumulated)?, times))
 }
 
 /// The variants of `world-restir`, each isolating what one part buys.
@@ -225,10 +388,9 @@ fn build_world_restir(
     variant: Option<&str>,
 ) -> Result<Box<dyn FrameMethod>, MethodError> {
     let config = world_restir_config(variant)?;
-    Ok(Box::new(WorldRestirMethod {
-        spec: spec_of("world-restir", variant),
-        inner: WorldRestir::new(ctx, scene, camera, config, seed)?,
-    }))
+    Ok(Box::new(WorldRestir::new(
+        ctx, scene, camera, config, seed,
+    )?))
 }
 
 /// Builds a method of the registry from its variant (`None` = the default).
@@ -263,13 +425,6 @@ impl fmt::Debug for MethodEntry {
     }
 }
 
-fn spec_of(name: &str, variant: Option<&str>) -> String {
-    match variant {
-        Some(v) => format!("{name}:{v}"),
-        None => name.to_owned(),
-    }
-}
-
 fn build_nee(
     ctx: &GpuContext,
     scene: &Scene,
@@ -278,10 +433,13 @@ fn build_nee(
     variant: Option<&str>,
 ) -> Result<Box<dyn FrameMethod>, MethodError> {
     nee_variant(variant)?;
-    Ok(Box::new(Baseline {
-        spec: spec_of("nee", variant),
-        renderer: Renderer::new(ctx, scene, camera, Method::Nee, seed)?,
-    }))
+    Ok(Box::new(Renderer::new(
+        ctx,
+        scene,
+        camera,
+        Estimator::Nee,
+        seed,
+    )?))
 }
 
 /// The candidate count of `ris[:K]`.
@@ -291,12 +449,12 @@ fn ris_candidates(variant: Option<&str>) -> Result<u32, MethodError> {
         msg,
     };
     let Some(v) = variant else {
-        return Ok(super::DEFAULT_CANDIDATES);
+        return Ok(render::DEFAULT_CANDIDATES);
     };
     let k: u32 = v
         .parse()
         .map_err(|_| bad(format!("ris:<candidates> wants a number, got {v:?}")))?;
-    super::check_candidates(k).map_err(bad)?;
+    render::check_candidates(k).map_err(bad)?;
     Ok(k)
 }
 
@@ -330,13 +488,12 @@ fn build_ris(
     seed: u32,
     variant: Option<&str>,
 ) -> Result<Box<dyn FrameMethod>, MethodError> {
-    let method = Method::Ris {
+    let estimator = Estimator::Ris {
         candidates: ris_candidates(variant)?,
     };
-    Ok(Box::new(Baseline {
-        spec: spec_of("ris", variant),
-        renderer: Renderer::new(ctx, scene, camera, method, seed)?,
-    }))
+    Ok(Box::new(Renderer::new(
+        ctx, scene, camera, estimator, seed,
+    )?))
 }
 
 /// Every registered method, in display order.

@@ -1,0 +1,158 @@
+//! [`Kernel`] (a composed WGSL module's pipelines) and [`Pass`] (one of them with its bind
+//! groups and grid, ready to dispatch in a frame).
+
+use super::binding::BindGroupLayout;
+
+/// Workgroup size of every one-invocation-per-item kernel in this crate, injected into WGSL as
+/// the pipeline-overridable constant `WORKGROUP_SIZE` (declared by [`workgroup_size_wgsl`]).
+pub const WORKGROUP_SIZE: u32 = 64;
+
+/// The WGSL declaration of `WORKGROUP_SIZE` (its value comes from [`Kernel::new`]) and of
+/// `item_index`, the 1-D index of an invocation on a [`dispatch_2d`] grid.
+pub fn workgroup_size_wgsl() -> String {
+    "override WORKGROUP_SIZE: u32;\n\
+     fn item_index(gid: vec3<u32>, groups: vec3<u32>) -> u32 {\n    \
+         return gid.x + gid.y * groups.x * WORKGROUP_SIZE;\n}\n"
+        .to_owned()
+}
+
+/// Splits `groups` (at most `max_per_dim` squared) workgroups over x and y so that neither
+/// exceeds `max_per_dim` (kernels
+/// rebuild the 1-D index with `item_index`).
+pub fn dispatch_2d(groups: u32, max_per_dim: u32) -> (u32, u32) {
+    if groups <= max_per_dim {
+        (groups, 1)
+    } else {
+        let y = groups.div_ceil(max_per_dim);
+        (groups.div_ceil(y), y)
+    }
+}
+
+/// The compute pipelines of one composed WGSL module, one per entry point, on one pipeline
+/// layout (bind groups 0, 1, ... in order).
+#[derive(Debug, Clone)]
+pub struct Kernel {
+    label: String,
+    pipelines: Vec<(String, wgpu::ComputePipeline)>,
+}
+
+impl Kernel {
+    /// Compiles `source` and creates a pipeline per entry point, with `WORKGROUP_SIZE`
+    /// injected.
+    pub fn new(
+        device: &wgpu::Device,
+        label: &str,
+        source: &str,
+        layouts: &[&BindGroupLayout],
+        entry_points: &[&str],
+    ) -> Self {
+        let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+            label: Some(label),
+            source: wgpu::ShaderSource::Wgsl(source.into()),
+        });
+        let layouts: Vec<Option<&wgpu::BindGroupLayout>> =
+            layouts.iter().map(|l| Some(&l.layout)).collect();
+        let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some(label),
+            bind_group_layouts: &layouts,
+            immediate_size: 0,
+        });
+        let pipelines = entry_points
+            .iter()
+            .map(|entry| {
+                let p = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+                    label: Some(entry),
+                    layout: Some(&layout),
+                    module: &module,
+                    entry_point: Some(entry),
+                    compilation_options: wgpu::PipelineCompilationOptions {
+                        constants: &[("WORKGROUP_SIZE", f64::from(WORKGROUP_SIZE))],
+                        ..Default::default()
+                    },
+                    cache: None,
+                });
+                ((*entry).to_owned(), p)
+            })
+            .collect();
+        Self {
+            label: label.to_owned(),
+            pipelines,
+        }
+    }
+
+    /// The pipeline of `entry`.
+    ///
+    /// # Panics
+    /// When the kernel was not created with that entry point (a programming error).
+    pub fn pipeline(&self, entry: &str) -> &wgpu::ComputePipeline {
+        self.pipelines
+            .iter()
+            .find(|(e, _)| e == entry)
+            .map(|(_, p)| p)
+            .unwrap_or_else(|| panic!("kernel {:?} has no entry point {entry:?}", self.label))
+    }
+
+    /// A pass of `entry` over `items` invocations (one per item) with `groups` bound at 0, 1, ...
+    pub fn pass(
+        &self,
+        device: &wgpu::Device,
+        entry: &str,
+        groups: &[&wgpu::BindGroup],
+        items: u32,
+    ) -> Pass {
+        Pass {
+            label: entry.to_owned(),
+            pipeline: self.pipeline(entry).clone(),
+            groups: groups.iter().map(|g| (*g).clone()).collect(),
+            workgroups: dispatch_2d(
+                items.div_ceil(WORKGROUP_SIZE),
+                device.limits().max_compute_workgroups_per_dimension,
+            ),
+        }
+    }
+}
+
+/// One dispatch, ready to record: a pipeline, its bind groups and its grid.
+#[derive(Debug, Clone)]
+pub struct Pass {
+    label: String,
+    pipeline: wgpu::ComputePipeline,
+    groups: Vec<wgpu::BindGroup>,
+    workgroups: (u32, u32),
+}
+
+impl Pass {
+    /// Records the dispatch as its own compute pass.
+    pub fn record(&self, encoder: &mut wgpu::CommandEncoder) {
+        let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+            label: Some(&self.label),
+            timestamp_writes: None,
+        });
+        pass.set_pipeline(&self.pipeline);
+        for (i, g) in self.groups.iter().enumerate() {
+            pass.set_bind_group(i as u32, g, &[]);
+        }
+        pass.dispatch_workgroups(self.workgroups.0, self.workgroups.1, 1);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::dispatch_2d;
+
+    #[test]
+    fn dispatch_2d_covers_every_group_within_the_limit() {
+        for (groups, max) in [
+            (1, 65_535),
+            (65_535, 65_535),
+            (65_536, 65_535),
+            (999_999, 1000),
+            (1 << 26, 65_535),
+        ] {
+            let (x, y) = dispatch_2d(groups, max);
+            assert!(x <= max && y <= max, "{groups} {max}");
+            assert!(u64::from(x) * u64::from(y) >= u64::from(groups));
+            assert!(u64::from(x) * u64::from(y - 1) < u64::from(groups));
+        }
+    }
+}
