@@ -14,7 +14,7 @@ use crate::reference::Rendered;
 use crate::render::{self, RenderError, Renderer};
 use crate::sampling::Estimator;
 use crate::scene::{Camera, CameraPath, Scene};
-use crate::world_restir::{Combine, DebugView, WorldRestir, WorldRestirConfig, WorldRestirError};
+use crate::world_restir::{DebugView, WorldRestir, WorldRestirConfig, WorldRestirError};
 
 /// What can go wrong building or running a method.
 #[derive(Debug, thiserror::Error)]
@@ -292,115 +292,96 @@ pub fn render_frames(
     Ok((m.read(ctx, Readback::Accumulated)?, times))
 }
 
-/// The variants of `world-restir`, each isolating what one part buys.
-pub const WORLD_RESTIR_VARIANTS: [(&str, &str); 9] = [
-    ("both", "temporal + spatial reuse (the default)"),
-    ("no-reuse", "no temporal, no spatial reuse"),
-    ("temporal", "temporal reuse only"),
-    ("spatial", "spatial reuse only"),
-    ("no-adaptive", "fixed cell size (adaptive cell size off)"),
-    ("no-jitter", "no tangent jitter of the lookups"),
+/// The named variants of `world-restir`, each isolating what one part buys: (name, the knobs
+/// it sets, what it is).
+pub const WORLD_RESTIR_VARIANTS: [(&str, &str, &str); 9] = [
+    ("both", "", "temporal + spatial reuse (the default)"),
+    (
+        "no-reuse",
+        "temporal=off+spatial-passes=0",
+        "no temporal, no spatial reuse",
+    ),
+    ("temporal", "spatial-passes=0", "temporal reuse only"),
+    ("spatial", "temporal=off", "spatial reuse only"),
+    ("no-adaptive", "adaptive-cell-size=off", "fixed cell size"),
+    (
+        "no-jitter",
+        "jitter=off",
+        "no tangent jitter of the lookups",
+    ),
     (
         "biased",
-        "the paper's 1/M combination weights instead of pairwise MIS",
+        "combine=biased",
+        "the paper's 1/M weights instead of pairwise MIS",
     ),
     (
         "one-over-z",
-        "1/Z combination weights instead of pairwise MIS",
+        "combine=one-over-z",
+        "1/Z weights instead of pairwise MIS",
     ),
     (
         "paper-grid",
-        "the paper's fixed 100,000 x 32 table instead of one sized to the frame",
+        "buckets=100000",
+        "the paper's fixed 100,000 x 32 table",
     ),
 ];
 
-/// The configuration of a `world-restir` variant: a named variant, knobs `key=value` (see
-/// [`WorldRestirConfig::set`]), or several of them joined by `+`, applied in order (e.g.
+/// The configuration of a `world-restir` variant: named variants and knobs `key=value` (see
+/// [`WorldRestirConfig::set`]) joined by `+`, applied in order (e.g.
 /// `biased+spatial-passes=2`).
 pub fn world_restir_config(variant: Option<&str>) -> Result<WorldRestirConfig, MethodError> {
+    let bad = |msg: String| MethodError::Variant {
+        method: "world-restir".into(),
+        msg,
+    };
     let mut config = WorldRestirConfig::default();
     for part in variant.unwrap_or("both").split('+') {
-        config = match part.split_once('=') {
-            Some((key, value)) => {
-                let mut c = config;
-                c.set(key, value).map_err(|e| MethodError::Variant {
-                    method: "world-restir".into(),
-                    msg: e.to_string(),
-                })?;
-                c
+        let knobs = match WORLD_RESTIR_VARIANTS.iter().find(|v| v.0 == part) {
+            Some((_, knobs, _)) => *knobs,
+            None if part.contains('=') => part,
+            None => {
+                let names: Vec<&str> = WORLD_RESTIR_VARIANTS.iter().map(|v| v.0).collect();
+                let known = names.join(", ");
+                return Err(bad(format!("unknown variant {part:?}; known: {known}")));
             }
-            None => named_variant(config, part)?,
         };
+        for (key, value) in knobs.split('+').filter_map(|k| k.split_once('=')) {
+            config.set(key, value).map_err(|e| bad(e.to_string()))?;
+        }
     }
     config.validate()?;
     Ok(config)
 }
 
-/// `d` changed as the named variant says.
-fn named_variant(d: WorldRestirConfig, name: &str) -> Result<WorldRestirConfig, MethodError> {
-    Ok(match name {
-        "both" => d,
-        "no-reuse" => WorldRestirConfig {
-            temporal: false,
-            spatial_passes: 0,
-            ..d
-        },
-        "temporal" => WorldRestirConfig {
-            spatial_passes: 0,
-            ..d
-        },
-        "spatial" => WorldRestirConfig {
-            temporal: false,
-            ..d
-        },
-        "no-adaptive" => WorldRestirConfig {
-            adaptive_cell_size: false,
-            ..d
-        },
-        "no-jitter" => WorldRestirConfig { jitter: false, ..d },
-        "biased" => WorldRestirConfig {
-            combine: Combine::Biased,
-            ..d
-        },
-        "one-over-z" => WorldRestirConfig {
-            combine: Combine::OneOverZ,
-            ..d
-        },
-        "paper-grid" => WorldRestirConfig {
-            buckets: Some(100_000),
-            ..d
-        },
-        other => {
-            let names: Vec<&str> = WORLD_RESTIR_VARIANTS.iter().map(|v| v.0).collect();
-            return Err(MethodError::Variant {
-                method: "world-restir".into(),
-                msg: format!("unknown variant {other:?}; known: {}", names.join(", ")),
-            });
-        }
-    })
+/// What a method spec parses to: the settings of one of the renderers.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum MethodSettings {
+    /// `nee`, `ris[:K]`: the renderer's baselines.
+    Baseline(Estimator),
+    /// `world-restir[:variant]`.
+    WorldRestir(WorldRestirConfig),
 }
 
-fn build_world_restir(
-    ctx: &GpuContext,
-    scene: &Scene,
-    camera: &Camera,
-    seed: u32,
-    variant: Option<&str>,
-) -> Result<Box<dyn FrameMethod>, MethodError> {
-    let config = world_restir_config(variant)?;
-    Ok(Box::new(WorldRestir::new(
-        ctx, scene, camera, config, seed,
-    )?))
+impl MethodSettings {
+    /// Builds the method.
+    pub fn build(
+        self,
+        ctx: &GpuContext,
+        scene: &Scene,
+        camera: &Camera,
+        seed: u32,
+    ) -> Result<Box<dyn FrameMethod>, MethodError> {
+        Ok(match self {
+            MethodSettings::Baseline(e) => Box::new(Renderer::new(ctx, scene, camera, e, seed)?),
+            MethodSettings::WorldRestir(c) => {
+                Box::new(WorldRestir::new(ctx, scene, camera, c, seed)?)
+            }
+        })
+    }
 }
 
-/// Builds a method of the registry from its variant (`None` = the default).
-pub type BuildFn = fn(
-    ctx: &GpuContext,
-    scene: &Scene,
-    camera: &Camera,
-    seed: u32,
-    variant: Option<&str>,
-) -> Result<Box<dyn FrameMethod>, MethodError>;
+/// Parses a method's variant (`None` = the default) into its settings.
+pub type ParseFn = fn(variant: Option<&str>) -> Result<MethodSettings, MethodError>;
 
 /// One registered method.
 #[derive(Clone, Copy)]
@@ -409,12 +390,12 @@ pub struct MethodEntry {
     pub name: &'static str,
     /// One line for `--help` and reports.
     pub about: &'static str,
-    /// The variants it accepts after `:` (documentation; the builder validates).
+    /// The variants it accepts after `:` (documentation; `parse` validates).
     pub variants: &'static str,
     /// Whether this is the method that equal-time comparisons are measured against when the
     /// run includes it (world-space ReSTIR).
     pub equal_time_target: bool,
-    pub build: BuildFn,
+    pub parse: ParseFn,
 }
 
 impl fmt::Debug for MethodEntry {
@@ -425,42 +406,9 @@ impl fmt::Debug for MethodEntry {
     }
 }
 
-fn build_nee(
-    ctx: &GpuContext,
-    scene: &Scene,
-    camera: &Camera,
-    seed: u32,
-    variant: Option<&str>,
-) -> Result<Box<dyn FrameMethod>, MethodError> {
-    nee_variant(variant)?;
-    Ok(Box::new(Renderer::new(
-        ctx,
-        scene,
-        camera,
-        Estimator::Nee,
-        seed,
-    )?))
-}
-
-/// The candidate count of `ris[:K]`.
-fn ris_candidates(variant: Option<&str>) -> Result<u32, MethodError> {
-    let bad = |msg: String| MethodError::Variant {
-        method: "ris".into(),
-        msg,
-    };
-    let Some(v) = variant else {
-        return Ok(render::DEFAULT_CANDIDATES);
-    };
-    let k: u32 = v
-        .parse()
-        .map_err(|_| bad(format!("ris:<candidates> wants a number, got {v:?}")))?;
-    render::check_candidates(k).map_err(bad)?;
-    Ok(k)
-}
-
-fn nee_variant(variant: Option<&str>) -> Result<(), MethodError> {
+fn parse_nee(variant: Option<&str>) -> Result<MethodSettings, MethodError> {
     match variant {
-        None => Ok(()),
+        None => Ok(MethodSettings::Baseline(Estimator::Nee)),
         Some(v) => Err(MethodError::Variant {
             method: "nee".into(),
             msg: format!("has no variants (got {v:?})"),
@@ -468,32 +416,36 @@ fn nee_variant(variant: Option<&str>) -> Result<(), MethodError> {
     }
 }
 
-/// Checks a method spec (`name` or `name:variant`) without a GPU: the name is registered and
-/// its variant parses. Tools call it before any expensive work.
-pub fn check_spec(spec: &str) -> Result<(), MethodError> {
-    let e = entry(spec)?;
-    let variant = spec.split_once(':').map(|(_, v)| v);
-    match e.name {
-        "nee" => nee_variant(variant),
-        "ris" => ris_candidates(variant).map(drop),
-        "world-restir" => world_restir_config(variant).map(drop),
-        _ => Ok(()),
-    }
+/// `ris[:K]`: K candidates.
+fn parse_ris(variant: Option<&str>) -> Result<MethodSettings, MethodError> {
+    let bad = |msg: String| MethodError::Variant {
+        method: "ris".into(),
+        msg,
+    };
+    let candidates = match variant {
+        None => render::DEFAULT_CANDIDATES,
+        Some(v) => v
+            .parse()
+            .map_err(|_| bad(format!("ris:<candidates> wants a number, got {v:?}")))?,
+    };
+    render::check_candidates(candidates).map_err(bad)?;
+    Ok(MethodSettings::Baseline(Estimator::Ris { candidates }))
 }
 
-fn build_ris(
-    ctx: &GpuContext,
-    scene: &Scene,
-    camera: &Camera,
-    seed: u32,
-    variant: Option<&str>,
-) -> Result<Box<dyn FrameMethod>, MethodError> {
-    let estimator = Estimator::Ris {
-        candidates: ris_candidates(variant)?,
-    };
-    Ok(Box::new(Renderer::new(
-        ctx, scene, camera, estimator, seed,
-    )?))
+fn parse_world_restir(variant: Option<&str>) -> Result<MethodSettings, MethodError> {
+    world_restir_config(variant).map(MethodSettings::WorldRestir)
+}
+
+/// Parses a method spec (`name` or `name:variant`) without a GPU: the name is registered and
+/// its variant parses. Tools call it before any expensive work.
+pub fn parse_spec(spec: &str) -> Result<MethodSettings, MethodError> {
+    let e = entry(spec)?;
+    (e.parse)(spec.split_once(':').map(|(_, v)| v))
+}
+
+/// [`parse_spec`], for its errors only.
+pub fn check_spec(spec: &str) -> Result<(), MethodError> {
+    parse_spec(spec).map(drop)
 }
 
 /// Every registered method, in display order.
@@ -504,14 +456,14 @@ pub fn registry() -> &'static [MethodEntry] {
             about: "one light sample + one shadow ray at each vertex",
             variants: "",
             equal_time_target: false,
-            build: build_nee,
+            parse: parse_nee,
         },
         MethodEntry {
             name: "ris",
             about: "RIS over 16 light candidates (ris:K for K), one shadow ray, no reuse",
             variants: "K (candidate count)",
             equal_time_target: false,
-            build: build_ris,
+            parse: parse_ris,
         },
         MethodEntry {
             name: "world-restir",
@@ -519,7 +471,7 @@ pub fn registry() -> &'static [MethodEntry] {
             variants: "both, no-reuse, temporal, spatial, no-adaptive, no-jitter, biased, one-over-z, \
                        paper-grid, or knobs key=value (e.g. spatial-passes=2), joined by +",
             equal_time_target: true,
-            build: build_world_restir,
+            parse: parse_world_restir,
         },
     ];
     REGISTRY
@@ -545,14 +497,13 @@ pub fn build_method(
     camera: &Camera,
     seed: u32,
 ) -> Result<Box<dyn FrameMethod>, MethodError> {
-    let e = entry(spec)?;
-    let variant = spec.split_once(':').map(|(_, v)| v);
-    (e.build)(ctx, scene, camera, seed, variant)
+    parse_spec(spec)?.build(ctx, scene, camera, seed)
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::world_restir::Combine;
 
     #[test]
     fn names_are_unique_and_found() {
@@ -586,7 +537,7 @@ mod tests {
 
     #[test]
     fn world_restir_variants_parse() {
-        for (v, _) in WORLD_RESTIR_VARIANTS {
+        for (v, _, _) in WORLD_RESTIR_VARIANTS {
             world_restir_config(Some(v)).unwrap().validate().unwrap();
         }
         let t = world_restir_config(Some("temporal")).unwrap();

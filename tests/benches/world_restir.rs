@@ -101,8 +101,8 @@ fn world_restir(c: &mut Criterion) {
     let variants = std::iter::once(("default", WorldRestirConfig::default())).chain(
         WORLD_RESTIR_VARIANTS
             .iter()
-            .filter(|(name, _)| *name != "both")
-            .map(|(name, _)| (*name, world_restir_config(Some(name)).expect("variant"))),
+            .filter(|(name, _, _)| *name != "both")
+            .map(|(name, _, _)| (*name, world_restir_config(Some(name)).expect("variant"))),
     );
     for (variant, config) in variants {
         let mut wr = WorldRestir::new(ctx, &scene, &cam, config, 1).expect("world-restir");

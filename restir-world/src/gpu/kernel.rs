@@ -7,12 +7,23 @@ use super::binding::BindGroupLayout;
 /// the pipeline-overridable constant `WORKGROUP_SIZE` (declared by [`workgroup_size_wgsl`]).
 pub const WORKGROUP_SIZE: u32 = 64;
 
-/// The WGSL declaration of `WORKGROUP_SIZE` (its value comes from [`Kernel::new`]) and of
-/// `item_index`, the 1-D index of an invocation on a [`dispatch_2d`] grid.
+/// The WGSL every one-invocation-per-item kernel starts from: `WORKGROUP_SIZE` (its value
+/// comes from [`Kernel::new`]), the entry-point input `Invocation` and `item_index`, the 1-D
+/// index of an invocation on a [`dispatch_2d`] grid. A kernel reads:
+///
+/// ```wgsl
+/// @compute @workgroup_size(WORKGROUP_SIZE)
+/// fn my_kernel(id: Invocation) {
+///     let i = item_index(id);
+///     if i >= count { return; }
+/// ```
 pub fn workgroup_size_wgsl() -> String {
     "override WORKGROUP_SIZE: u32;\n\
-     fn item_index(gid: vec3<u32>, groups: vec3<u32>) -> u32 {\n    \
-         return gid.x + gid.y * groups.x * WORKGROUP_SIZE;\n}\n"
+     struct Invocation {\n    \
+         @builtin(global_invocation_id) gid: vec3<u32>,\n    \
+         @builtin(num_workgroups) groups: vec3<u32>,\n}\n\
+     fn item_index(id: Invocation) -> u32 {\n    \
+         return id.gid.x + id.gid.y * id.groups.x * WORKGROUP_SIZE;\n}\n"
         .to_owned()
 }
 

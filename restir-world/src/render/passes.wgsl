@@ -4,12 +4,9 @@
 
 // Camera ray with a uniform sub-pixel jitter (box filter) -> G-buffer.
 @compute @workgroup_size(WORKGROUP_SIZE)
-fn render_primary(@builtin(global_invocation_id) gid: vec3<u32>,
-                  @builtin(num_workgroups) groups: vec3<u32>) {
-    let i = item_index(gid, groups);
-    if i >= render_params.pixel_count {
-        return;
-    }
+fn render_primary(id: Invocation) {
+    let i = item_index(id);
+    if i >= render_params.pixel_count { return; }
     var rng = render_rng(i, RENDER_PASS_PRIMARY);
     let w = render_params.camera.width;
     let jitter = vec2<f32>(rng_next_f32(&rng), rng_next_f32(&rng));
@@ -23,12 +20,9 @@ fn render_primary(@builtin(global_invocation_id) gid: vec3<u32>,
 
 // One cosine-weighted GI ray from each primary hit -> secondary vertex.
 @compute @workgroup_size(WORKGROUP_SIZE)
-fn render_gi(@builtin(global_invocation_id) gid: vec3<u32>,
-             @builtin(num_workgroups) groups: vec3<u32>) {
-    let i = item_index(gid, groups);
-    if i >= render_params.pixel_count {
-        return;
-    }
+fn render_gi(id: Invocation) {
+    let i = item_index(id);
+    if i >= render_params.pixel_count { return; }
     let g = render_gbuffer[i];
     if g.prim == BVH_NO_HIT {
         var none: GVertex;
@@ -48,12 +42,9 @@ fn render_gi(@builtin(global_invocation_id) gid: vec3<u32>,
 
 // Direct light at the primary vertex: emission seen + NEE.
 @compute @workgroup_size(WORKGROUP_SIZE)
-fn render_shade_direct(@builtin(global_invocation_id) gid: vec3<u32>,
-                       @builtin(num_workgroups) groups: vec3<u32>) {
-    let i = item_index(gid, groups);
-    if i >= render_params.pixel_count {
-        return;
-    }
+fn render_shade_direct(id: Invocation) {
+    let i = item_index(id);
+    if i >= render_params.pixel_count { return; }
     let g = render_gbuffer[i];
     var c = vec3<f32>(0.0);
     if g.prim != BVH_NO_HIT {
@@ -66,12 +57,9 @@ fn render_shade_direct(@builtin(global_invocation_id) gid: vec3<u32>,
 // One-bounce indirect light: primary albedo x (NEE at the secondary vertex); the cosine pdf of
 // the GI ray cancels the cosine and 1/pi of the primary's BRDF.
 @compute @workgroup_size(WORKGROUP_SIZE)
-fn render_shade_indirect(@builtin(global_invocation_id) gid: vec3<u32>,
-                         @builtin(num_workgroups) groups: vec3<u32>) {
-    let i = item_index(gid, groups);
-    if i >= render_params.pixel_count {
-        return;
-    }
+fn render_shade_indirect(id: Invocation) {
+    let i = item_index(id);
+    if i >= render_params.pixel_count { return; }
     let g = render_gbuffer[i];
     let s = render_secondary[i];
     var c = vec3<f32>(0.0);
@@ -84,9 +72,8 @@ fn render_shade_indirect(@builtin(global_invocation_id) gid: vec3<u32>,
 
 // Adds this frame's direct and indirect estimates to the running sums; advances the frame.
 @compute @workgroup_size(WORKGROUP_SIZE)
-fn render_accumulate(@builtin(global_invocation_id) gid: vec3<u32>,
-                     @builtin(num_workgroups) groups: vec3<u32>) {
-    let i = item_index(gid, groups);
+fn render_accumulate(id: Invocation) {
+    let i = item_index(id);
     if i == 0u {
         render_state.frame += 1u;
     }

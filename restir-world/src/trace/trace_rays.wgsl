@@ -10,12 +10,9 @@ struct TraceParams {
 }
 
 @compute @workgroup_size(WORKGROUP_SIZE)
-fn trace_rays(@builtin(global_invocation_id) gid: vec3<u32>,
-              @builtin(num_workgroups) groups: vec3<u32>) {
-    let i = item_index(gid, groups);
-    if i >= trace_params.count {
-        return;
-    }
+fn trace_rays(id: Invocation) {
+    let i = item_index(id);
+    if i >= trace_params.count { return; }
     let ray = trace_rays_in[i];
     trace_hits_out[i] = bvh_traverse(ray, trace_params.any_hit != 0u);
 }

@@ -10,12 +10,9 @@ fn wr_heat(t: f32) -> vec3<f32> {
 }
 
 @compute @workgroup_size(WORKGROUP_SIZE)
-fn wr_debug_view(@builtin(global_invocation_id) gid: vec3<u32>,
-                 @builtin(num_workgroups) groups: vec3<u32>) {
-    let i = item_index(gid, groups);
-    if i >= render_params.pixel_count {
-        return;
-    }
+fn wr_debug_view(id: Invocation) {
+    let i = item_index(id);
+    if i >= render_params.pixel_count { return; }
     var c = vec3<f32>(0.0);
     let e = wr_vertex_slot[i];
     if wr_has_vertex(i) {

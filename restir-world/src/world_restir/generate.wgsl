@@ -2,12 +2,9 @@
 // secondary vertex, target = luminance of the unshadowed reflected radiance. Writes wr_out.
 
 @compute @workgroup_size(WORKGROUP_SIZE)
-fn wr_generate(@builtin(global_invocation_id) gid: vec3<u32>,
-               @builtin(num_workgroups) groups: vec3<u32>) {
-    let i = item_index(gid, groups);
-    if i >= render_params.pixel_count {
-        return;
-    }
+fn wr_generate(id: Invocation) {
+    let i = item_index(id);
+    if i >= render_params.pixel_count { return; }
     var out = wr_empty_stored();
     if !wr_has_vertex(i) || !wr_is_active(i, wr_params.gi_stride) || lights_info.count == 0u {
         wr_out[i] = out;

@@ -4,12 +4,9 @@
 // grid (slot = HASH_FULL, counted by gpu-hash): it keeps its own reservoir.
 
 @compute @workgroup_size(WORKGROUP_SIZE)
-fn wr_insert(@builtin(global_invocation_id) gid: vec3<u32>,
-             @builtin(num_workgroups) groups: vec3<u32>) {
-    let i = item_index(gid, groups);
-    if i >= render_params.pixel_count {
-        return;
-    }
+fn wr_insert(id: Invocation) {
+    let i = item_index(id);
+    if i >= render_params.pixel_count { return; }
     var entry = vec2<u32>(WR_NO_SLOT, 0u);
     if wr_has_vertex(i) && wr_is_active(i, wr_params.gi_stride) {
         let v = render_secondary[i];

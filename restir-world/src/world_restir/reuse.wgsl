@@ -83,12 +83,9 @@ fn wr_merged_m(i: u32, j: u32, v: GVertex, temporal: bool, cap: u32) -> u32 {
 }
 
 @compute @workgroup_size(WORKGROUP_SIZE)
-fn wr_reuse(@builtin(global_invocation_id) gid: vec3<u32>,
-            @builtin(num_workgroups) groups: vec3<u32>) {
-    let i = item_index(gid, groups);
-    if i >= render_params.pixel_count {
-        return;
-    }
+fn wr_reuse(id: Invocation) {
+    let i = item_index(id);
+    if i >= render_params.pixel_count { return; }
     let own = wr_self[i];
     if !wr_has_vertex(i) {
         wr_out[i] = own;

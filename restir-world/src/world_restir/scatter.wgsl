@@ -4,12 +4,9 @@
 // grid (and the images) do not depend on the order in which the atomics ran.
 
 @compute @workgroup_size(WORKGROUP_SIZE)
-fn wr_scatter(@builtin(global_invocation_id) gid: vec3<u32>,
-              @builtin(num_workgroups) groups: vec3<u32>) {
-    let i = item_index(gid, groups);
-    if i >= render_params.pixel_count {
-        return;
-    }
+fn wr_scatter(id: Invocation) {
+    let i = item_index(id);
+    if i >= render_params.pixel_count { return; }
     let e = wr_vertex_slot[i];
     if e.x < WR_FIRST_SENTINEL {
         wr_cells[wr_offsets[e.x] + e.y] = i;
@@ -19,12 +16,9 @@ fn wr_scatter(@builtin(global_invocation_id) gid: vec3<u32>,
 // One invocation per inserted vertex whose index in its slot is 0: insertion sort of that
 // cell's list (cells hold a few hundred vertices at most at the default projected size).
 @compute @workgroup_size(WORKGROUP_SIZE)
-fn wr_sort_cells(@builtin(global_invocation_id) gid: vec3<u32>,
-                 @builtin(num_workgroups) groups: vec3<u32>) {
-    let i = item_index(gid, groups);
-    if i >= render_params.pixel_count {
-        return;
-    }
+fn wr_sort_cells(id: Invocation) {
+    let i = item_index(id);
+    if i >= render_params.pixel_count { return; }
     let e = wr_vertex_slot[i];
     if e.x >= WR_FIRST_SENTINEL || e.y != 0u {
         return;

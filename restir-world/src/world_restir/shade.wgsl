@@ -3,12 +3,9 @@
 // that radiance (the cosine pdf of the GI ray cancels the primary's cosine and 1/pi).
 
 @compute @workgroup_size(WORKGROUP_SIZE)
-fn wr_shade(@builtin(global_invocation_id) gid: vec3<u32>,
-            @builtin(num_workgroups) groups: vec3<u32>) {
-    let i = item_index(gid, groups);
-    if i >= render_params.pixel_count {
-        return;
-    }
+fn wr_shade(id: Invocation) {
+    let i = item_index(id);
+    if i >= render_params.pixel_count { return; }
     var c = vec3<f32>(0.0);
     if wr_has_vertex(i) {
         let res = wr_final[i];
