@@ -255,6 +255,7 @@ fn gltf_with_data_uri_reads_transforms_materials_and_camera() {
     assert!(l.warnings.is_empty(), "{:?}", l.warnings);
     // External .bin next to the file.
     write(&d, "t.bin", &bin);
+    write(&d, "t.png", b"");
     let p = write(&d, "ext.gltf", gltf_json(Some("t.bin"), 42, true));
     let l = scene::load(&p).unwrap();
     check_triangle_scene(&l);
@@ -307,6 +308,104 @@ fn gltf_errors_name_the_file() {
     // Missing file.
     let p = d.join("absent.glb");
     assert_err_names(&scene::load(&p).unwrap_err(), &p, "");
+}
+
+/// `gltf_json` (data-URI buffer) with `extensionsRequired` set to `required`.
+fn gltf_requiring(required: &[&str], textured: bool) -> String {
+    let bin = triangle_bin(2);
+    let uri = format!("data:application/octet-stream;base64,{}", base64(&bin));
+    let list: Vec<String> = required.iter().map(|e| format!("{e:?}")).collect();
+    gltf_json(Some(&uri), 42, textured).replacen(
+        r#""asset": {"version": "2.0"},"#,
+        &format!(
+            r#""asset": {{"version": "2.0"}}, "extensionsRequired": [{}],"#,
+            list.join(", ")
+        ),
+        1,
+    )
+}
+
+#[test]
+fn gltf_required_extensions_are_used_ignored_or_refused() {
+    let d = temp_dir("gltf-ext");
+    // Supported: no warning.
+    let p = write(
+        &d,
+        "ok.gltf",
+        gltf_requiring(
+            &[
+                "KHR_materials_emissive_strength",
+                "KHR_texture_transform",
+                "KHR_lights_punctual",
+            ],
+            false,
+        ),
+    );
+    let l = scene::load(&p).unwrap();
+    check_triangle_scene(&l);
+    assert!(l.warnings.is_empty(), "{:?}", l.warnings);
+    // Appearance only: one warning each (a duplicate listing warns once), the scene loads.
+    let p = write(
+        &d,
+        "looks.gltf",
+        gltf_requiring(
+            &[
+                "AMD_split_roughnessMetallic",
+                "KHR_materials_clearcoat",
+                "KHR_texture_basisu",
+                "AMD_split_roughnessMetallic",
+                "VENDOR_something_new",
+            ],
+            false,
+        ),
+    );
+    let l = scene::load(&p).unwrap();
+    check_triangle_scene(&l);
+    assert_eq!(l.warnings.len(), 4, "{:?}", l.warnings);
+    for (w, ext) in l.warnings.iter().zip([
+        "AMD_split_roughnessMetallic",
+        "KHR_materials_clearcoat",
+        "KHR_texture_basisu",
+        "VENDOR_something_new",
+    ]) {
+        assert!(w.contains(ext) && w.contains("ignored"), "{w}");
+        assert!(w.contains(&p.display().to_string()), "{w}");
+    }
+    assert!(l.warnings[3].contains("unknown"), "{}", l.warnings[3]);
+    // Geometry: refused, naming the extension and the file.
+    for ext in [
+        "KHR_draco_mesh_compression",
+        "EXT_meshopt_compression",
+        "KHR_mesh_quantization",
+    ] {
+        let p = write(
+            &d,
+            &format!("{ext}.gltf"),
+            gltf_requiring(&["KHR_texture_transform", ext], false),
+        );
+        assert_err_names(&scene::load(&p).unwrap_err(), &p, ext);
+    }
+}
+
+#[test]
+fn gltf_texture_with_only_a_dds_source_and_missing_images_load() {
+    let d = temp_dir("gltf-dds");
+    let json = gltf_requiring(&["MSFT_texture_dds"], true).replace(
+        r#""images": [{"uri": "t.png"}], "textures": [{"source": 0}],"#,
+        r#""images": [{"uri": "t.dds"}], "textures": [{"extensions": {"MSFT_texture_dds": {"source": 0}}}],"#,
+    );
+    assert!(json.contains("t.dds"));
+    let p = write(&d, "dds.gltf", json);
+    let l = scene::load(&p).unwrap();
+    check_triangle_scene(&l);
+    let joined = l.warnings.join("\n");
+    assert_eq!(l.warnings.len(), 3, "{joined}");
+    assert!(joined.contains("MSFT_texture_dds"), "{joined}");
+    assert!(joined.contains("1 image files are missing"), "{joined}");
+    assert!(
+        joined.contains("textures, which are not modelled"),
+        "{joined}"
+    );
 }
 
 #[test]

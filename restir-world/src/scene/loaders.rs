@@ -5,7 +5,11 @@
 //! KHR_materials_emissive_strength as emission. Buffers: the GLB binary chunk, base64 data
 //! URIs and files relative to the .gltf. OBJ: Kd as albedo, Ke as emission, polygons
 //! triangulated. Textures are not modelled: their factors are used and [`Loaded::warnings`]
-//! says so once per file.
+//! says so once per file; a texture without a `source` (DDS only) or a missing image file is
+//! never an error. `extensionsRequired` follows [`extension_policy`]: supported extensions are
+//! used, ones that change only what the renderer does not model warn once each, ones that
+//! change the geometry (Draco, meshopt, quantization, GPU instancing) are an error naming the
+//! extension and the file.
 
 use std::cell::RefCell;
 use std::path::{Component, Path, PathBuf};
@@ -223,10 +227,100 @@ fn base64_decode(s: &str) -> Option<Vec<u8>> {
     Some(out)
 }
 
+/// What the glTF loader does with an extension a file lists in `extensionsRequired`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ExtensionPolicy {
+    /// Read and used (or, for `KHR_texture_transform`, harmless: textures are not modelled).
+    Supported,
+    /// Changes only what the renderer does not model (the text says what): the file loads
+    /// with one warning.
+    Ignored(&'static str),
+    /// Changes the geometry, which this loader cannot decode (the text says how): the file is
+    /// refused.
+    Refused(&'static str),
+    /// Not known to this loader: the file loads with one warning that it may be incomplete.
+    Unknown,
+}
+
+/// The policy for a required glTF extension by name (see [`ExtensionPolicy`]).
+pub fn extension_policy(name: &str) -> ExtensionPolicy {
+    use ExtensionPolicy::*;
+    match name {
+        "KHR_materials_emissive_strength" | "KHR_lights_punctual" | "KHR_texture_transform" => {
+            Supported
+        }
+        "KHR_draco_mesh_compression" => Refused("Draco-compressed meshes"),
+        "EXT_meshopt_compression" => Refused("meshoptimizer-compressed buffers"),
+        "KHR_mesh_quantization" => Refused("quantized (integer) vertex attributes"),
+        "EXT_mesh_gpu_instancing" => Refused("GPU-instanced meshes"),
+        "AMD_split_roughnessMetallic" => Ignored("split roughness/metallic textures"),
+        "MSFT_texture_dds" | "KHR_texture_basisu" | "EXT_texture_webp" | "EXT_texture_avif" => {
+            Ignored("alternative texture image formats (textures are not modelled)")
+        }
+        "KHR_materials_variants" => Ignored("material variants (the default is used)"),
+        "KHR_materials_unlit" => Ignored("unlit materials (shaded as diffuse)"),
+        "EXT_lights_image_based" => Ignored("image-based (environment) lighting"),
+        "KHR_xmp_json_ld" => Ignored("metadata"),
+        "KHR_animation_pointer" => Ignored("animation"),
+        n if n.starts_with("KHR_materials_") => {
+            Ignored("a material model beyond diffuse albedo and emission")
+        }
+        n if n.starts_with("KHR_texture_") || n.starts_with("EXT_texture_") => {
+            Ignored("textures (not modelled)")
+        }
+        _ => Unknown,
+    }
+}
+
+/// Parses a .gltf/.glb, applies [`extension_policy`] to its `extensionsRequired` (one warning
+/// per ignored or unknown extension, an error naming a refused one), then validates the rest
+/// with the `gltf` crate (which would refuse every required extension it does not implement).
+fn parse_gltf(
+    path: &Path,
+    bytes: &[u8],
+    warnings: &mut Vec<String>,
+) -> Result<gltf::Gltf, SceneError> {
+    let err = |e: gltf::Error| parse_err(path, format!("glTF: {e}"));
+    let raw = gltf::Gltf::from_slice_without_validation(bytes).map_err(err)?;
+    let blob = raw.blob;
+    let mut root = raw.document.into_json();
+    let mut seen = std::collections::HashSet::new();
+    for ext in &root.extensions_required {
+        if !seen.insert(ext.clone()) {
+            continue;
+        }
+        match extension_policy(ext) {
+            ExtensionPolicy::Supported => {}
+            ExtensionPolicy::Ignored(what) => warnings.push(format!(
+                "{}: glTF requires extension {ext}, which only affects {what}; the renderer \
+                 does not model it: ignored",
+                path.display()
+            )),
+            ExtensionPolicy::Refused(what) => {
+                return Err(parse_err(
+                    path,
+                    format!(
+                        "glTF: requires extension {ext} ({what}), which this loader cannot \
+                         decode: export the scene without it"
+                    ),
+                ));
+            }
+            ExtensionPolicy::Unknown => warnings.push(format!(
+                "{}: glTF requires extension {ext}, unknown to this loader: ignored (the scene \
+                 may load incomplete or look different)",
+                path.display()
+            )),
+        }
+    }
+    root.extensions_required.clear();
+    let document = gltf::Document::from_json(root).map_err(err)?;
+    Ok(gltf::Gltf { document, blob })
+}
+
 /// Loads a glTF 2.0 file (.gltf or .glb) without sanitizing it.
 pub fn load_gltf(path: &Path, warnings: &mut Vec<String>) -> Result<Scene, SceneError> {
     let bytes = read(path)?;
-    let gltf = gltf::Gltf::from_slice(&bytes).map_err(|e| parse_err(path, format!("glTF: {e}")))?;
+    let gltf = parse_gltf(path, &bytes, warnings)?;
     let dir = path.parent().unwrap_or(Path::new("."));
     let mut buffers = Vec::new();
     for b in gltf.buffers() {
@@ -262,14 +356,26 @@ pub fn load_gltf(path: &Path, warnings: &mut Vec<String>) -> Result<Scene, Scene
         buffers.push(data);
     }
 
+    let mut missing_images = Vec::new();
     for img in gltf.images() {
         if let gltf::image::Source::Uri { uri, .. } = img.source()
             && !uri.starts_with("data:")
         {
             // Images are not read (textures are not modelled), but a scene naming files
             // outside its directory is refused all the same.
-            confined(path, dir, uri, false)?;
+            let file = confined(path, dir, uri, false)?;
+            if !file.is_file() {
+                missing_images.push(uri);
+            }
         }
+    }
+    if let Some(first) = missing_images.first() {
+        warnings.push(format!(
+            "{}: {} image files are missing (the first: {first:?}); textures are not modelled, \
+             so nothing changes",
+            path.display(),
+            missing_images.len()
+        ));
     }
 
     let mut scene = Scene::default();
@@ -448,7 +554,9 @@ pub fn load_gltf(path: &Path, warnings: &mut Vec<String>) -> Result<Scene, Scene
 fn clean_mtl(file: &Path, text: &str) -> Result<String, SceneError> {
     let mut out = String::with_capacity(text.len());
     for (n, line) in text.lines().enumerate() {
-        let mut words = line.split_whitespace();
+        // A `#` starts a comment, also after values ("Ka 0.63 0.065 0.05 # Red").
+        let data = line.split_once('#').map_or(line, |(d, _)| d);
+        let mut words = data.split_whitespace();
         let key = words.next().unwrap_or("");
         let values: Vec<&str> = words.collect();
         let numbers = || {
@@ -474,7 +582,7 @@ fn clean_mtl(file: &Path, text: &str) -> Result<String, SceneError> {
                 _ => return Err(bad("1 or 3 numbers")),
             },
             "Ns" | "Ni" | "d" | "Tr" => match numbers().as_deref() {
-                Ok([_]) => out.push_str(line),
+                Ok([_]) => out.push_str(data.trim_end()),
                 _ => return Err(bad("one number")),
             },
             _ => out.push_str(line),
@@ -647,6 +755,9 @@ mod tests {
         let f = Path::new("m.mtl");
         let t = clean_mtl(f, "newmtl a\nKd 0.5\nKe 1 2 3\nNs 10\n").unwrap();
         assert_eq!(t, "newmtl a\nKd 0.5 0.5 0.5\nKe 1 2 3\nNs 10\n");
+        // Trailing comments (McGuire's Cornell box: "Ka 0.63 0.065 0.05 # Red").
+        let t = clean_mtl(f, "newmtl a\nKa 0.63 0.065 0.05 # Red\nNs 10.0 # shiny\n").unwrap();
+        assert_eq!(t, "newmtl a\nKa 0.63 0.065 0.05\nNs 10.0\n");
         for bad in ["Ke abc def", "Kd 1 2", "Ns", "Ni x"] {
             let e = clean_mtl(f, &format!("newmtl a\n{bad}\n")).unwrap_err();
             assert!(e.to_string().contains("m.mtl: MTL line 2"), "{e}");

@@ -17,7 +17,9 @@ mod loaders;
 pub use builtin::{
     BUILTIN_NAMES, BuiltinOptions, builtin, cornell, furnace, furnace_sphere, many_lights,
 };
-pub use loaders::{DEFAULT_ALBEDO, Loaded, load, load_gltf, load_obj};
+pub use loaders::{
+    DEFAULT_ALBEDO, ExtensionPolicy, Loaded, extension_policy, load, load_gltf, load_obj,
+};
 
 use std::path::PathBuf;
 
