@@ -140,6 +140,10 @@ struct SceneArgs {
     /// many-lights: seed of the generated scene.
     #[arg(long, default_value_t = 1)]
     scene_seed: u32,
+    /// The scene file's camera to use, by name or index (`info --scene FILE` lists them).
+    /// Default: the file's first camera; a file without one gets a default framing.
+    #[arg(long = "camera")]
+    camera: Option<String>,
 }
 
 #[derive(clap::ValueEnum, Debug, Clone, Copy, PartialEq, Eq)]
@@ -269,6 +273,7 @@ fn load_scene(name: &str, opts: &SceneArgs, size: Option<(u32, u32)>) -> Result<
             },
         )?;
         s.sanitize(name)?;
+        select_camera(&mut s, opts)?;
         warn_if_dark(name, &s);
         return Ok(s);
     }
@@ -286,8 +291,19 @@ fn load_scene(name: &str, opts: &SceneArgs, size: Option<(u32, u32)>) -> Result<
     for w in &loaded.warnings {
         eprintln!("warning: {w}");
     }
-    warn_if_dark(name, &loaded.scene);
-    Ok(loaded.scene)
+    let mut s = loaded.scene;
+    select_camera(&mut s, opts)?;
+    warn_if_dark(name, &s);
+    Ok(s)
+}
+
+/// Applies `--camera`.
+fn select_camera(s: &mut Scene, opts: &SceneArgs) -> Result<()> {
+    if let Some(c) = &opts.camera {
+        s.select_camera(c)
+            .with_context(|| format!("--camera {c}"))?;
+    }
+    Ok(())
 }
 
 /// A scene without emitters renders black: say so.
@@ -357,12 +373,22 @@ fn info(scene_name: Option<&str>, opts: &SceneArgs) -> Result<()> {
         if let Some((lo, hi)) = s.bounds() {
             println!("bounds: {lo} .. {hi}");
         }
+        for (i, c) in s.cameras.iter().enumerate() {
+            println!("camera {i}: {:?}", c.name);
+        }
         match s.camera {
             Some(c) => println!(
                 "camera: eye {} target {} up {} fov {} deg, {}x{}",
                 c.eye, c.target, c.up, c.vfov_deg, c.width, c.height
             ),
-            None => println!("camera: none in the file (a default framing is used)"),
+            None => {
+                let c = s.camera_or_default(256, 256);
+                println!(
+                    "camera: none in the file; the default framing: eye {} target {} up {} \
+                     fov {} deg",
+                    c.eye, c.target, c.up, c.vfov_deg
+                );
+            }
         }
     }
     Ok(())

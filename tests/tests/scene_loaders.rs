@@ -388,6 +388,44 @@ fn gltf_required_extensions_are_used_ignored_or_refused() {
 }
 
 #[test]
+fn gltf_cameras_in_file_order_named_with_unit_up() {
+    let d = temp_dir("gltf-cams");
+    let json = gltf_requiring(&[], false)
+        .replace(r#""nodes": [0, 2]"#, r#""nodes": [2, 0, 3]"#)
+        .replace(
+            r#"{"camera": 0, "translation": [0, 0, 10]}"#,
+            r#"{"camera": 0, "translation": [0, 0, 10], "name": "Front"},
+    {"camera": 1, "translation": [0, 0, 20], "scale": [0.5, 0.5, 0.5]}"#,
+        )
+        .replace(
+            r#""cameras": ["#,
+            r#""cameras": [{"type": "perspective", "name": "Far", "perspective": {"yfov": 0.7, "znear": 0.1}}, "#,
+        )
+        .replace(r#""camera": 0, "translation": [0, 0, 10]"#, r#""camera": 1, "translation": [0, 0, 10]"#)
+        .replace(r#""camera": 1, "translation": [0, 0, 20]"#, r#""camera": 0, "translation": [0, 0, 20]"#);
+    let p = write(&d, "cams.gltf", json);
+    let l = scene::load(&p).unwrap();
+    let names: Vec<&str> = l.scene.cameras.iter().map(|c| c.name.as_str()).collect();
+    // Node 2 ("Front", camera 1) comes first in the scene's node list, then node 3 (camera 0,
+    // unnamed node: the camera's name).
+    assert_eq!(names, ["Front", "Far"]);
+    assert_eq!(
+        l.scene.camera,
+        Some(l.scene.cameras[0].camera),
+        "the first is the default"
+    );
+    for c in &l.scene.cameras {
+        assert!((c.camera.up.length() - 1.0).abs() < 1e-6, "{}", c.camera.up);
+        assert!(((c.camera.target - c.camera.eye).length() - 1.0).abs() < 1e-6);
+    }
+    let mut s = l.scene.clone();
+    s.select_camera("Far").unwrap();
+    assert_eq!(s.camera.unwrap().eye, Vec3::new(0.0, 0.0, 20.0));
+    let e = s.select_camera("5").unwrap_err().to_string();
+    assert!(e.contains(r#"0 "Front", 1 "Far""#), "{e}");
+}
+
+#[test]
 fn gltf_texture_with_only_a_dds_source_and_missing_images_load() {
     let d = temp_dir("gltf-dds");
     let json = gltf_requiring(&["MSFT_texture_dds"], true).replace(

@@ -385,8 +385,11 @@ pub fn load_gltf(path: &Path, warnings: &mut Vec<String>) -> Result<Scene, Scene
         .default_scene()
         .or_else(|| gltf.scenes().next())
         .ok_or_else(|| parse_err(path, "glTF: no scene"))?;
+    // Depth-first in file order (children pushed in reverse), so that cameras are listed in
+    // the order the file gives them.
     let mut stack: Vec<(gltf::Node, Mat4, u32)> =
         scene_def.nodes().map(|n| (n, Mat4::IDENTITY, 0)).collect();
+    stack.reverse();
     while let Some((node, parent, depth)) = stack.pop() {
         if depth > 256 {
             return Err(parse_err(
@@ -395,25 +398,41 @@ pub fn load_gltf(path: &Path, warnings: &mut Vec<String>) -> Result<Scene, Scene
             ));
         }
         let m = parent * Mat4::from_cols_array_2d(&node.transform().matrix());
-        for child in node.children() {
+        let children: Vec<_> = node.children().collect();
+        for child in children.into_iter().rev() {
             stack.push((child, m, depth + 1));
         }
-        if let Some(cam) = node.camera()
-            && scene.camera.is_none()
-            && let gltf::camera::Projection::Perspective(p) = cam.projection()
-        {
-            let eye = m.transform_point3(Vec3::ZERO);
-            let fwd = m.transform_vector3(-Vec3::Z);
-            let up = m.transform_vector3(Vec3::Y);
-            let aspect = p.aspect_ratio().filter(|a| *a > 0.0).unwrap_or(1.0);
-            scene.camera = Some(Camera {
-                eye,
-                target: eye + fwd,
-                up,
-                vfov_deg: p.yfov().to_degrees(),
-                width: (256.0 * aspect).round().clamp(1.0, 16384.0) as u32,
-                height: 256,
-            });
+        if let Some(cam) = node.camera() {
+            let name = node
+                .name()
+                .or(cam.name())
+                .map_or_else(|| format!("camera {}", scene.cameras.len()), str::to_owned);
+            match cam.projection() {
+                gltf::camera::Projection::Perspective(p) => {
+                    let eye = m.transform_point3(Vec3::ZERO);
+                    let fwd = m.transform_vector3(-Vec3::Z).normalize_or_zero();
+                    let up = m.transform_vector3(Vec3::Y).normalize_or_zero();
+                    let aspect = p.aspect_ratio().filter(|a| *a > 0.0).unwrap_or(1.0);
+                    let camera = Camera {
+                        eye,
+                        target: eye + fwd,
+                        up,
+                        vfov_deg: p.yfov().to_degrees(),
+                        width: (256.0 * aspect).round().clamp(1.0, 16384.0) as u32,
+                        height: 256,
+                    };
+                    match camera.validate() {
+                        Ok(()) => scene.cameras.push(super::NamedCamera { name, camera }),
+                        Err(e) => warnings
+                            .push(format!("{}: camera {name:?} skipped: {e}", path.display())),
+                    }
+                }
+                gltf::camera::Projection::Orthographic(_) => warnings.push(format!(
+                    "{}: camera {name:?} is orthographic: skipped (only perspective cameras \
+                     are supported)",
+                    path.display()
+                )),
+            }
         }
         let Some(mesh) = node.mesh() else { continue };
         let normal_m = Mat3::from_mat4(m).inverse().transpose();
@@ -545,6 +564,7 @@ pub fn load_gltf(path: &Path, warnings: &mut Vec<String>) -> Result<Scene, Scene
             path.display()
         ));
     }
+    scene.camera = scene.cameras.first().map(|c| c.camera);
     Ok(scene)
 }
 
