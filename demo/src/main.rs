@@ -517,9 +517,16 @@ fn render_into(
         ("indirect", &images.indirect),
         ("combined", &images.combined),
     ] {
+        // Appended, not `with_extension`: a stem with dots ("a.b") would lose its tail.
         let base = args.out.join(format!("{scene_tag}-{method_tag}-{kind}"));
-        image_io::write_exr(&base.with_extension("exr"), img)?;
-        image_io::write_png(&base.with_extension("png"), img, args.exposure)?;
+        let with = |ext: &str| {
+            let mut p = base.clone().into_os_string();
+            p.push(".");
+            p.push(ext);
+            PathBuf::from(p)
+        };
+        image_io::write_exr(&with("exr"), img)?;
+        image_io::write_png(&with("png"), img, args.exposure)?;
         let m = img.mean();
         println!(
             "wrote {}.{{exr,png}} (mean {:.4} {:.4} {:.4})",
