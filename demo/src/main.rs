@@ -137,13 +137,34 @@ struct SceneArgs {
     /// furnace: emitted radiance of every surface.
     #[arg(long, default_value_t = 1.0)]
     le: f32,
-    /// many-lights: seed of the generated scene.
+    /// Seed of the generated scene (many-lights) and of --add-lights' placement.
     #[arg(long, default_value_t = 1)]
     scene_seed: u32,
     /// The scene file's camera to use, by name or index (`info --scene FILE` lists them).
     /// Default: the file's first camera; a file without one gets a default framing.
     #[arg(long = "camera")]
     camera: Option<String>,
+    /// Place N small emissive quads on the scene's own surfaces (picked by area, half a quad
+    /// above the surface, facing away from it; deterministic in --scene-seed): any scene
+    /// becomes a many-light scene.
+    #[arg(long, default_value_t = 0,
+          value_parser = clap::value_parser!(u32).range(0..=i64::from(scene::MAX_ADDED_LIGHTS)))]
+    add_lights: u32,
+    /// --add-lights: power of each light in watts, both sides (default: together the lights
+    /// emit pi/4 per unit of the scene's surface area).
+    #[arg(long, value_parser = positive_f32)]
+    add_light_power: Option<f32>,
+    /// --add-lights: side length of each quad in scene units (default: 0.5% of the scene's
+    /// bounding-box diagonal).
+    #[arg(long, value_parser = positive_f32)]
+    add_light_size: Option<f32>,
+}
+
+fn positive_f32(s: &str) -> Result<f32, String> {
+    match s.trim().parse::<f32>() {
+        Ok(v) if v.is_finite() && v > 0.0 => Ok(v),
+        _ => Err(format!("expected a finite number above 0, got {s:?}")),
+    }
 }
 
 #[derive(clap::ValueEnum, Debug, Clone, Copy, PartialEq, Eq)]
@@ -273,7 +294,7 @@ fn load_scene(name: &str, opts: &SceneArgs, size: Option<(u32, u32)>) -> Result<
             },
         )?;
         s.sanitize(name)?;
-        select_camera(&mut s, opts)?;
+        prepare(&mut s, opts)?;
         warn_if_dark(name, &s);
         return Ok(s);
     }
@@ -292,16 +313,34 @@ fn load_scene(name: &str, opts: &SceneArgs, size: Option<(u32, u32)>) -> Result<
         eprintln!("warning: {w}");
     }
     let mut s = loaded.scene;
-    select_camera(&mut s, opts)?;
+    prepare(&mut s, opts)?;
     warn_if_dark(name, &s);
     Ok(s)
 }
 
-/// Applies `--camera`.
-fn select_camera(s: &mut Scene, opts: &SceneArgs) -> Result<()> {
+/// Applies `--camera` and `--add-lights`.
+fn prepare(s: &mut Scene, opts: &SceneArgs) -> Result<()> {
     if let Some(c) = &opts.camera {
         s.select_camera(c)
             .with_context(|| format!("--camera {c}"))?;
+    }
+    if opts.add_lights > 0 {
+        let r = scene::add_lights(
+            s,
+            &scene::AddLights {
+                count: opts.add_lights,
+                power: opts.add_light_power,
+                size: opts.add_light_size,
+                seed: opts.scene_seed,
+            },
+        )
+        .context("--add-lights")?;
+        eprintln!(
+            "added {} lights: {:.3e} x {:.3e} quads of {:.3e} W each",
+            opts.add_lights, r.size, r.size, r.power
+        );
+    } else if opts.add_light_power.is_some() || opts.add_light_size.is_some() {
+        anyhow::bail!("--add-light-power and --add-light-size need --add-lights N (N > 0)");
     }
     Ok(())
 }

@@ -11,10 +11,12 @@
 //! [`Scene::sanitize`] (drops NaN/Inf and degenerate triangles, counts them in a
 //! [`SanitizeReport`]).
 
+mod add_lights;
 pub mod builtin;
 mod framing;
 mod loaders;
 
+pub use add_lights::{AddLights, AddedLights, MAX_ADDED_LIGHTS, add_lights};
 pub use builtin::{
     BUILTIN_NAMES, BuiltinOptions, builtin, cornell, furnace, furnace_sphere, many_lights,
 };
