@@ -27,7 +27,7 @@ enum Command {
     /// Print the adapter, its optional features and its limits (and, with --scene, the
     /// scene's statistics).
     Info {
-        /// A built-in scene (cornell, many-lights, furnace, furnace-sphere) or a .gltf/.glb/.obj
+        /// A built-in scene (cornell, many-lights, colonnade, furnace, furnace-sphere) or a .gltf/.glb/.obj
         /// file.
         #[arg(long)]
         scene: Option<String>,
@@ -54,7 +54,7 @@ enum Command {
 
 #[derive(clap::Args, Debug)]
 struct CompareArgs {
-    /// Scenes, comma-separated: built-in names (cornell, many-lights, furnace, furnace-sphere)
+    /// Scenes, comma-separated: built-in names (cornell, many-lights, colonnade, furnace, furnace-sphere)
     /// or scene files (.gltf, .glb, .obj).
     #[arg(long, default_value = "many-lights", value_delimiter = ',')]
     scene: Vec<String>,
@@ -183,7 +183,7 @@ enum MethodArg {
 
 #[derive(clap::Args, Debug)]
 struct RenderArgs {
-    /// A built-in scene (cornell, many-lights, furnace, furnace-sphere) or a .gltf/.glb/.obj
+    /// A built-in scene (cornell, many-lights, colonnade, furnace, furnace-sphere) or a .gltf/.glb/.obj
     /// file.
     #[arg(long, default_value = "cornell")]
     scene: String,

@@ -18,7 +18,8 @@ mod loaders;
 
 pub use add_lights::{AddLights, AddedLights, MAX_ADDED_LIGHTS, add_lights};
 pub use builtin::{
-    BUILTIN_NAMES, BuiltinOptions, builtin, cornell, furnace, furnace_sphere, many_lights,
+    BUILTIN_NAMES, BuiltinOptions, builtin, colonnade, cornell, furnace, furnace_sphere,
+    many_lights,
 };
 pub use framing::DEFAULT_VFOV_DEG;
 pub use loaders::{
