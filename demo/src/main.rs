@@ -27,8 +27,8 @@ enum Command {
     /// Print the adapter, its optional features and its limits (and, with --scene, the
     /// scene's statistics).
     Info {
-        /// A built-in scene (cornell, many-lights, colonnade, furnace, furnace-sphere) or a .gltf/.glb/.obj
-        /// file.
+        /// A built-in scene (cornell, many-lights, colonnade, furnace, furnace-sphere) or a
+        /// .gltf/.glb/.obj file.
         #[arg(long)]
         scene: Option<String>,
         #[command(flatten)]
@@ -54,8 +54,8 @@ enum Command {
 
 #[derive(clap::Args, Debug)]
 struct CompareArgs {
-    /// Scenes, comma-separated: built-in names (cornell, many-lights, colonnade, furnace, furnace-sphere)
-    /// or scene files (.gltf, .glb, .obj).
+    /// Scenes, comma-separated: built-in names (cornell, many-lights, colonnade, furnace,
+    /// furnace-sphere) or scene files (.gltf, .glb, .obj).
     #[arg(long, default_value = "many-lights", value_delimiter = ',')]
     scene: Vec<String>,
     /// Methods of the registry, comma-separated, each `name` or `name:variant`; default: every
@@ -183,8 +183,8 @@ enum MethodArg {
 
 #[derive(clap::Args, Debug)]
 struct RenderArgs {
-    /// A built-in scene (cornell, many-lights, colonnade, furnace, furnace-sphere) or a .gltf/.glb/.obj
-    /// file.
+    /// A built-in scene (cornell, many-lights, colonnade, furnace, furnace-sphere) or a
+    /// .gltf/.glb/.obj file.
     #[arg(long, default_value = "cornell")]
     scene: String,
     #[command(flatten)]
