@@ -415,6 +415,13 @@ fn info(scene_name: Option<&str>, opts: &SceneArgs) -> Result<()> {
         for (i, c) in s.cameras.iter().enumerate() {
             println!("camera {i}: {:?}", c.name);
         }
+        for l in &s.lights {
+            println!(
+                "punctual light {:?} (not rendered): {:?} at {} towards {}, colour {:?}, \
+                 intensity {}",
+                l.name, l.kind, l.position, l.direction, l.color, l.intensity
+            );
+        }
         match s.camera {
             Some(c) => println!(
                 "camera: eye {} target {} up {} fov {} deg, {}x{}",

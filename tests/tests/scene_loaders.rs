@@ -426,6 +426,63 @@ fn gltf_cameras_in_file_order_named_with_unit_up() {
 }
 
 #[test]
+fn gltf_punctual_lights_are_parsed_validated_and_said_unrendered() {
+    let d = temp_dir("gltf-lights");
+    let json = gltf_requiring(&["KHR_lights_punctual"], false)
+        .replace(r#""nodes": [0, 2]"#, r#""nodes": [0, 2, 3, 4, 5, 6]"#)
+        .replace(
+            r#"{"camera": 0, "translation": [0, 0, 10]}"#,
+            r#"{"camera": 0, "translation": [0, 0, 10]},
+    {"name": "Bulb", "translation": [1, 2, 3], "extensions": {"KHR_lights_punctual": {"light": 0}}},
+    {"rotation": [-0.7071068, 0, 0, 0.7071068], "translation": [0, 5, 0], "scale": [3, 3, 3],
+     "extensions": {"KHR_lights_punctual": {"light": 1}}},
+    {"extensions": {"KHR_lights_punctual": {"light": 2}}},
+    {"extensions": {"KHR_lights_punctual": {"light": 3}}}"#,
+        )
+        .replace(
+            r#""asset": {"version": "2.0"},"#,
+            r#""asset": {"version": "2.0"},
+  "extensions": {"KHR_lights_punctual": {"lights": [
+    {"type": "point", "color": [1, 0.5, 0.25], "intensity": 40, "range": 10},
+    {"type": "spot", "name": "Spot", "intensity": 100, "spot": {"innerConeAngle": 0.2, "outerConeAngle": 0.5}},
+    {"type": "directional", "name": "Sun", "intensity": 6830},
+    {"type": "spot", "name": "Bad", "spot": {"innerConeAngle": 0.6, "outerConeAngle": 0.5}}
+  ]}},"#,
+        );
+    let p = write(&d, "lights.gltf", json);
+    let l = scene::load(&p).unwrap();
+    check_triangle_scene(&l);
+    let lights = &l.scene.lights;
+    let names: Vec<&str> = lights.iter().map(|l| l.name.as_str()).collect();
+    assert_eq!(names, ["Bulb", "Spot", "Sun"]);
+    assert_eq!(lights[0].kind, scene::PunctualKind::Point);
+    assert_eq!(lights[0].position, Vec3::new(1.0, 2.0, 3.0));
+    assert_eq!(
+        (lights[0].color, lights[0].intensity, lights[0].range),
+        ([1.0, 0.5, 0.25], 40.0, Some(10.0))
+    );
+    // Rotated -90 degrees about x (and scaled): the spot points down, unit length.
+    assert!(
+        (lights[1].direction - Vec3::NEG_Y).length() < 1e-5,
+        "{}",
+        lights[1].direction
+    );
+    assert_eq!(lights[1].position, Vec3::new(0.0, 5.0, 0.0));
+    assert_eq!(
+        lights[1].kind,
+        scene::PunctualKind::Spot {
+            inner_cone: 0.2,
+            outer_cone: 0.5
+        }
+    );
+    assert_eq!(lights[2].kind, scene::PunctualKind::Directional);
+    assert_eq!(lights[2].color, [1.0; 3], "default colour");
+    assert_eq!(l.warnings.len(), 2, "{:?}", l.warnings);
+    assert!(l.warnings[0].contains("\"Bad\" skipped") && l.warnings[0].contains("cone"));
+    assert!(l.warnings[1].contains("3 punctual lights") && l.warnings[1].contains("not rendered"));
+}
+
+#[test]
 fn gltf_texture_with_only_a_dds_source_and_missing_images_load() {
     let d = temp_dir("gltf-dds");
     let json = gltf_requiring(&["MSFT_texture_dds"], true).replace(

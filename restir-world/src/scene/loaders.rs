@@ -434,6 +434,9 @@ pub fn load_gltf(path: &Path, warnings: &mut Vec<String>) -> Result<Scene, Scene
                 )),
             }
         }
+        if let Some(light) = node.light() {
+            parse_light(path, &gltf, &node, light.index(), &m, &mut scene, warnings);
+        }
         let Some(mesh) = node.mesh() else { continue };
         let normal_m = Mat3::from_mat4(m).inverse().transpose();
         for prim in mesh.primitives() {
@@ -565,7 +568,73 @@ pub fn load_gltf(path: &Path, warnings: &mut Vec<String>) -> Result<Scene, Scene
         ));
     }
     scene.camera = scene.cameras.first().map(|c| c.camera);
+    if !scene.lights.is_empty() {
+        warnings.push(format!(
+            "{}: {} punctual lights (KHR_lights_punctual) parsed but not rendered: the \
+             renderers sample emissive triangles only",
+            path.display(),
+            scene.lights.len()
+        ));
+    }
     Ok(scene)
+}
+
+/// Adds the `KHR_lights_punctual` light `index` of `node` (world transform `m`) to the scene,
+/// or warns and skips it when it is invalid.
+fn parse_light(
+    path: &Path,
+    gltf: &gltf::Gltf,
+    node: &gltf::Node,
+    index: usize,
+    m: &Mat4,
+    scene: &mut Scene,
+    warnings: &mut Vec<String>,
+) {
+    use gltf::json::extensions::scene::khr_lights_punctual::Type;
+    use gltf::json::validation::Checked;
+    let lights: &[gltf::json::extensions::scene::khr_lights_punctual::Light] =
+        gltf.as_json().as_ref();
+    let Some(json) = lights.get(index) else {
+        warnings.push(format!(
+            "{}: node {} refers to punctual light {index}, which does not exist: skipped",
+            path.display(),
+            node.index()
+        ));
+        return;
+    };
+    let name = node
+        .name()
+        .or(json.name.as_deref())
+        .map_or_else(|| format!("light {}", scene.lights.len()), str::to_owned);
+    let kind = match (&json.type_, &json.spot) {
+        (Checked::Valid(Type::Point), _) => Ok(super::PunctualKind::Point),
+        (Checked::Valid(Type::Directional), _) => Ok(super::PunctualKind::Directional),
+        (Checked::Valid(Type::Spot), Some(spot)) => Ok(super::PunctualKind::Spot {
+            inner_cone: spot.inner_cone_angle,
+            outer_cone: spot.outer_cone_angle,
+        }),
+        (Checked::Valid(Type::Spot), None) => Err("a spot light without its \"spot\" cone".into()),
+        (Checked::Invalid, _) => Err("an unknown light type".to_owned()),
+    };
+    let light = kind.and_then(|kind| {
+        let l = super::PunctualLight {
+            name: name.clone(),
+            kind,
+            position: m.transform_point3(Vec3::ZERO),
+            direction: m.transform_vector3(-Vec3::Z).normalize_or_zero(),
+            color: json.color,
+            intensity: json.intensity,
+            range: json.range,
+        };
+        l.validate().map(|()| l)
+    });
+    match light {
+        Ok(l) => scene.lights.push(l),
+        Err(e) => warnings.push(format!(
+            "{}: punctual light {name:?} skipped: {e}",
+            path.display()
+        )),
+    }
 }
 
 /// Checks an MTL file's numeric lines (tobj rejects the whole library on one bad number, and

@@ -190,6 +190,77 @@ pub struct NamedCamera {
     pub camera: Camera,
 }
 
+/// What kind of punctual light (glTF `KHR_lights_punctual`).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum PunctualKind {
+    /// Emits in all directions from `position`; intensity in candela.
+    Point,
+    /// Emits along `direction` inside a cone (angles from the axis, radians,
+    /// `0 <= inner < outer <= pi/2`); intensity in candela.
+    Spot { inner_cone: f32, outer_cone: f32 },
+    /// Infinitely far away, emits along `direction`; intensity (illuminance) in lux.
+    Directional,
+}
+
+/// A punctual light from a scene file (glTF `KHR_lights_punctual`), in world space. Parsed and
+/// validated; the renderers do not sample it yet (they sample emissive triangles).
+#[derive(Debug, Clone, PartialEq)]
+pub struct PunctualLight {
+    /// The node's name, else the light's, else `light N`.
+    pub name: String,
+    pub kind: PunctualKind,
+    /// World position (ignored for directional lights).
+    pub position: Vec3,
+    /// Unit direction the light travels (the node's -z; ignored for point lights).
+    pub direction: Vec3,
+    /// Linear RGB colour, each channel in [0, 1].
+    pub color: [f32; 3],
+    /// Candela (point, spot) or lux (directional), finite and >= 0.
+    pub intensity: f32,
+    /// Distance beyond which the light is cut off (`None`: infinite), > 0.
+    pub range: Option<f32>,
+}
+
+impl PunctualLight {
+    /// Checks the values the glTF specification allows; the message names what is wrong.
+    pub fn validate(&self) -> Result<(), String> {
+        if !(self.position.is_finite() && self.direction.is_finite()) {
+            return Err("position and direction must be finite".into());
+        }
+        if (self.direction.length() - 1.0).abs() > 1e-3 {
+            return Err("its node's transform has no usable -z direction".into());
+        }
+        if !self.color.iter().all(|c| (0.0..=1.0).contains(c)) {
+            return Err(format!("color {:?} must be in [0, 1]", self.color));
+        }
+        if !(self.intensity.is_finite() && self.intensity >= 0.0) {
+            return Err(format!(
+                "intensity {} must be finite and >= 0",
+                self.intensity
+            ));
+        }
+        if let Some(r) = self.range
+            && !(r.is_finite() && r > 0.0)
+        {
+            return Err(format!("range {r} must be finite and > 0"));
+        }
+        if let PunctualKind::Spot {
+            inner_cone,
+            outer_cone,
+        } = self.kind
+            && !(0.0 <= inner_cone
+                && inner_cone < outer_cone
+                && outer_cone <= std::f32::consts::FRAC_PI_2)
+        {
+            return Err(format!(
+                "spot cone angles {inner_cone} and {outer_cone} must satisfy \
+                 0 <= inner < outer <= pi/2"
+            ));
+        }
+        Ok(())
+    }
+}
+
 /// A scene ready to render: triangles with materials, and an optional camera from the file.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct Scene {
@@ -201,6 +272,8 @@ pub struct Scene {
     /// All cameras of a scene file, in file order (depth-first over the default scene's
     /// nodes); empty for the built-in scenes.
     pub cameras: Vec<NamedCamera>,
+    /// Punctual lights of a scene file (parsed, not rendered yet: see [`PunctualLight`]).
+    pub lights: Vec<PunctualLight>,
 }
 
 /// What [`Scene::sanitize`] dropped or repaired. All counts are zero for a clean scene.
