@@ -44,7 +44,7 @@ fn a_scene_file_name_with_dots_keeps_its_outputs_apart() {
     std::fs::create_dir_all(&dir).unwrap();
     // A lit quad over a floor; the file name has dots before its extension.
     let obj = dir.join("scan.v2.final.obj");
-    std::fs::write(&dir.join("m.mtl"), "newmtl lamp\nKd 0 0 0\nKe 5 5 5\n").unwrap();
+    std::fs::write(dir.join("m.mtl"), "newmtl lamp\nKd 0 0 0\nKe 5 5 5\n").unwrap();
     std::fs::write(
         &obj,
         "mtllib m.mtl\nv 0 0 0\nv 1 0 0\nv 1 0 1\nv 0 0 1\nv 0 1 0\nv 1 1 0\nv 1 1 1\n\

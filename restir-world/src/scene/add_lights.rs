@@ -103,7 +103,7 @@ pub fn add_lights(scene: &mut Scene, opts: &AddLights) -> Result<AddedLights, Sc
     let first_triangle = scene.triangles.len();
     scene.triangles.reserve(2 * opts.count as usize);
     let inside = |p: Vec3| p.cmpge(lo).all() && p.cmple(hi).all();
-    let mut rng = Rng::seed(0xadd_11, opts.seed, 2);
+    let mut rng = Rng::seed(0xadd11, opts.seed, 2);
     for _ in 0..opts.count {
         let u = f64::from(rng.next_f32()) * total;
         let k = cdf.partition_point(|&c| c <= u).min(cdf.len() - 1);
