@@ -385,6 +385,17 @@ fn gltf_required_extensions_are_used_ignored_or_refused() {
         );
         assert_err_names(&scene::load(&p).unwrap_err(), &p, ext);
     }
+    // Quantized positions without the extension listed: refused too, not read as floats.
+    let p = write(
+        &d,
+        "quantized.gltf",
+        gltf_requiring(&[], false).replacen(
+            r#""componentType": 5126"#,
+            r#""componentType": 5122"#,
+            1,
+        ),
+    );
+    assert_err_names(&scene::load(&p).unwrap_err(), &p, "not 32-bit float");
 }
 
 #[test]

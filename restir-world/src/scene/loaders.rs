@@ -177,6 +177,15 @@ fn check_accessor(
     if acc.count() == 0 {
         return Err(bad("has no elements".into()));
     }
+    // The reader takes vertex attributes as 32-bit floats whatever their type: integer
+    // (quantized, KHR_mesh_quantization) ones would be read as garbage.
+    if what != "index" && acc.data_type() != gltf::accessor::DataType::F32 {
+        return Err(bad(format!(
+            "is {:?}, not 32-bit float (quantized vertex data, KHR_mesh_quantization): the \
+             loader reads float attributes only",
+            acc.data_type()
+        )));
+    }
     if acc.sparse().is_some() {
         return Ok(());
     }
