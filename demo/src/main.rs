@@ -11,11 +11,12 @@ use glam::Vec3;
 use indicatif::{ProgressBar, ProgressStyle};
 use restir_world::lights::Lights;
 use restir_world::sampling::Estimator;
-use restir_world::scene::{self, Scene};
+use restir_world::scene::Scene;
 use restir_world::{GpuContext, GpuTimer, gpu::buffers, image_io, reference, render};
 
 mod camera;
 mod render_cmd;
+mod scenes;
 
 #[derive(Parser, Debug)]
 #[command(name = "restir-demo", version, about)]
@@ -29,12 +30,12 @@ enum Command {
     /// Print the adapter, its optional features and its limits (and, with --scene, the
     /// scene's statistics).
     Info {
-        /// A built-in scene (cornell, many-lights, furnace, furnace-sphere) or a .gltf/.glb/.obj
-        /// file.
+        /// A built-in scene (cornell, many-lights, colonnade, furnace, furnace-sphere) or a
+        /// .gltf/.glb/.obj file.
         #[arg(long)]
         scene: Option<String>,
         #[command(flatten)]
-        scene_opts: SceneArgs,
+        scene_opts: scenes::SceneArgs,
     },
     /// Render a scene: direct, indirect and combined images as linear EXR + sRGB PNG.
     Render(Box<RenderArgs>),
@@ -56,8 +57,8 @@ enum Command {
 
 #[derive(clap::Args, Debug)]
 struct CompareArgs {
-    /// Scenes, comma-separated: built-in names (cornell, many-lights, furnace, furnace-sphere)
-    /// or scene files (.gltf, .glb, .obj).
+    /// Scenes, comma-separated: built-in names (cornell, many-lights, colonnade, furnace,
+    /// furnace-sphere) or scene files (.gltf, .glb, .obj).
     #[arg(long, default_value = "many-lights", value_delimiter = ',')]
     scene: Vec<String>,
     /// Methods of the registry, comma-separated, each `name` or `name:variant`; default: every
@@ -73,9 +74,10 @@ struct CompareArgs {
     /// Output directory.
     #[arg(long, default_value = "out/compare")]
     out: PathBuf,
-    /// Camera motion over the frames.
+    /// Camera motion over the frames: static, orbit (1 degree per frame) or dolly (1% of the
+    /// eye-target distance per frame, at most half of it).
     #[arg(long, value_enum, default_value_t = compare::CameraMode::Static)]
-    camera: compare::CameraMode,
+    animation: compare::CameraMode,
     /// An external reference (combined image, linear EXR) instead of the GPU reference mode.
     #[arg(long)]
     reference: Option<PathBuf>,
@@ -92,9 +94,8 @@ struct CompareArgs {
     /// Do not read or write the reference cache.
     #[arg(long)]
     no_cache: bool,
-    /// many-lights: number of lights.
-    #[arg(long, default_value_t = 10_000)]
-    lights: u32,
+    #[command(flatten)]
+    scene_opts: scenes::SceneArgs,
     /// Seed of the methods' random numbers.
     #[arg(long, default_value_t = 1)]
     seed: u32,
@@ -128,30 +129,14 @@ fn parse_bias(s: &str) -> Result<(String, f32), String> {
     Ok((m.to_owned(), f))
 }
 
-#[derive(clap::Args, Debug, Clone)]
-struct SceneArgs {
-    /// many-lights: number of emissive quads.
-    #[arg(long, default_value_t = 10_000)]
-    lights: u32,
-    /// furnace: albedo of every surface.
-    #[arg(long, default_value_t = 0.5)]
-    rho: f32,
-    /// furnace: emitted radiance of every surface.
-    #[arg(long, default_value_t = 1.0)]
-    le: f32,
-    /// many-lights: seed of the generated scene.
-    #[arg(long, default_value_t = 1)]
-    scene_seed: u32,
-}
-
 #[derive(clap::Args, Debug)]
 struct RenderArgs {
-    /// A built-in scene (cornell, many-lights, furnace, furnace-sphere) or a .gltf/.glb/.obj
-    /// file.
+    /// A built-in scene (cornell, many-lights, colonnade, furnace, furnace-sphere) or a
+    /// .gltf/.glb/.obj file.
     #[arg(long, default_value = "cornell")]
     scene: String,
     #[command(flatten)]
-    scene_opts: SceneArgs,
+    scene_opts: scenes::SceneArgs,
     /// A method of the registry as `name` or `name:variant` (nee, ris, ris:K, world-restir,
     /// world-restir:VARIANT or knobs key=value joined by +, e.g.
     /// world-restir:temporal+spatial-passes=4; see `compare --help`), or cpu-reference (the CPU
@@ -249,50 +234,6 @@ fn main() -> ExitCode {
     }
 }
 
-/// A built-in scene by name or a scene file, sanitized; warnings go to stderr.
-fn load_scene(name: &str, opts: &SceneArgs, size: Option<(u32, u32)>) -> Result<Scene> {
-    if scene::BUILTIN_NAMES.contains(&name) {
-        let (width, height) = size.unwrap_or((256, 256));
-        let mut s = scene::builtin(
-            name,
-            &scene::BuiltinOptions {
-                lights: opts.lights,
-                seed: opts.scene_seed,
-                rho: opts.rho,
-                le: opts.le,
-                width,
-                height,
-            },
-        )?;
-        s.sanitize(name)?;
-        warn_if_dark(name, &s);
-        return Ok(s);
-    }
-    let path = Path::new(name);
-    if path.extension().is_none() && !path.exists() {
-        anyhow::bail!(
-            "{name:?} is neither a built-in scene ({}) nor a scene file",
-            scene::BUILTIN_NAMES.join(", ")
-        );
-    }
-    let loaded = scene::load(path)?;
-    if !loaded.report.is_clean() {
-        eprintln!("warning: {}: {}", path.display(), loaded.report);
-    }
-    for w in &loaded.warnings {
-        eprintln!("warning: {w}");
-    }
-    warn_if_dark(name, &loaded.scene);
-    Ok(loaded.scene)
-}
-
-/// A scene without emitters renders black: say so.
-fn warn_if_dark(name: &str, s: &Scene) {
-    if s.emissive_triangles() == 0 {
-        eprintln!("warning: {name}: the scene has no lights (no material emits): it renders black");
-    }
-}
-
 /// Creates the output directory and checks that files can be written into it, before any
 /// expensive work. Returns whether it already existed.
 fn prepare_out_dir(out: &Path) -> Result<bool> {
@@ -320,7 +261,7 @@ fn with_out_dir(out: &Path, work: impl FnOnce() -> Result<()>) -> Result<()> {
     result
 }
 
-fn info(scene_name: Option<&str>, opts: &SceneArgs) -> Result<()> {
+fn info(scene_name: Option<&str>, opts: &scenes::SceneArgs) -> Result<()> {
     let ctx = GpuContext::new()?;
     println!("{}", ctx.describe());
     let l = ctx.limits();
@@ -341,7 +282,7 @@ fn info(scene_name: Option<&str>, opts: &SceneArgs) -> Result<()> {
         sg.subgroup_min_size, sg.subgroup_max_size
     );
     if let Some(name) = scene_name {
-        let s = load_scene(name, opts, None)?;
+        let s = scenes::load(name, opts, None)?;
         let lights = Lights::build(&s);
         println!(
             "scene {name}: {} triangles, {} materials, {} emissive triangles (total power {:.4e})",
@@ -353,12 +294,29 @@ fn info(scene_name: Option<&str>, opts: &SceneArgs) -> Result<()> {
         if let Some((lo, hi)) = s.bounds() {
             println!("bounds: {lo} .. {hi}");
         }
+        for (i, c) in s.cameras.iter().enumerate() {
+            println!("camera {i}: {:?}", c.name);
+        }
+        for l in &s.lights {
+            println!(
+                "punctual light {:?} (not rendered): {:?} at {} towards {}, colour {:?}, \
+                 intensity {}",
+                l.name, l.kind, l.position, l.direction, l.color, l.intensity
+            );
+        }
         match s.camera {
             Some(c) => println!(
                 "camera: eye {} target {} up {} fov {} deg, {}x{}",
                 c.eye, c.target, c.up, c.vfov_deg, c.width, c.height
             ),
-            None => println!("camera: none in the file (a default framing is used)"),
+            None => {
+                let c = s.camera_or_default(256, 256);
+                println!(
+                    "camera: none in the file; the default framing: eye {} target {} up {} \
+                     fov {} deg",
+                    c.eye, c.target, c.up, c.vfov_deg
+                );
+            }
         }
     }
     Ok(())
@@ -383,7 +341,7 @@ fn render(args: &RenderArgs) -> Result<()> {
         .spp
         .checked_mul(args.frames)
         .context("--spp x --frames overflows")?;
-    let scene = load_scene(&args.scene, &args.scene_opts, args.size)?;
+    let scene = scenes::load(&args.scene, &args.scene_opts, args.size)?;
     let (w, h) = args
         .size
         .or(scene.camera.map(|c| (c.width, c.height)))
@@ -502,9 +460,16 @@ fn render_into(
         ("indirect", &images.indirect),
         ("combined", &images.combined),
     ] {
+        // Appended, not `with_extension`: a stem with dots ("a.b") would lose its tail.
         let base = args.out.join(format!("{scene_tag}-{method_tag}-{kind}"));
-        image_io::write_exr(&base.with_extension("exr"), img)?;
-        image_io::write_png(&base.with_extension("png"), img, args.exposure)?;
+        let with = |ext: &str| {
+            let mut p = base.clone().into_os_string();
+            p.push(".");
+            p.push(ext);
+            PathBuf::from(p)
+        };
+        image_io::write_exr(&with("exr"), img)?;
+        image_io::write_png(&with("png"), img, args.exposure)?;
         let m = img.mean();
         println!(
             "wrote {}.{{exr,png}} (mean {:.4} {:.4} {:.4})",
@@ -620,12 +585,12 @@ fn compare_cmd(a: CompareArgs) -> Result<()> {
         frames: a.frames,
         size: a.size,
         out: a.out,
-        camera: a.camera,
+        camera: a.animation,
         reference: a.reference,
         reference_indirect: a.reference_indirect,
         reference_spp: a.reference_spp,
         cache: (!a.no_cache).then_some(a.cache),
-        lights: a.lights,
+        scene_opts: a.scene_opts,
         seed: a.seed,
         equal_time_frames: a.equal_time_frames,
         equal_time_to: a.equal_time_to,

@@ -303,7 +303,7 @@ fn bad_inputs_are_refused_with_their_cause_and_leave_nothing_behind() {
                 "cornell",
                 "--methods",
                 "nee",
-                "--camera",
+                "--animation",
                 "dolly",
                 "--frames",
                 "150",
@@ -482,6 +482,110 @@ fn bad_inputs_are_refused_with_their_cause_and_leave_nothing_behind() {
         Case {
             args: cpu(&corpus("huge_ke.obj")),
             ..case("mtl-ke-huge-clamped", &[], 0, "clamped 1 materials")
+        },
+        // Issue 15: scene flags and required glTF extensions.
+        Case {
+            args: cpu(&corpus("requires_draco.gltf")),
+            ..case(
+                "gltf-requires-draco",
+                &[],
+                1,
+                "requires extension KHR_draco_mesh_compression (Draco-compressed meshes)",
+            )
+        },
+        Case {
+            args: [cpu("cornell"), vec!["--camera".into(), "Side".into()]].concat(),
+            ..case(
+                "camera-unknown-name",
+                &[],
+                1,
+                "--camera Side: no camera \"Side\" in the scene (expected a name or an index: \
+                 the scene has 0 \"default\")",
+            )
+        },
+        Case {
+            args: [cpu("cornell"), vec!["--camera".into(), "1".into()]].concat(),
+            ..case("camera-index-out-of-range", &[], 1, "no camera \"1\"")
+        },
+        Case {
+            args: [
+                cpu("cornell"),
+                vec!["--add-lights".into(), "1000001".into()],
+            ]
+            .concat(),
+            ..case("add-lights-too-many", &[], 2, "--add-lights <ADD_LIGHTS>")
+        },
+        Case {
+            args: [cpu("cornell"), vec!["--add-lights".into(), "-3".into()]].concat(),
+            ..case("add-lights-negative", &[], 2, "-3")
+        },
+        Case {
+            args: [
+                cpu("cornell"),
+                vec![
+                    "--add-lights".into(),
+                    "10".into(),
+                    "--add-light-power".into(),
+                    "nan".into(),
+                ],
+            ]
+            .concat(),
+            ..case(
+                "add-light-power-nan",
+                &[],
+                2,
+                "--add-light-power <ADD_LIGHT_POWER>",
+            )
+        },
+        Case {
+            args: [
+                cpu("cornell"),
+                vec![
+                    "--add-lights".into(),
+                    "10".into(),
+                    "--add-light-size=-1".into(),
+                ],
+            ]
+            .concat(),
+            ..case(
+                "add-light-size-negative",
+                &[],
+                2,
+                "--add-light-size <ADD_LIGHT_SIZE>",
+            )
+        },
+        Case {
+            args: [cpu("cornell"), vec!["--add-light-power".into(), "5".into()]].concat(),
+            ..case(
+                "add-light-power-without-count",
+                &[],
+                1,
+                "need --add-lights N",
+            )
+        },
+        Case {
+            args: [
+                cpu("cornell"),
+                vec![
+                    "--add-lights".into(),
+                    "1".into(),
+                    "--add-light-power".into(),
+                    "1e30".into(),
+                    "--add-light-size".into(),
+                    "1e-6".into(),
+                ],
+            ]
+            .concat(),
+            ..case(
+                "add-lights-radiance-overflow",
+                &[],
+                1,
+                "--add-lights: bad scene option: add-lights: power 1e30",
+            )
+        },
+        Case {
+            args: [cpu("cornell"), vec!["--add-lights".into(), "20".into()]].concat(),
+            ..case("add-lights-control", &[], 0, "added 20 lights")
         },
         // 3: memory before allocation.
         case(

@@ -38,6 +38,56 @@ fn cpu_reference_render_writes_all_outputs() {
 }
 
 #[test]
+fn a_scene_file_name_with_dots_keeps_its_outputs_apart() {
+    let dir = std::env::temp_dir().join(format!("restir-demo-cli-dots-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    // A lit quad over a floor; the file name has dots before its extension.
+    let obj = dir.join("scan.v2.final.obj");
+    std::fs::write(dir.join("m.mtl"), "newmtl lamp\nKd 0 0 0\nKe 5 5 5\n").unwrap();
+    std::fs::write(
+        &obj,
+        "mtllib m.mtl\nv 0 0 0\nv 1 0 0\nv 1 0 1\nv 0 0 1\nv 0 1 0\nv 1 1 0\nv 1 1 1\n\
+         v 0 1 1\nf 1 2 3 4\nusemtl lamp\nf 5 6 7 8\n",
+    )
+    .unwrap();
+    let out = dir.join("out");
+    let o = demo()
+        .args(["render", "--scene"])
+        .arg(&obj)
+        .args([
+            "--method",
+            "cpu-reference",
+            "--size",
+            "4x4",
+            "--frames",
+            "1",
+        ])
+        .arg("--out")
+        .arg(&out)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let mut files: Vec<String> = std::fs::read_dir(&out)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    files.sort();
+    assert_eq!(
+        files,
+        [
+            "scan.v2.final-cpu-reference-combined.exr",
+            "scan.v2.final-cpu-reference-combined.png",
+            "scan.v2.final-cpu-reference-direct.exr",
+            "scan.v2.final-cpu-reference-direct.png",
+            "scan.v2.final-cpu-reference-indirect.exr",
+            "scan.v2.final-cpu-reference-indirect.png",
+        ]
+    );
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
 fn bad_input_fails_with_a_clear_message() {
     let cases: [(&[&str], &str); 6] = [
         (

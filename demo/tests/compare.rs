@@ -199,7 +199,7 @@ fn compare_moving_camera() {
     run(
         &out,
         "nee,world-restir",
-        &["--camera", "orbit", "--eval-every", "2"],
+        &["--animation", "orbit", "--eval-every", "2"],
     );
     let json: Value =
         serde_json::from_str(&std::fs::read_to_string(out.join("report.json")).unwrap()).unwrap();

@@ -255,6 +255,7 @@ fn gltf_with_data_uri_reads_transforms_materials_and_camera() {
     assert!(l.warnings.is_empty(), "{:?}", l.warnings);
     // External .bin next to the file.
     write(&d, "t.bin", &bin);
+    write(&d, "t.png", b"");
     let p = write(&d, "ext.gltf", gltf_json(Some("t.bin"), 42, true));
     let l = scene::load(&p).unwrap();
     check_triangle_scene(&l);
@@ -307,6 +308,210 @@ fn gltf_errors_name_the_file() {
     // Missing file.
     let p = d.join("absent.glb");
     assert_err_names(&scene::load(&p).unwrap_err(), &p, "");
+}
+
+/// `gltf_json` (data-URI buffer) with `extensionsRequired` set to `required`.
+fn gltf_requiring(required: &[&str], textured: bool) -> String {
+    let bin = triangle_bin(2);
+    let uri = format!("data:application/octet-stream;base64,{}", base64(&bin));
+    let list: Vec<String> = required.iter().map(|e| format!("{e:?}")).collect();
+    gltf_json(Some(&uri), 42, textured).replacen(
+        r#""asset": {"version": "2.0"},"#,
+        &format!(
+            r#""asset": {{"version": "2.0"}}, "extensionsRequired": [{}],"#,
+            list.join(", ")
+        ),
+        1,
+    )
+}
+
+#[test]
+fn gltf_required_extensions_are_used_ignored_or_refused() {
+    let d = temp_dir("gltf-ext");
+    // Supported: no warning.
+    let p = write(
+        &d,
+        "ok.gltf",
+        gltf_requiring(
+            &[
+                "KHR_materials_emissive_strength",
+                "KHR_texture_transform",
+                "KHR_lights_punctual",
+            ],
+            false,
+        ),
+    );
+    let l = scene::load(&p).unwrap();
+    check_triangle_scene(&l);
+    assert!(l.warnings.is_empty(), "{:?}", l.warnings);
+    // Appearance only: one warning each (a duplicate listing warns once), the scene loads.
+    let p = write(
+        &d,
+        "looks.gltf",
+        gltf_requiring(
+            &[
+                "AMD_split_roughnessMetallic",
+                "KHR_materials_clearcoat",
+                "KHR_texture_basisu",
+                "AMD_split_roughnessMetallic",
+                "VENDOR_something_new",
+            ],
+            false,
+        ),
+    );
+    let l = scene::load(&p).unwrap();
+    check_triangle_scene(&l);
+    assert_eq!(l.warnings.len(), 4, "{:?}", l.warnings);
+    for (w, ext) in l.warnings.iter().zip([
+        "AMD_split_roughnessMetallic",
+        "KHR_materials_clearcoat",
+        "KHR_texture_basisu",
+        "VENDOR_something_new",
+    ]) {
+        assert!(w.contains(ext) && w.contains("ignored"), "{w}");
+        assert!(w.contains(&p.display().to_string()), "{w}");
+    }
+    assert!(l.warnings[3].contains("unknown"), "{}", l.warnings[3]);
+    // Geometry: refused, naming the extension and the file.
+    for ext in [
+        "KHR_draco_mesh_compression",
+        "EXT_meshopt_compression",
+        "KHR_mesh_quantization",
+    ] {
+        let p = write(
+            &d,
+            &format!("{ext}.gltf"),
+            gltf_requiring(&["KHR_texture_transform", ext], false),
+        );
+        assert_err_names(&scene::load(&p).unwrap_err(), &p, ext);
+    }
+    // Quantized positions without the extension listed: refused too, not read as floats.
+    let p = write(
+        &d,
+        "quantized.gltf",
+        gltf_requiring(&[], false).replacen(
+            r#""componentType": 5126"#,
+            r#""componentType": 5122"#,
+            1,
+        ),
+    );
+    assert_err_names(&scene::load(&p).unwrap_err(), &p, "not 32-bit float");
+}
+
+#[test]
+fn gltf_cameras_in_file_order_named_with_unit_up() {
+    let d = temp_dir("gltf-cams");
+    let json = gltf_requiring(&[], false)
+        .replace(r#""nodes": [0, 2]"#, r#""nodes": [2, 0, 3]"#)
+        .replace(
+            r#"{"camera": 0, "translation": [0, 0, 10]}"#,
+            r#"{"camera": 0, "translation": [0, 0, 10], "name": "Front"},
+    {"camera": 1, "translation": [0, 0, 20], "scale": [0.5, 0.5, 0.5]}"#,
+        )
+        .replace(
+            r#""cameras": ["#,
+            r#""cameras": [{"type": "perspective", "name": "Far", "perspective": {"yfov": 0.7, "znear": 0.1}}, "#,
+        )
+        .replace(r#""camera": 0, "translation": [0, 0, 10]"#, r#""camera": 1, "translation": [0, 0, 10]"#)
+        .replace(r#""camera": 1, "translation": [0, 0, 20]"#, r#""camera": 0, "translation": [0, 0, 20]"#);
+    let p = write(&d, "cams.gltf", json);
+    let l = scene::load(&p).unwrap();
+    let names: Vec<&str> = l.scene.cameras.iter().map(|c| c.name.as_str()).collect();
+    // Node 2 ("Front", camera 1) comes first in the scene's node list, then node 3 (camera 0,
+    // unnamed node: the camera's name).
+    assert_eq!(names, ["Front", "Far"]);
+    assert_eq!(
+        l.scene.camera,
+        Some(l.scene.cameras[0].camera),
+        "the first is the default"
+    );
+    for c in &l.scene.cameras {
+        assert!((c.camera.up.length() - 1.0).abs() < 1e-6, "{}", c.camera.up);
+        assert!(((c.camera.target - c.camera.eye).length() - 1.0).abs() < 1e-6);
+    }
+    let mut s = l.scene.clone();
+    s.select_camera("Far").unwrap();
+    assert_eq!(s.camera.unwrap().eye, Vec3::new(0.0, 0.0, 20.0));
+    let e = s.select_camera("5").unwrap_err().to_string();
+    assert!(e.contains(r#"0 "Front", 1 "Far""#), "{e}");
+}
+
+#[test]
+fn gltf_punctual_lights_are_parsed_validated_and_said_unrendered() {
+    let d = temp_dir("gltf-lights");
+    let json = gltf_requiring(&["KHR_lights_punctual"], false)
+        .replace(r#""nodes": [0, 2]"#, r#""nodes": [0, 2, 3, 4, 5, 6]"#)
+        .replace(
+            r#"{"camera": 0, "translation": [0, 0, 10]}"#,
+            r#"{"camera": 0, "translation": [0, 0, 10]},
+    {"name": "Bulb", "translation": [1, 2, 3], "extensions": {"KHR_lights_punctual": {"light": 0}}},
+    {"rotation": [-0.7071068, 0, 0, 0.7071068], "translation": [0, 5, 0], "scale": [3, 3, 3],
+     "extensions": {"KHR_lights_punctual": {"light": 1}}},
+    {"extensions": {"KHR_lights_punctual": {"light": 2}}},
+    {"extensions": {"KHR_lights_punctual": {"light": 3}}}"#,
+        )
+        .replace(
+            r#""asset": {"version": "2.0"},"#,
+            r#""asset": {"version": "2.0"},
+  "extensions": {"KHR_lights_punctual": {"lights": [
+    {"type": "point", "color": [1, 0.5, 0.25], "intensity": 40, "range": 10},
+    {"type": "spot", "name": "Spot", "intensity": 100, "spot": {"innerConeAngle": 0.2, "outerConeAngle": 0.5}},
+    {"type": "directional", "name": "Sun", "intensity": 6830},
+    {"type": "spot", "name": "Bad", "spot": {"innerConeAngle": 0.6, "outerConeAngle": 0.5}}
+  ]}},"#,
+        );
+    let p = write(&d, "lights.gltf", json);
+    let l = scene::load(&p).unwrap();
+    check_triangle_scene(&l);
+    let lights = &l.scene.lights;
+    let names: Vec<&str> = lights.iter().map(|l| l.name.as_str()).collect();
+    assert_eq!(names, ["Bulb", "Spot", "Sun"]);
+    assert_eq!(lights[0].kind, scene::PunctualKind::Point);
+    assert_eq!(lights[0].position, Vec3::new(1.0, 2.0, 3.0));
+    assert_eq!(
+        (lights[0].color, lights[0].intensity, lights[0].range),
+        ([1.0, 0.5, 0.25], 40.0, Some(10.0))
+    );
+    // Rotated -90 degrees about x (and scaled): the spot points down, unit length.
+    assert!(
+        (lights[1].direction - Vec3::NEG_Y).length() < 1e-5,
+        "{}",
+        lights[1].direction
+    );
+    assert_eq!(lights[1].position, Vec3::new(0.0, 5.0, 0.0));
+    assert_eq!(
+        lights[1].kind,
+        scene::PunctualKind::Spot {
+            inner_cone: 0.2,
+            outer_cone: 0.5
+        }
+    );
+    assert_eq!(lights[2].kind, scene::PunctualKind::Directional);
+    assert_eq!(lights[2].color, [1.0; 3], "default colour");
+    assert_eq!(l.warnings.len(), 2, "{:?}", l.warnings);
+    assert!(l.warnings[0].contains("\"Bad\" skipped") && l.warnings[0].contains("cone"));
+    assert!(l.warnings[1].contains("3 punctual lights") && l.warnings[1].contains("not rendered"));
+}
+
+#[test]
+fn gltf_texture_with_only_a_dds_source_and_missing_images_load() {
+    let d = temp_dir("gltf-dds");
+    let json = gltf_requiring(&["MSFT_texture_dds"], true).replace(
+        r#""images": [{"uri": "t.png"}], "textures": [{"source": 0}],"#,
+        r#""images": [{"uri": "t.dds"}], "textures": [{"extensions": {"MSFT_texture_dds": {"source": 0}}}],"#,
+    );
+    assert!(json.contains("t.dds"));
+    let p = write(&d, "dds.gltf", json);
+    let l = scene::load(&p).unwrap();
+    check_triangle_scene(&l);
+    let joined = l.warnings.join("\n");
+    assert_eq!(l.warnings.len(), 3, "{joined}");
+    assert!(joined.contains("MSFT_texture_dds"), "{joined}");
+    assert!(joined.contains("1 image files are missing"), "{joined}");
+    assert!(
+        joined.contains("textures, which are not modelled"),
+        "{joined}"
+    );
 }
 
 #[test]

@@ -18,7 +18,7 @@ fn material_scene(triangles: Vec<Triangle>) -> Scene {
     Scene {
         triangles,
         materials: vec![Material::new([0.5; 3], [0.0; 3])],
-        camera: None,
+        ..Default::default()
     }
 }
 

@@ -87,53 +87,21 @@ const RESULTS_COMPARE: [&str; 16] = [
     "out/cache",
 ];
 
-/// Default renders of `cargo xtask demo` (no arguments): world-restir at 256x256 on both scenes,
-/// each well under a minute in release on a 2-core lavapipe machine; the images land in
-/// `out/<scene>/`.
-const DEFAULT_RENDERS: [&[&str]; 2] = [
-    &[
-        "render",
-        "--scene",
-        "cornell",
-        "--method",
-        "world-restir",
-        "--size",
-        "256x256",
-        "--spp",
-        "1",
-        "--frames",
-        "16",
-        "--seed",
-        "1",
-        "--out",
-        "out/cornell",
-    ],
-    &[
-        "render",
-        "--scene",
-        "many-lights",
-        "--method",
-        "world-restir",
-        "--size",
-        "256x256",
-        "--spp",
-        "1",
-        "--frames",
-        "16",
-        "--seed",
-        "1",
-        "--out",
-        "out/many-lights",
-    ],
-];
+/// Scenes `cargo xtask demo` (no arguments) renders with world-restir at 256x256, each well
+/// under a minute in release on a 2-core lavapipe machine; the images land in `out/<scene>/`.
+const DEMO_SCENES: [&str; 2] = ["cornell", "many-lights"];
 
 fn demo(args: &[String]) -> Result<(), String> {
     ensure_vulkan()?;
     let base = ["run", "--release", "--package", "demo", "--"];
     if args.is_empty() {
-        for render in DEFAULT_RENDERS {
+        for scene in DEMO_SCENES {
+            let out = format!("out/{scene}");
             let mut run = base.to_vec();
-            run.extend_from_slice(render);
+            run.extend(["render", "--scene", scene, "--method", "world-restir"]);
+            run.extend([
+                "--size", "256x256", "--frames", "16", "--seed", "1", "--out", &out,
+            ]);
             cargo(&run)?;
         }
         let mut run = base.to_vec();

@@ -15,7 +15,7 @@ use restir_world::gpu::PassTimes;
 use restir_world::gpu_reference::{self, GpuReference, ReferenceSettings};
 use restir_world::methods::{self, FrameLoop, FrameMethod, Readback, run_frames};
 use restir_world::metrics;
-use restir_world::scene::{self, BuiltinOptions, Camera, Scene};
+use restir_world::scene::{self, Camera, Scene};
 use serde::Serialize;
 
 /// A linear RGB image's pixels.
@@ -34,7 +34,7 @@ pub struct CompareOptions {
     pub reference_indirect: Option<PathBuf>,
     pub reference_spp: u32,
     pub cache: Option<PathBuf>,
-    pub lights: u32,
+    pub scene_opts: crate::scenes::SceneArgs,
     pub seed: u32,
     pub equal_time_frames: u32,
     pub equal_time_to: Option<String>,
@@ -212,46 +212,18 @@ pub struct Report {
 
 // ---------------------------------------------------------------- running
 
-fn load_scene(name: &str, size: (u32, u32), lights: u32) -> Result<(String, Scene)> {
-    if scene::BUILTIN_NAMES.contains(&name) {
-        let opts = BuiltinOptions {
-            width: size.0,
-            height: size.1,
-            lights,
-            ..Default::default()
-        };
-        let mut s = scene::builtin(name, &opts)?;
-        s.sanitize(name)?;
-        warn_if_dark(name, &s);
-        return Ok((name.to_owned(), s));
-    }
-    let path = Path::new(name);
-    if !path.exists() {
-        bail!(
-            "scene {name:?} is neither a built-in ({}) nor an existing file",
-            scene::BUILTIN_NAMES.join(", ")
-        );
-    }
-    let loaded = scene::load(path).with_context(|| format!("loading {name}"))?;
-    for w in &loaded.warnings {
-        eprintln!("warning: {name}: {w}");
-    }
-    if !loaded.report.is_clean() {
-        eprintln!("warning: {name}: {}", loaded.report);
-    }
-    warn_if_dark(name, &loaded.scene);
-    let stem = path
-        .file_stem()
-        .and_then(|s| s.to_str())
-        .unwrap_or("scene")
-        .to_owned();
-    Ok((stem, loaded.scene))
-}
-
-fn warn_if_dark(name: &str, s: &Scene) {
-    if s.emissive_triangles() == 0 {
-        eprintln!("warning: {name}: the scene has no lights (no material emits): it renders black");
-    }
+/// A scene of `--scene` with its label in the report (a file's stem).
+fn load_scene(name: &str, opts: &CompareOptions) -> Result<(String, Scene)> {
+    let s = crate::scenes::load(name, &opts.scene_opts, Some(opts.size))
+        .with_context(|| format!("loading {name}"))?;
+    let label = match scene::BUILTIN_NAMES.contains(&name) {
+        true => name,
+        false => Path::new(name)
+            .file_stem()
+            .and_then(|s| s.to_str())
+            .unwrap_or("scene"),
+    };
+    Ok((label.to_owned(), s))
 }
 
 /// Everything a method run needs to evaluate frames.
@@ -572,7 +544,7 @@ fn make_references(
     let estimator = format!("{:?}", settings.method);
     if let Some(path) = &opts.reference {
         if opts.camera != CameraMode::Static {
-            bail!("--reference needs --camera static (one image for every frame)");
+            bail!("--reference needs --animation static (one image for every frame)");
         }
         let r = gpu_reference::external(path, opts.reference_indirect.as_deref(), base)?;
         let info = ReferenceInfo {
@@ -929,7 +901,7 @@ pub fn run(ctx: &GpuContext, opts: &CompareOptions, command: String) -> Result<R
     let loaded: Vec<(String, Scene)> = opts
         .scenes
         .iter()
-        .map(|name| load_scene(name, opts.size, opts.lights))
+        .map(|name| load_scene(name, opts))
         .collect::<Result<_>>()?;
     let existed = opts.out.is_dir();
     std::fs::create_dir_all(&opts.out)

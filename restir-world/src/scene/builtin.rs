@@ -1,4 +1,5 @@
-//! Built-in procedural scenes: `cornell`, `many-lights` and `furnace`.
+//! Built-in procedural scenes: `cornell`, `many-lights`, `colonnade`, `furnace` and
+//! `furnace-sphere`.
 
 use glam::Vec3;
 use reservoir::rng::Rng;
@@ -6,7 +7,13 @@ use reservoir::rng::Rng;
 use super::{Camera, Material, Scene, SceneError};
 
 /// Names accepted by [`builtin`].
-pub const BUILTIN_NAMES: [&str; 4] = ["cornell", "many-lights", "furnace", "furnace-sphere"];
+pub const BUILTIN_NAMES: [&str; 5] = [
+    "cornell",
+    "many-lights",
+    "colonnade",
+    "furnace",
+    "furnace-sphere",
+];
 
 /// Parameters of the built-in scenes (each scene reads the ones it needs).
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -47,6 +54,7 @@ pub fn builtin(name: &str, opts: &BuiltinOptions) -> Result<Scene, SceneError> {
     match name {
         "cornell" => Ok(cornell(opts.width, opts.height)),
         "many-lights" => many_lights(opts.lights, opts.seed, opts.width, opts.height),
+        "colonnade" => Ok(colonnade(opts.seed, opts.width, opts.height)),
         "furnace" => furnace(opts.rho, opts.le, opts.width, opts.height),
         "furnace-sphere" => furnace_sphere(opts.rho, opts.le, opts.width, opts.height),
         _ => Err(SceneError::UnknownBuiltin { name: name.into() }),
@@ -333,6 +341,129 @@ pub fn many_lights(lights: u32, seed: u32, width: u32, height: u32) -> Result<Sc
     Ok(s)
 }
 
+/// Size of the `colonnade` hall (x, y, z), metres.
+pub const COLONNADE_SIZE: Vec3 = Vec3::new(48.0, 9.0, 16.0);
+
+/// Number of lamps (emissive quads) in the `colonnade`.
+pub const COLONNADE_LAMPS: usize = 1064;
+
+/// The paper's regime: a large hall (48 x 9 x 16 m, closed) lit only by 1064 small lamps
+/// (0.12-0.2 m emissive quads) close to the surfaces they light: seven on each face of 26
+/// columns (two rows of 13), sconces along the four walls at two heights, lamps hanging under
+/// the two architraves that the columns carry, and lamps on 48 pedestals down the central
+/// aisle; 24 benches add occluders. Lamps are warm white of varied tint, their power
+/// log-uniform over a decade, the total fixed as in `many-lights`. Deterministic in `seed`
+/// (colours and powers; the layout is fixed). The camera looks down the central aisle.
+pub fn colonnade(seed: u32, width: u32, height: u32) -> Scene {
+    let size = COLONNADE_SIZE;
+    let mut s = Scene::default();
+    let wall = s.add_material(Material::new([0.7, 0.68, 0.64], [0.0; 3]));
+    let floor = s.add_material(Material::new([0.45, 0.4, 0.35], [0.0; 3]));
+    let stone = s.add_material(Material::new([0.6, 0.58, 0.52], [0.0; 3]));
+    let wood = s.add_material(Material::new([0.4, 0.25, 0.15], [0.0; 3]));
+    s.push_box(Vec3::ZERO, size, wall);
+    s.triangles[0].material = floor;
+    s.triangles[1].material = floor;
+    // (centre, normal, side) of every lamp.
+    let mut lamps: Vec<(Vec3, Vec3, f32)> = Vec::with_capacity(COLONNADE_LAMPS);
+    // Columns and their lamps.
+    let half = 0.35;
+    for row_z in [4.5f32, 11.5] {
+        for i in 0..13 {
+            let c = Vec3::new(3.0 + 3.5 * i as f32, 0.0, row_z);
+            s.push_box(
+                c - Vec3::new(half, 0.0, half),
+                c + Vec3::new(half, size.y, half),
+                stone,
+            );
+            for n in [Vec3::X, Vec3::NEG_X, Vec3::Z, Vec3::NEG_Z] {
+                for k in 0..7 {
+                    let y = 0.8 + 0.9 * k as f32;
+                    lamps.push((c + Vec3::Y * y + n * (half + 0.06), n, 0.12));
+                }
+            }
+        }
+        // The architrave the row carries, with lamps hanging under it every metre.
+        s.push_box(
+            Vec3::new(0.0, 7.0, row_z - half),
+            Vec3::new(size.x, 7.6, row_z + half),
+            stone,
+        );
+        for i in 0..48 {
+            let x = 0.5 + i as f32;
+            if (x - 3.0).rem_euclid(3.5) < 0.6 || (x - 3.0).rem_euclid(3.5) > 2.9 {
+                continue; // a column is there
+            }
+            lamps.push((Vec3::new(x, 6.8, row_z), Vec3::NEG_Y, 0.2));
+        }
+    }
+    // Sconces on the walls at 2.2 and 4.5 m: every metre on the long walls, every 1.5 m on
+    // the short ones.
+    for k in 0..48 {
+        for y in [2.2f32, 4.5] {
+            let x = 0.5 + k as f32;
+            lamps.push((Vec3::new(x, y, 0.08), Vec3::Z, 0.15));
+            lamps.push((Vec3::new(x, y, size.z - 0.08), Vec3::NEG_Z, 0.15));
+        }
+    }
+    for k in 0..10 {
+        for y in [2.2f32, 4.5] {
+            let z = 1.25 + 1.5 * k as f32;
+            lamps.push((Vec3::new(0.08, y, z), Vec3::X, 0.15));
+            lamps.push((Vec3::new(size.x - 0.08, y, z), Vec3::NEG_X, 0.15));
+        }
+    }
+    // Pedestals with a lamp on top down the aisle, benches along the walls.
+    for i in 0..24 {
+        let x = 1.0 + 2.0 * i as f32;
+        for z in [6.6f32, 9.4] {
+            let c = Vec3::new(x, 0.0, z);
+            s.push_box(
+                c - Vec3::new(0.15, 0.0, 0.15),
+                c + Vec3::new(0.15, 0.9, 0.15),
+                stone,
+            );
+            lamps.push((c + Vec3::Y * 0.95, Vec3::Y, 0.16));
+        }
+    }
+    for i in 0..12 {
+        let x = 2.0 + 4.0 * i as f32;
+        for z in [1.2f32, 14.3] {
+            s.push_box(Vec3::new(x, 0.0, z), Vec3::new(x + 1.6, 0.5, z + 0.5), wood);
+        }
+    }
+    debug_assert_eq!(lamps.len(), COLONNADE_LAMPS);
+    // Colours and powers, then normalise the total as `many_lights` does.
+    let mut rng = Rng::seed(0xc010, seed, 3);
+    let drawn: Vec<(Vec3, f32)> = lamps
+        .iter()
+        .map(|_| {
+            let hue = 0.3 + 0.6 * rng.next_f32(); // orange to yellow
+            let color = hue_rgb(hue, 0.15 + 0.35 * rng.next_f32());
+            (color, 10f32.powf(rng.next_f32()))
+        })
+        .collect();
+    let power_sum: f64 = drawn.iter().map(|d| f64::from(d.1)).sum();
+    let surface = 2.0 * (size.x * size.y + size.y * size.z + size.x * size.z);
+    let target = f64::from(surface) * 0.125;
+    for ((c, n, side), (color, power)) in lamps.into_iter().zip(drawn) {
+        let (a, b) = n.any_orthonormal_pair();
+        let (a, b) = (a * (0.5 * side), b * (0.5 * side));
+        let lum = (target * f64::from(power) / power_sum) as f32 / (side * side);
+        let m = s.add_material(Material::new([0.8; 3], (color * lum).to_array()));
+        s.push_quad([c - a - b, c + a - b, c + a + b, c - a + b], m);
+    }
+    s.camera = Some(Camera {
+        eye: Vec3::new(1.2, 1.7, 0.5 * size.z),
+        target: Vec3::new(size.x, 3.5, 0.5 * size.z),
+        up: Vec3::Y,
+        vfov_deg: 60.0,
+        width,
+        height,
+    });
+    s
+}
+
 /// A fully saturated hue (0..6) blended towards white by `1 - saturation`, scaled to unit
 /// luminance (Rec. 709 weights).
 fn hue_rgb(hue: f32, saturation: f32) -> Vec3 {
@@ -517,6 +648,39 @@ mod tests {
         let big = many_lights(100_000, 1, 4, 4).unwrap();
         assert_eq!(big.emissive_triangles(), 200_000);
         assert!(many_lights(0, 1, 4, 4).is_err());
+    }
+
+    #[test]
+    fn colonnade_is_lit_by_its_lamps_and_deterministic() {
+        let a = colonnade(1, 8, 8);
+        assert_eq!(a, colonnade(1, 8, 8));
+        assert_ne!(a, colonnade(2, 8, 8), "the seed changes colours and powers");
+        assert_eq!(a.emissive_triangles(), 2 * COLONNADE_LAMPS);
+        let (lo, hi) = a.bounds().unwrap();
+        assert_eq!((lo, hi), (Vec3::ZERO, COLONNADE_SIZE));
+        // Every lamp is small and within 0.25 m of a surface it lights (a wall, a column, an
+        // architrave or a pedestal): nearby lights, the paper's regime.
+        let mut probe = a.clone();
+        probe
+            .triangles
+            .retain(|t| !a.materials[t.material as usize].is_emissive());
+        let bvh = crate::trace::Bvh::build(&probe).unwrap();
+        for t in a
+            .triangles
+            .iter()
+            .filter(|t| a.materials[t.material as usize].is_emissive())
+        {
+            assert!(t.area() <= 0.5 * 0.2 * 0.2 + 1e-6);
+            let c = (t.v[0] + t.v[1] + t.v[2]) / 3.0;
+            let n = t.cross().normalize();
+            // (Slightly off the axis: the traversal wants no zero direction component.)
+            let dir = (-n + Vec3::new(0.011, 0.013, 0.017)).normalize();
+            let behind = bvh.closest_hit(&crate::trace::Ray::new(c, dir, 0.0, 0.25));
+            assert!(
+                behind.is_hit(),
+                "lamp at {c} facing {n} has no surface behind it"
+            );
+        }
     }
 
     #[test]

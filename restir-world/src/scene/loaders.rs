@@ -5,7 +5,11 @@
 //! KHR_materials_emissive_strength as emission. Buffers: the GLB binary chunk, base64 data
 //! URIs and files relative to the .gltf. OBJ: Kd as albedo, Ke as emission, polygons
 //! triangulated. Textures are not modelled: their factors are used and [`Loaded::warnings`]
-//! says so once per file.
+//! says so once per file; a texture without a `source` (DDS only) or a missing image file is
+//! never an error. `extensionsRequired` follows [`extension_policy`]: supported extensions are
+//! used, ones that change only what the renderer does not model warn once each, ones that
+//! change the geometry (Draco, meshopt, quantization, GPU instancing) are an error naming the
+//! extension and the file.
 
 use std::cell::RefCell;
 use std::path::{Component, Path, PathBuf};
@@ -173,6 +177,15 @@ fn check_accessor(
     if acc.count() == 0 {
         return Err(bad("has no elements".into()));
     }
+    // The reader takes vertex attributes as 32-bit floats whatever their type: integer
+    // (quantized, KHR_mesh_quantization) ones would be read as garbage.
+    if what != "index" && acc.data_type() != gltf::accessor::DataType::F32 {
+        return Err(bad(format!(
+            "is {:?}, not 32-bit float (quantized vertex data, KHR_mesh_quantization): the \
+             loader reads float attributes only",
+            acc.data_type()
+        )));
+    }
     if acc.sparse().is_some() {
         return Ok(());
     }
@@ -223,10 +236,100 @@ fn base64_decode(s: &str) -> Option<Vec<u8>> {
     Some(out)
 }
 
+/// What the glTF loader does with an extension a file lists in `extensionsRequired`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ExtensionPolicy {
+    /// Read and used (or, for `KHR_texture_transform`, harmless: textures are not modelled).
+    Supported,
+    /// Changes only what the renderer does not model (the text says what): the file loads
+    /// with one warning.
+    Ignored(&'static str),
+    /// Changes the geometry, which this loader cannot decode (the text says how): the file is
+    /// refused.
+    Refused(&'static str),
+    /// Not known to this loader: the file loads with one warning that it may be incomplete.
+    Unknown,
+}
+
+/// The policy for a required glTF extension by name (see [`ExtensionPolicy`]).
+pub fn extension_policy(name: &str) -> ExtensionPolicy {
+    use ExtensionPolicy::*;
+    match name {
+        "KHR_materials_emissive_strength" | "KHR_lights_punctual" | "KHR_texture_transform" => {
+            Supported
+        }
+        "KHR_draco_mesh_compression" => Refused("Draco-compressed meshes"),
+        "EXT_meshopt_compression" => Refused("meshoptimizer-compressed buffers"),
+        "KHR_mesh_quantization" => Refused("quantized (integer) vertex attributes"),
+        "EXT_mesh_gpu_instancing" => Refused("GPU-instanced meshes"),
+        "AMD_split_roughnessMetallic" => Ignored("split roughness/metallic textures"),
+        "MSFT_texture_dds" | "KHR_texture_basisu" | "EXT_texture_webp" | "EXT_texture_avif" => {
+            Ignored("alternative texture image formats (textures are not modelled)")
+        }
+        "KHR_materials_variants" => Ignored("material variants (the default is used)"),
+        "KHR_materials_unlit" => Ignored("unlit materials (shaded as diffuse)"),
+        "EXT_lights_image_based" => Ignored("image-based (environment) lighting"),
+        "KHR_xmp_json_ld" => Ignored("metadata"),
+        "KHR_animation_pointer" => Ignored("animation"),
+        n if n.starts_with("KHR_materials_") => {
+            Ignored("a material model beyond diffuse albedo and emission")
+        }
+        n if n.starts_with("KHR_texture_") || n.starts_with("EXT_texture_") => {
+            Ignored("textures (not modelled)")
+        }
+        _ => Unknown,
+    }
+}
+
+/// Parses a .gltf/.glb, applies [`extension_policy`] to its `extensionsRequired` (one warning
+/// per ignored or unknown extension, an error naming a refused one), then validates the rest
+/// with the `gltf` crate (which would refuse every required extension it does not implement).
+fn parse_gltf(
+    path: &Path,
+    bytes: &[u8],
+    warnings: &mut Vec<String>,
+) -> Result<gltf::Gltf, SceneError> {
+    let err = |e: gltf::Error| parse_err(path, format!("glTF: {e}"));
+    let raw = gltf::Gltf::from_slice_without_validation(bytes).map_err(err)?;
+    let blob = raw.blob;
+    let mut root = raw.document.into_json();
+    let mut seen = std::collections::HashSet::new();
+    for ext in &root.extensions_required {
+        if !seen.insert(ext.clone()) {
+            continue;
+        }
+        match extension_policy(ext) {
+            ExtensionPolicy::Supported => {}
+            ExtensionPolicy::Ignored(what) => warnings.push(format!(
+                "{}: glTF requires extension {ext}, which only affects {what}; the renderer \
+                 does not model it: ignored",
+                path.display()
+            )),
+            ExtensionPolicy::Refused(what) => {
+                return Err(parse_err(
+                    path,
+                    format!(
+                        "glTF: requires extension {ext} ({what}), which this loader cannot \
+                         decode: export the scene without it"
+                    ),
+                ));
+            }
+            ExtensionPolicy::Unknown => warnings.push(format!(
+                "{}: glTF requires extension {ext}, unknown to this loader: ignored (the scene \
+                 may load incomplete or look different)",
+                path.display()
+            )),
+        }
+    }
+    root.extensions_required.clear();
+    let document = gltf::Document::from_json(root).map_err(err)?;
+    Ok(gltf::Gltf { document, blob })
+}
+
 /// Loads a glTF 2.0 file (.gltf or .glb) without sanitizing it.
 pub fn load_gltf(path: &Path, warnings: &mut Vec<String>) -> Result<Scene, SceneError> {
     let bytes = read(path)?;
-    let gltf = gltf::Gltf::from_slice(&bytes).map_err(|e| parse_err(path, format!("glTF: {e}")))?;
+    let gltf = parse_gltf(path, &bytes, warnings)?;
     let dir = path.parent().unwrap_or(Path::new("."));
     let mut buffers = Vec::new();
     for b in gltf.buffers() {
@@ -262,14 +365,26 @@ pub fn load_gltf(path: &Path, warnings: &mut Vec<String>) -> Result<Scene, Scene
         buffers.push(data);
     }
 
+    let mut missing_images = Vec::new();
     for img in gltf.images() {
         if let gltf::image::Source::Uri { uri, .. } = img.source()
             && !uri.starts_with("data:")
         {
             // Images are not read (textures are not modelled), but a scene naming files
             // outside its directory is refused all the same.
-            confined(path, dir, uri, false)?;
+            let file = confined(path, dir, uri, false)?;
+            if !file.is_file() {
+                missing_images.push(uri);
+            }
         }
+    }
+    if let Some(first) = missing_images.first() {
+        warnings.push(format!(
+            "{}: {} image files are missing (the first: {first:?}); textures are not modelled, \
+             so nothing changes",
+            path.display(),
+            missing_images.len()
+        ));
     }
 
     let mut scene = Scene::default();
@@ -279,8 +394,11 @@ pub fn load_gltf(path: &Path, warnings: &mut Vec<String>) -> Result<Scene, Scene
         .default_scene()
         .or_else(|| gltf.scenes().next())
         .ok_or_else(|| parse_err(path, "glTF: no scene"))?;
+    // Depth-first in file order (children pushed in reverse), so that cameras are listed in
+    // the order the file gives them.
     let mut stack: Vec<(gltf::Node, Mat4, u32)> =
         scene_def.nodes().map(|n| (n, Mat4::IDENTITY, 0)).collect();
+    stack.reverse();
     while let Some((node, parent, depth)) = stack.pop() {
         if depth > 256 {
             return Err(parse_err(
@@ -289,25 +407,44 @@ pub fn load_gltf(path: &Path, warnings: &mut Vec<String>) -> Result<Scene, Scene
             ));
         }
         let m = parent * Mat4::from_cols_array_2d(&node.transform().matrix());
-        for child in node.children() {
+        let children: Vec<_> = node.children().collect();
+        for child in children.into_iter().rev() {
             stack.push((child, m, depth + 1));
         }
-        if let Some(cam) = node.camera()
-            && scene.camera.is_none()
-            && let gltf::camera::Projection::Perspective(p) = cam.projection()
-        {
-            let eye = m.transform_point3(Vec3::ZERO);
-            let fwd = m.transform_vector3(-Vec3::Z);
-            let up = m.transform_vector3(Vec3::Y);
-            let aspect = p.aspect_ratio().filter(|a| *a > 0.0).unwrap_or(1.0);
-            scene.camera = Some(Camera {
-                eye,
-                target: eye + fwd,
-                up,
-                vfov_deg: p.yfov().to_degrees(),
-                width: (256.0 * aspect).round().clamp(1.0, 16384.0) as u32,
-                height: 256,
-            });
+        if let Some(cam) = node.camera() {
+            let name = node
+                .name()
+                .or(cam.name())
+                .map_or_else(|| format!("camera {}", scene.cameras.len()), str::to_owned);
+            match cam.projection() {
+                gltf::camera::Projection::Perspective(p) => {
+                    let eye = m.transform_point3(Vec3::ZERO);
+                    let fwd = m.transform_vector3(-Vec3::Z).normalize_or_zero();
+                    let up = m.transform_vector3(Vec3::Y).normalize_or_zero();
+                    let aspect = p.aspect_ratio().filter(|a| *a > 0.0).unwrap_or(1.0);
+                    let camera = Camera {
+                        eye,
+                        target: eye + fwd,
+                        up,
+                        vfov_deg: p.yfov().to_degrees(),
+                        width: (256.0 * aspect).round().clamp(1.0, 16384.0) as u32,
+                        height: 256,
+                    };
+                    match camera.validate() {
+                        Ok(()) => scene.cameras.push(super::NamedCamera { name, camera }),
+                        Err(e) => warnings
+                            .push(format!("{}: camera {name:?} skipped: {e}", path.display())),
+                    }
+                }
+                gltf::camera::Projection::Orthographic(_) => warnings.push(format!(
+                    "{}: camera {name:?} is orthographic: skipped (only perspective cameras \
+                     are supported)",
+                    path.display()
+                )),
+            }
+        }
+        if let Some(light) = node.light() {
+            parse_light(path, &gltf, &node, light.index(), &m, &mut scene, warnings);
         }
         let Some(mesh) = node.mesh() else { continue };
         let normal_m = Mat3::from_mat4(m).inverse().transpose();
@@ -439,7 +576,74 @@ pub fn load_gltf(path: &Path, warnings: &mut Vec<String>) -> Result<Scene, Scene
             path.display()
         ));
     }
+    scene.camera = scene.cameras.first().map(|c| c.camera);
+    if !scene.lights.is_empty() {
+        warnings.push(format!(
+            "{}: {} punctual lights (KHR_lights_punctual) parsed but not rendered: the \
+             renderers sample emissive triangles only",
+            path.display(),
+            scene.lights.len()
+        ));
+    }
     Ok(scene)
+}
+
+/// Adds the `KHR_lights_punctual` light `index` of `node` (world transform `m`) to the scene,
+/// or warns and skips it when it is invalid.
+fn parse_light(
+    path: &Path,
+    gltf: &gltf::Gltf,
+    node: &gltf::Node,
+    index: usize,
+    m: &Mat4,
+    scene: &mut Scene,
+    warnings: &mut Vec<String>,
+) {
+    use gltf::json::extensions::scene::khr_lights_punctual::Type;
+    use gltf::json::validation::Checked;
+    let lights: &[gltf::json::extensions::scene::khr_lights_punctual::Light] =
+        gltf.as_json().as_ref();
+    let Some(json) = lights.get(index) else {
+        warnings.push(format!(
+            "{}: node {} refers to punctual light {index}, which does not exist: skipped",
+            path.display(),
+            node.index()
+        ));
+        return;
+    };
+    let name = node
+        .name()
+        .or(json.name.as_deref())
+        .map_or_else(|| format!("light {}", scene.lights.len()), str::to_owned);
+    let kind = match (&json.type_, &json.spot) {
+        (Checked::Valid(Type::Point), _) => Ok(super::PunctualKind::Point),
+        (Checked::Valid(Type::Directional), _) => Ok(super::PunctualKind::Directional),
+        (Checked::Valid(Type::Spot), Some(spot)) => Ok(super::PunctualKind::Spot {
+            inner_cone: spot.inner_cone_angle,
+            outer_cone: spot.outer_cone_angle,
+        }),
+        (Checked::Valid(Type::Spot), None) => Err("a spot light without its \"spot\" cone".into()),
+        (Checked::Invalid, _) => Err("an unknown light type".to_owned()),
+    };
+    let light = kind.and_then(|kind| {
+        let l = super::PunctualLight {
+            name: name.clone(),
+            kind,
+            position: m.transform_point3(Vec3::ZERO),
+            direction: m.transform_vector3(-Vec3::Z).normalize_or_zero(),
+            color: json.color,
+            intensity: json.intensity,
+            range: json.range,
+        };
+        l.validate().map(|()| l)
+    });
+    match light {
+        Ok(l) => scene.lights.push(l),
+        Err(e) => warnings.push(format!(
+            "{}: punctual light {name:?} skipped: {e}",
+            path.display()
+        )),
+    }
 }
 
 /// Checks an MTL file's numeric lines (tobj rejects the whole library on one bad number, and
@@ -448,7 +652,9 @@ pub fn load_gltf(path: &Path, warnings: &mut Vec<String>) -> Result<Scene, Scene
 fn clean_mtl(file: &Path, text: &str) -> Result<String, SceneError> {
     let mut out = String::with_capacity(text.len());
     for (n, line) in text.lines().enumerate() {
-        let mut words = line.split_whitespace();
+        // A `#` starts a comment, also after values ("Ka 0.63 0.065 0.05 # Red").
+        let data = line.split_once('#').map_or(line, |(d, _)| d);
+        let mut words = data.split_whitespace();
         let key = words.next().unwrap_or("");
         let values: Vec<&str> = words.collect();
         let numbers = || {
@@ -474,7 +680,7 @@ fn clean_mtl(file: &Path, text: &str) -> Result<String, SceneError> {
                 _ => return Err(bad("1 or 3 numbers")),
             },
             "Ns" | "Ni" | "d" | "Tr" => match numbers().as_deref() {
-                Ok([_]) => out.push_str(line),
+                Ok([_]) => out.push_str(data.trim_end()),
                 _ => return Err(bad("one number")),
             },
             _ => out.push_str(line),
@@ -647,6 +853,9 @@ mod tests {
         let f = Path::new("m.mtl");
         let t = clean_mtl(f, "newmtl a\nKd 0.5\nKe 1 2 3\nNs 10\n").unwrap();
         assert_eq!(t, "newmtl a\nKd 0.5 0.5 0.5\nKe 1 2 3\nNs 10\n");
+        // Trailing comments (McGuire's Cornell box: "Ka 0.63 0.065 0.05 # Red").
+        let t = clean_mtl(f, "newmtl a\nKa 0.63 0.065 0.05 # Red\nNs 10.0 # shiny\n").unwrap();
+        assert_eq!(t, "newmtl a\nKa 0.63 0.065 0.05\nNs 10.0\n");
         for bad in ["Ke abc def", "Kd 1 2", "Ns", "Ni x"] {
             let e = clean_mtl(f, &format!("newmtl a\n{bad}\n")).unwrap_err();
             assert!(e.to_string().contains("m.mtl: MTL line 2"), "{e}");

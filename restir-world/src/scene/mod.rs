@@ -11,13 +11,20 @@
 //! [`Scene::sanitize`] (drops NaN/Inf and degenerate triangles, counts them in a
 //! [`SanitizeReport`]).
 
+mod add_lights;
 pub mod builtin;
+mod framing;
 mod loaders;
 
+pub use add_lights::{AddLights, AddedLights, MAX_ADDED_LIGHTS, add_lights};
 pub use builtin::{
-    BUILTIN_NAMES, BuiltinOptions, builtin, cornell, furnace, furnace_sphere, many_lights,
+    BUILTIN_NAMES, BuiltinOptions, builtin, colonnade, cornell, furnace, furnace_sphere,
+    many_lights,
 };
-pub use loaders::{DEFAULT_ALBEDO, Loaded, load, load_gltf, load_obj};
+pub use framing::DEFAULT_VFOV_DEG;
+pub use loaders::{
+    DEFAULT_ALBEDO, ExtensionPolicy, Loaded, extension_policy, load, load_gltf, load_obj,
+};
 
 use std::path::PathBuf;
 
@@ -52,6 +59,8 @@ pub enum SceneError {
         SCENE_EXTENT_RANGE.1
     )]
     Scale { what: String, extent: f32 },
+    #[error("no camera {wanted:?} in the scene (expected a name or an index: {available})")]
+    UnknownCamera { wanted: String, available: String },
 }
 
 /// The sizes (largest side of the bounding box) a scene may have. Renders are the same at every
@@ -215,12 +224,97 @@ impl CameraPath {
     }
 }
 
+/// A camera of a scene file with its name (the node's, else the camera's, else `camera N`).
+#[derive(Debug, Clone, PartialEq)]
+pub struct NamedCamera {
+    pub name: String,
+    pub camera: Camera,
+}
+
+/// What kind of punctual light (glTF `KHR_lights_punctual`).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum PunctualKind {
+    /// Emits in all directions from `position`; intensity in candela.
+    Point,
+    /// Emits along `direction` inside a cone (angles from the axis, radians,
+    /// `0 <= inner < outer <= pi/2`); intensity in candela.
+    Spot { inner_cone: f32, outer_cone: f32 },
+    /// Infinitely far away, emits along `direction`; intensity (illuminance) in lux.
+    Directional,
+}
+
+/// A punctual light from a scene file (glTF `KHR_lights_punctual`), in world space. Parsed and
+/// validated; the renderers do not sample it yet (they sample emissive triangles).
+#[derive(Debug, Clone, PartialEq)]
+pub struct PunctualLight {
+    /// The node's name, else the light's, else `light N`.
+    pub name: String,
+    pub kind: PunctualKind,
+    /// World position (ignored for directional lights).
+    pub position: Vec3,
+    /// Unit direction the light travels (the node's -z; ignored for point lights).
+    pub direction: Vec3,
+    /// Linear RGB colour, each channel in [0, 1].
+    pub color: [f32; 3],
+    /// Candela (point, spot) or lux (directional), finite and >= 0.
+    pub intensity: f32,
+    /// Distance beyond which the light is cut off (`None`: infinite), > 0.
+    pub range: Option<f32>,
+}
+
+impl PunctualLight {
+    /// Checks the values the glTF specification allows; the message names what is wrong.
+    pub fn validate(&self) -> Result<(), String> {
+        if !(self.position.is_finite() && self.direction.is_finite()) {
+            return Err("position and direction must be finite".into());
+        }
+        if (self.direction.length() - 1.0).abs() > 1e-3 {
+            return Err("its node's transform has no usable -z direction".into());
+        }
+        if !self.color.iter().all(|c| (0.0..=1.0).contains(c)) {
+            return Err(format!("color {:?} must be in [0, 1]", self.color));
+        }
+        if !(self.intensity.is_finite() && self.intensity >= 0.0) {
+            return Err(format!(
+                "intensity {} must be finite and >= 0",
+                self.intensity
+            ));
+        }
+        if let Some(r) = self.range
+            && !(r.is_finite() && r > 0.0)
+        {
+            return Err(format!("range {r} must be finite and > 0"));
+        }
+        if let PunctualKind::Spot {
+            inner_cone,
+            outer_cone,
+        } = self.kind
+            && !(0.0 <= inner_cone
+                && inner_cone < outer_cone
+                && outer_cone <= std::f32::consts::FRAC_PI_2)
+        {
+            return Err(format!(
+                "spot cone angles {inner_cone} and {outer_cone} must satisfy \
+                 0 <= inner < outer <= pi/2"
+            ));
+        }
+        Ok(())
+    }
+}
+
 /// A scene ready to render: triangles with materials, and an optional camera from the file.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct Scene {
     pub triangles: Vec<Triangle>,
     pub materials: Vec<Material>,
+    /// The camera renders use (a file's first camera, or the one [`Scene::select_camera`]
+    /// chose); `None`: [`Scene::camera_or_default`] frames the scene.
     pub camera: Option<Camera>,
+    /// All cameras of a scene file, in file order (depth-first over the default scene's
+    /// nodes); empty for the built-in scenes.
+    pub cameras: Vec<NamedCamera>,
+    /// Punctual lights of a scene file (parsed, not rendered yet: see [`PunctualLight`]).
+    pub lights: Vec<PunctualLight>,
 }
 
 /// What [`Scene::sanitize`] dropped or repaired. All counts are zero for a clean scene.
@@ -345,26 +439,55 @@ impl Scene {
         Some(it.fold((first, first), |(lo, hi), v| (lo.min(v), hi.max(v))))
     }
 
-    /// The scene's camera, or one that frames its bounds from the -z side (45 degrees vertical
-    /// field of view, y up), at `width` x `height`.
+    /// The scene's camera, or a default framing at `width` x `height`: the whole bounding
+    /// sphere in a 45 degree vertical field of view, y up, from the side that shows the most of
+    /// the scene's inside (an open box from its open side; a planar scene across its plane,
+    /// never edge-on). See `framing.rs`.
     pub fn camera_or_default(&self, width: u32, height: u32) -> Camera {
         if let Some(c) = self.camera {
             return Camera { width, height, ..c };
         }
-        let (lo, hi) = self
-            .bounds()
-            .unwrap_or((Vec3::splat(-1.0), Vec3::splat(1.0)));
-        let center = 0.5 * (lo + hi);
-        let radius = (0.5 * (hi - lo).length()).max(1e-3);
-        let vfov_deg = 45.0f32;
-        let dist = radius / (0.5 * vfov_deg.to_radians()).sin();
-        Camera {
-            eye: center - Vec3::Z * dist,
-            target: center,
-            up: Vec3::Y,
-            vfov_deg,
-            width,
-            height,
+        framing::default_camera(self, width, height)
+    }
+
+    /// Makes the file camera `wanted` (an index into [`Scene::cameras`] or a name) the one
+    /// renders use. An unknown one is an error listing the cameras there are.
+    /// A scene without named cameras but with a camera (the built-in scenes) offers that one
+    /// as `0` / `default`.
+    pub fn select_camera(&mut self, wanted: &str) -> Result<(), SceneError> {
+        let implicit;
+        let cameras = match (&self.cameras[..], self.camera) {
+            ([], Some(camera)) => {
+                implicit = [NamedCamera {
+                    name: "default".into(),
+                    camera,
+                }];
+                &implicit[..]
+            }
+            (named, _) => named,
+        };
+        let found = match wanted.trim().parse::<usize>() {
+            Ok(i) => cameras.get(i),
+            Err(_) => cameras.iter().find(|c| c.name == wanted),
+        };
+        match found {
+            Some(c) => {
+                self.camera = Some(c.camera);
+                Ok(())
+            }
+            None => Err(SceneError::UnknownCamera {
+                wanted: wanted.to_owned(),
+                available: if cameras.is_empty() {
+                    "the scene has no cameras".into()
+                } else {
+                    let list: Vec<String> = cameras
+                        .iter()
+                        .enumerate()
+                        .map(|(i, c)| format!("{i} {:?}", c.name))
+                        .collect();
+                    format!("the scene has {}", list.join(", "))
+                },
+            }),
         }
     }
 
@@ -464,7 +587,7 @@ mod tests {
                 },
             ],
             materials: vec![Material::new([2.0, f32::NAN, 0.5], [-1.0, 0.0, 0.0])],
-            camera: None,
+            ..Default::default()
         };
         let r = s.sanitize("test").unwrap();
         assert_eq!(
@@ -489,7 +612,7 @@ mod tests {
         let mut s = Scene {
             triangles: vec![tri([0.0; 3], [0.0; 3], [0.0; 3])],
             materials: vec![Material::new([0.5; 3], [0.0; 3])],
-            camera: None,
+            ..Default::default()
         };
         let e = s.sanitize("x.obj").unwrap_err();
         assert!(matches!(e, SceneError::Empty { .. }), "{e}");
@@ -506,10 +629,17 @@ mod tests {
         let c = s.camera_or_default(64, 32);
         c.validate().unwrap();
         assert_eq!((c.width, c.height), (64, 32));
-        assert!(c.eye.z < -2.0);
+        assert!(
+            c.eye.z > 3.0,
+            "a closed box is framed from the front (+z): {}",
+            c.eye
+        );
         let bad = Camera { vfov_deg: 0.0, ..c };
         assert!(bad.validate().is_err());
-        let bad = Camera { up: Vec3::Z, ..c };
+        let bad = Camera {
+            up: c.target - c.eye,
+            ..c
+        };
         assert!(bad.validate().is_err());
         // Finite ends whose distance overflows f32 (issue 14): refused, not a black image.
         let far = Camera {
@@ -519,6 +649,54 @@ mod tests {
         };
         let e = far.validate().unwrap_err();
         assert!(e.to_string().contains("too far apart"), "{e}");
+    }
+
+    #[test]
+    fn cameras_are_selected_by_index_or_name() {
+        let cam = |z: f32| Camera {
+            eye: Vec3::new(0.0, 0.0, z),
+            target: Vec3::ZERO,
+            up: Vec3::Y,
+            vfov_deg: 40.0,
+            width: 8,
+            height: 8,
+        };
+        let mut s = Scene {
+            camera: Some(cam(1.0)),
+            cameras: ["Main", "Side"]
+                .iter()
+                .zip([1.0, 2.0])
+                .map(|(n, z)| NamedCamera {
+                    name: (*n).into(),
+                    camera: cam(z),
+                })
+                .collect(),
+            ..Default::default()
+        };
+        s.select_camera("Side").unwrap();
+        assert_eq!(s.camera, Some(cam(2.0)));
+        s.select_camera("0").unwrap();
+        assert_eq!(s.camera, Some(cam(1.0)));
+        for bad in ["2", "side", ""] {
+            let e = s.select_camera(bad).unwrap_err().to_string();
+            assert!(e.contains("0 \"Main\", 1 \"Side\""), "{e}");
+            assert!(e.contains(&format!("{bad:?}")), "{e}");
+        }
+        // A built-in scene's one camera is `0` / `default`; no camera at all is said so.
+        let mut b = Scene {
+            camera: Some(cam(3.0)),
+            ..Default::default()
+        };
+        b.select_camera("default").unwrap();
+        b.select_camera("0").unwrap();
+        assert!(
+            b.select_camera("1")
+                .unwrap_err()
+                .to_string()
+                .contains("0 \"default\"")
+        );
+        let e = Scene::default().select_camera("0").unwrap_err().to_string();
+        assert!(e.contains("has no cameras"), "{e}");
     }
 
     #[test]
