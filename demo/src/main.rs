@@ -9,10 +9,11 @@ use anyhow::{Context, Result};
 use clap::{Parser, Subcommand};
 use glam::Vec3;
 use indicatif::{ProgressBar, ProgressStyle};
+use restir_world::gpu::{Access, BindingSet, Kernel, buffers, workgroup_size_wgsl};
 use restir_world::lights::Lights;
 use restir_world::sampling::Estimator;
 use restir_world::scene::Scene;
-use restir_world::{GpuContext, GpuTimer, gpu::buffers, image_io, reference, render};
+use restir_world::{GpuContext, GpuTimer, image_io, reference, render};
 
 mod camera;
 mod render_cmd;
@@ -484,16 +485,16 @@ fn render_into(
 
 const SMOKE_WGSL: &str = r#"
 struct Params { width: u32, height: u32 }
-@group(0) @binding(0) var<storage, read_write> pixels: array<u32>;
-@group(0) @binding(1) var<uniform> params: Params;
 
-@compute @workgroup_size(8, 8)
-fn main(@builtin(global_invocation_id) id: vec3<u32>) {
-    if id.x >= params.width || id.y >= params.height { return; }
-    let uv = vec2<f32>(id.xy) / vec2<f32>(f32(params.width), f32(params.height));
-    let checker = f32(((id.x / 32u) + (id.y / 32u)) % 2u);
+@compute @workgroup_size(WORKGROUP_SIZE)
+fn main(id: Invocation) {
+    let i = item_index(id);
+    if i >= params.width * params.height { return; }
+    let xy = vec2<u32>(i % params.width, i / params.width);
+    let uv = vec2<f32>(xy) / vec2<f32>(f32(params.width), f32(params.height));
+    let checker = f32(((xy.x / 32u) + (xy.y / 32u)) % 2u);
     let rgb = vec3<f32>(uv.x, uv.y, 0.25 + 0.5 * checker);
-    pixels[id.y * params.width + id.x] = pack4x8unorm(vec4<f32>(rgb, 1.0));
+    pixels[i] = pack4x8unorm(vec4<f32>(rgb, 1.0));
 }
 "#;
 
@@ -514,47 +515,21 @@ fn smoke_into(out: &Path, (width, height): (u32, u32)) -> Result<()> {
         );
     }
     let device = &ctx.device;
-    let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
-        label: Some("smoke"),
-        source: wgpu::ShaderSource::Wgsl(SMOKE_WGSL.into()),
-    });
-    let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-        label: Some("smoke"),
-        layout: None,
-        module: &module,
-        entry_point: Some("main"),
-        compilation_options: Default::default(),
-        cache: None,
-    });
+    let set = BindingSet::new("smoke")
+        .buffer("pixels", "array<u32>", Access::ReadWrite)
+        .buffer("params", "Params", Access::Uniform);
+    let source = format!("{}{}{SMOKE_WGSL}", workgroup_size_wgsl(), set.wgsl(0));
+    let layout = set.layout(device);
+    let kernel = Kernel::new(device, "smoke", &source, &[&layout], &["main"]);
     let pixels = buffers::storage_zeroed(device, "pixels", u64::from(width * height) * 4);
-    let params = buffers::with_usage(
-        device,
-        "params",
-        &[width, height, 0, 0],
-        wgpu::BufferUsages::UNIFORM,
-    );
-    let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
-        label: Some("smoke"),
-        layout: &pipeline.get_bind_group_layout(0),
-        entries: &[
-            wgpu::BindGroupEntry {
-                binding: 0,
-                resource: pixels.as_entire_binding(),
-            },
-            wgpu::BindGroupEntry {
-                binding: 1,
-                resource: params.as_entire_binding(),
-            },
-        ],
-    });
+    let params = [width, height, 0, 0];
+    let params = buffers::with_usage(device, "params", &params, wgpu::BufferUsages::UNIFORM);
+    let res = [("pixels", (&pixels).into()), ("params", (&params).into())];
+    let group = layout.bind(device, res)?;
+    let pass = kernel.pass(device, "main", &[&group], width * height);
     let mut timer = GpuTimer::new(&ctx);
     let mut encoder = device.create_command_encoder(&Default::default());
-    timer.span(&mut encoder, "smoke", |enc| {
-        let mut pass = enc.begin_compute_pass(&Default::default());
-        pass.set_pipeline(&pipeline);
-        pass.set_bind_group(0, &bind_group, &[]);
-        pass.dispatch_workgroups(width.div_ceil(8), height.div_ceil(8), 1);
-    });
+    timer.span(&mut encoder, "smoke", |enc| pass.record(enc));
     timer.resolve(&mut encoder);
     ctx.queue.submit([encoder.finish()]);
     let words: Vec<u32> = buffers::read(&ctx, &pixels)?;

@@ -12,28 +12,18 @@
 
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 use reservoir::{PackedReservoir, rng::Rng};
-use tests::{bench, buffers, floors::CopyKernel, floors::dispatch_2d, gpu};
-use wgpu::util::DeviceExt;
+use restir_world::gpu::{Access, BindingSet, Kernel, Pass, workgroup_size_wgsl};
+use tests::{bench, buffers, floors::CopyKernel, gpu};
 
 const WORKGROUP: u32 = 256;
 
 const KERNEL_WGSL: &str = "
-override WORKGROUP: u32 = 256u;
-
 struct Params { n: u32, frame: u32, stride: u32, _pad: u32 }
 
-@group(0) @binding(0) var<storage, read> src: array<PackedReservoir>;
-@group(0) @binding(1) var<storage, read_write> dst: array<PackedReservoir>;
-@group(0) @binding(2) var<uniform> params: Params;
 
-fn index(gid: vec3<u32>, groups: vec3<u32>) -> u32 {
-    return gid.x + gid.y * groups.x * WORKGROUP;
-}
-
-@compute @workgroup_size(WORKGROUP)
-fn merge1(@builtin(global_invocation_id) gid: vec3<u32>,
-          @builtin(num_workgroups) groups: vec3<u32>) {
-    let i = index(gid, groups);
+@compute @workgroup_size(WORKGROUP_SIZE)
+fn merge1(id: Invocation) {
+    let i = item_index(id);
     if i >= params.n { return; }
     var rng = rng_seed(i, params.frame, 0u);
     let p_hat = 0.5 + rng_next_f32(&rng);
@@ -43,10 +33,9 @@ fn merge1(@builtin(global_invocation_id) gid: vec3<u32>,
     dst[i] = reservoir_pack(r);
 }
 
-@compute @workgroup_size(WORKGROUP)
-fn merge4(@builtin(global_invocation_id) gid: vec3<u32>,
-          @builtin(num_workgroups) groups: vec3<u32>) {
-    let i = index(gid, groups);
+@compute @workgroup_size(WORKGROUP_SIZE)
+fn merge4(id: Invocation) {
+    let i = item_index(id);
     if i >= params.n { return; }
     var rng = rng_seed(i, params.frame, 0u);
     var r = reservoir_empty();
@@ -64,100 +53,55 @@ fn merge4(@builtin(global_invocation_id) gid: vec3<u32>,
 ";
 
 struct MergeBench {
-    merge1: wgpu::ComputePipeline,
-    merge4: wgpu::ComputePipeline,
-    bind_group: wgpu::BindGroup,
-    groups: (u32, u32),
+    merge1: Pass,
+    merge4: Pass,
 }
 
 impl MergeBench {
     fn new(ctx: &tests::GpuContext, src: &wgpu::Buffer, dst: &wgpu::Buffer, n: u32) -> Self {
+        let set = BindingSet::new("reservoir bench")
+            .buffer("src", "array<PackedReservoir>", Access::Read)
+            .buffer("dst", "array<PackedReservoir>", Access::ReadWrite)
+            .buffer("params", "Params", Access::Uniform);
         let source = format!(
-            "{}\n{}\n{KERNEL_WGSL}",
+            "{}\n{}\n{}\n{}\n{KERNEL_WGSL}",
+            workgroup_size_wgsl(),
+            set.wgsl(0),
             reservoir::wgsl(),
             reservoir::rng::WGSL
         );
-        let module = ctx
-            .device
-            .create_shader_module(wgpu::ShaderModuleDescriptor {
-                label: Some("reservoir bench"),
-                source: wgpu::ShaderSource::Wgsl(source.into()),
-            });
-        let buffer = tests::buffers::layout_entry;
-        let layout = ctx
-            .device
-            .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-                label: Some("reservoir bench"),
-                entries: &[
-                    buffer(0, wgpu::BufferBindingType::Storage { read_only: true }),
-                    buffer(1, wgpu::BufferBindingType::Storage { read_only: false }),
-                    buffer(2, wgpu::BufferBindingType::Uniform),
-                ],
-            });
-        let pipeline_layout = ctx
-            .device
-            .create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-                label: Some("reservoir bench"),
-                bind_group_layouts: &[Some(&layout)],
-                immediate_size: 0,
-            });
-        let pipeline = |entry: &str| {
-            ctx.device
-                .create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-                    label: Some(entry),
-                    layout: Some(&pipeline_layout),
-                    module: &module,
-                    entry_point: Some(entry),
-                    compilation_options: wgpu::PipelineCompilationOptions {
-                        constants: &[("WORKGROUP", f64::from(WORKGROUP))],
-                        ..Default::default()
-                    },
-                    cache: None,
-                })
-        };
-        let (merge1, merge4) = (pipeline("merge1"), pipeline("merge4"));
-        let params = ctx
-            .device
-            .create_buffer_init(&wgpu::util::BufferInitDescriptor {
-                label: Some("reservoir bench params"),
-                contents: bytemuck::cast_slice(&[n, 1, 7919, 0]),
-                usage: wgpu::BufferUsages::UNIFORM,
-            });
-        let bind_group = ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("reservoir bench"),
-            layout: &layout,
-            entries: &[
-                wgpu::BindGroupEntry {
-                    binding: 0,
-                    resource: src.as_entire_binding(),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 1,
-                    resource: dst.as_entire_binding(),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 2,
-                    resource: params.as_entire_binding(),
-                },
-            ],
-        });
-        let max = ctx.limits().max_compute_workgroups_per_dimension;
+        let device = &ctx.device;
+        let layout = set.layout(device);
+        let entries = ["merge1", "merge4"];
+        let kernel = Kernel::with_workgroup_size(
+            device,
+            "reservoir bench",
+            &source,
+            &[&layout],
+            &entries,
+            WORKGROUP,
+        );
+        let params = buffers::with_usage(
+            device,
+            "params",
+            &[n, 1, 7919, 0],
+            wgpu::BufferUsages::UNIFORM,
+        );
+        let res = [
+            ("src", src.into()),
+            ("dst", dst.into()),
+            ("params", (&params).into()),
+        ];
+        let group = layout.bind(device, res).expect("bind");
+        let pass = |entry| kernel.pass(device, entry, &[&group], n);
         Self {
-            merge1,
-            merge4,
-            bind_group,
-            groups: dispatch_2d(n.div_ceil(WORKGROUP), max),
+            merge1: pass("merge1"),
+            merge4: pass("merge4"),
         }
     }
 
     fn encode(&self, encoder: &mut wgpu::CommandEncoder, four: bool) {
-        let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
-            label: Some("reservoir merge"),
-            timestamp_writes: None,
-        });
-        pass.set_pipeline(if four { &self.merge4 } else { &self.merge1 });
-        pass.set_bind_group(0, &self.bind_group, &[]);
-        pass.dispatch_workgroups(self.groups.0, self.groups.1, 1);
+        if four { &self.merge4 } else { &self.merge1 }.record(encoder);
     }
 }
 

@@ -11,72 +11,38 @@ use std::sync::OnceLock;
 use reservoir::reference;
 use reservoir::rng::Rng;
 use reservoir::{NO_SAMPLE, PackedReservoir, Reservoir, SUM_MAX};
-use tests::{buffers, floors::dispatch_2d, gpu};
-
-const WORKGROUP: u32 = 64;
+use restir_world::gpu::{Access, BindGroupLayout, BindingSet, workgroup_size_wgsl};
+use tests::{buffers, gpu};
 
 // ---------------------------------------------------------------------------------------------
-// Harness: a compute kernel over storage bindings 0..n (all read_write), one invocation per
-// index, composed as a consumer would: reservoir library + RNG + the test's own kernel.
+// Harness: a compute kernel over storage bindings b0..bn (all read_write), one invocation per
+// index, composed as a consumer would: reservoir library + RNG + the test's own kernel, on the
+// workspace's Kernel/Pass vocabulary.
 
 struct Kernel {
-    pipelines: Vec<(String, wgpu::ComputePipeline)>,
-    layout: wgpu::BindGroupLayout,
+    kernel: restir_world::gpu::Kernel,
+    layout: BindGroupLayout,
 }
 
 impl Kernel {
     fn new(label: &str, kernel_src: &str, entries: &[&str], bindings: u32) -> Kernel {
         let ctx = gpu::context();
         let source = format!(
-            "{}\n{}\n{kernel_src}",
+            "{}\n{}\n{}\n{kernel_src}",
+            workgroup_size_wgsl(),
             reservoir::wgsl(),
             reservoir::rng::WGSL
         );
         if let Err(e) = tests::wgsl::validate(label, &source) {
             panic!("{e}");
         }
-        let module = ctx
-            .device
-            .create_shader_module(wgpu::ShaderModuleDescriptor {
-                label: Some(label),
-                source: wgpu::ShaderSource::Wgsl(source.into()),
-            });
-        let layout_entries: Vec<wgpu::BindGroupLayoutEntry> = (0..bindings)
-            .map(|binding| tests::buffers::storage_entry(binding, false))
-            .collect();
-        let layout = ctx
-            .device
-            .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-                label: Some(label),
-                entries: &layout_entries,
-            });
-        let pipeline_layout = ctx
-            .device
-            .create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-                label: Some(label),
-                bind_group_layouts: &[Some(&layout)],
-                immediate_size: 0,
-            });
-        let pipelines = entries
-            .iter()
-            .map(|entry| {
-                let p = ctx
-                    .device
-                    .create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-                        label: Some(entry),
-                        layout: Some(&pipeline_layout),
-                        module: &module,
-                        entry_point: Some(entry),
-                        compilation_options: wgpu::PipelineCompilationOptions {
-                            constants: &[("WORKGROUP", f64::from(WORKGROUP))],
-                            ..Default::default()
-                        },
-                        cache: None,
-                    });
-                ((*entry).to_owned(), p)
-            })
-            .collect();
-        Kernel { pipelines, layout }
+        let set = (0..bindings).fold(BindingSet::new(label), |s, b| {
+            s.buffer(&format!("b{b}"), "array<u32>", Access::ReadWrite)
+        });
+        let layout = set.layout(&ctx.device);
+        let kernel =
+            restir_world::gpu::Kernel::new(&ctx.device, label, &source, &[&layout], entries);
+        Kernel { kernel, layout }
     }
 
     /// Runs `entry` over `threads` invocations with `buffers` at bindings 0.., and waits.
@@ -87,45 +53,20 @@ impl Kernel {
     /// [`Kernel::run`] `times` times in a row (one compute pass each), then waits.
     fn run_repeated(&self, entry: &str, buffers: &[&wgpu::Buffer], threads: u32, times: u32) {
         let ctx = gpu::context();
-        let pipeline = &self
-            .pipelines
+        let names: Vec<String> = (0..buffers.len()).map(|b| format!("b{b}")).collect();
+        let res = names
             .iter()
-            .find(|(n, _)| n == entry)
-            .unwrap_or_else(|| panic!("no entry point {entry}"))
-            .1;
-        let entries: Vec<wgpu::BindGroupEntry> = buffers
-            .iter()
-            .enumerate()
-            .map(|(i, b)| wgpu::BindGroupEntry {
-                binding: i as u32,
-                resource: b.as_entire_binding(),
-            })
-            .collect();
-        let bind_group = ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some(entry),
-            layout: &self.layout,
-            entries: &entries,
-        });
-        let max = ctx.limits().max_compute_workgroups_per_dimension;
-        let (x, y) = dispatch_2d(threads.div_ceil(WORKGROUP), max);
-        gpu::run(ctx, |enc| {
-            for _ in 0..times {
-                let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
-                    label: Some(entry),
-                    timestamp_writes: None,
-                });
-                pass.set_pipeline(pipeline);
-                pass.set_bind_group(0, &bind_group, &[]);
-                pass.dispatch_workgroups(x, y, 1);
-            }
-        });
+            .zip(buffers)
+            .map(|(n, b)| (n.as_str(), (*b).into()));
+        let group = self.layout.bind(&ctx.device, res).expect("bind");
+        let pass = self.kernel.pass(&ctx.device, entry, &[&group], threads);
+        gpu::run(ctx, |enc| (0..times).for_each(|_| pass.record(enc)));
     }
 }
 
 const INDEX_WGSL: &str = "
-override WORKGROUP: u32 = 64u;
 fn thread_index(gid: vec3<u32>, groups: vec3<u32>) -> u32 {
-    return gid.x + gid.y * groups.x * WORKGROUP;
+    return gid.x + gid.y * groups.x * WORKGROUP_SIZE;
 }
 ";
 
@@ -157,7 +98,7 @@ const RNG_WGSL: &str = "
 @group(0) @binding(0) var<storage, read_write> params: array<u32>;
 @group(0) @binding(1) var<storage, read_write> out: array<u32>;
 
-@compute @workgroup_size(WORKGROUP)
+@compute @workgroup_size(WORKGROUP_SIZE)
 fn rng_stream(@builtin(global_invocation_id) gid: vec3<u32>,
               @builtin(num_workgroups) groups: vec3<u32>) {
     let i = thread_index(gid, groups);
@@ -236,7 +177,7 @@ struct Op { kind: u32, dst: u32, src: u32, slot: u32, a: f32, b: f32 }
 @group(0) @binding(3) var<storage, read_write> regs_out: array<Reservoir>;
 @group(0) @binding(4) var<storage, read_write> params: array<u32>;
 
-@compute @workgroup_size(WORKGROUP)
+@compute @workgroup_size(WORKGROUP_SIZE)
 fn run_script(@builtin(global_invocation_id) gid: vec3<u32>,
               @builtin(num_workgroups) groups: vec3<u32>) {
     let i = thread_index(gid, groups);
@@ -721,7 +662,7 @@ const LONG_WGSL: &str = "
 
 // Continues stream i by params[0] updates: llvmpipe stops any invocation's loops after 65535
 // iterations in all, so a 10^7-long stream runs as many dispatches, its state kept in storage.
-@compute @workgroup_size(WORKGROUP)
+@compute @workgroup_size(WORKGROUP_SIZE)
 fn long_stream(@builtin(global_invocation_id) gid: vec3<u32>,
                @builtin(num_workgroups) groups: vec3<u32>) {
     let i = thread_index(gid, groups);
@@ -810,7 +751,7 @@ fn stale_sum_update(r: ptr<function, Reservoir>, weight: f32, u: f32, slot: u32)
     return sel;
 }
 
-@compute @workgroup_size(WORKGROUP)
+@compute @workgroup_size(WORKGROUP_SIZE)
 fn select_frequency(@builtin(global_invocation_id) gid: vec3<u32>,
                     @builtin(num_workgroups) groups: vec3<u32>) {
     let t = thread_index(gid, groups);
@@ -836,7 +777,7 @@ fn ris_target(x: f32, mode: u32) -> f32 {
     return max(0.0, x - 0.2);
 }
 
-@compute @workgroup_size(WORKGROUP)
+@compute @workgroup_size(WORKGROUP_SIZE)
 fn ris_estimate(@builtin(global_invocation_id) gid: vec3<u32>,
                 @builtin(num_workgroups) groups: vec3<u32>) {
     let t = thread_index(gid, groups);
@@ -857,7 +798,7 @@ fn ris_estimate(@builtin(global_invocation_id) gid: vec3<u32>,
 // Candidates 0..k with weights[k] (target = weight, p = 1). Mode 0 streams all of them; mode
 // 1 streams 0..split into A and split..k into B (different M), finalizes both and merges them into C;
 // mode 2 is mode 1 with the planted error of merging with p_hat * W, without M.
-@compute @workgroup_size(WORKGROUP)
+@compute @workgroup_size(WORKGROUP_SIZE)
 fn merge_vs_union(@builtin(global_invocation_id) gid: vec3<u32>,
                   @builtin(num_workgroups) groups: vec3<u32>) {
     let t = thread_index(gid, groups);

@@ -20,6 +20,14 @@ fn scene(name: &str, w: u32, h: u32) -> Scene {
     builtin(name, &opts).expect("scene")
 }
 
+/// cornell at `side` x `side` with world-restir at its defaults.
+fn cornell_world_restir(side: u32, seed: u32) -> (Scene, Camera, WorldRestir) {
+    let s = scene("cornell", side, side);
+    let cam = s.camera_or_default(side, side);
+    let wr = WorldRestir::new(gpu::context(), &s, &cam, small(), seed).expect("world-restir");
+    (s, cam, wr)
+}
+
 /// The shipped defaults (the table is sized to the frame).
 fn small() -> WorldRestirConfig {
     WorldRestirConfig::default()
@@ -75,9 +83,7 @@ fn layouts_match_wgsl() {
 #[test]
 fn grid_build_stores_every_vertex_once() {
     let ctx = gpu::context();
-    let s = scene("cornell", 40, 40);
-    let cam = s.camera_or_default(40, 40);
-    let mut wr = WorldRestir::new(ctx, &s, &cam, small(), 3).expect("world-restir");
+    let (_, _, mut wr) = cornell_world_restir(40, 3);
     for frame in 0..2 {
         gpu::render(&mut wr, 1);
         let g = wr.grid(ctx).expect("grid");
@@ -260,9 +266,7 @@ fn no_nan_over_many_frames_overflow_and_camera_cut() {
 #[test]
 fn orbit_and_debug_views() {
     let ctx = gpu::context();
-    let s = scene("cornell", 32, 32);
-    let cam = s.camera_or_default(32, 32);
-    let mut wr = WorldRestir::new(ctx, &s, &cam, small(), 2).expect("world-restir");
+    let (s, cam, mut wr) = cornell_world_restir(32, 2);
     let path = CameraPath::Orbit {
         frames: 8,
         degrees: 20.0,

@@ -45,17 +45,30 @@ pub fn dispatch_2d(groups: u32, max_per_dim: u32) -> (u32, u32) {
 pub struct Kernel {
     label: String,
     pipelines: Vec<(String, wgpu::ComputePipeline)>,
+    workgroup_size: u32,
 }
 
 impl Kernel {
     /// Compiles `source` and creates a pipeline per entry point, with `WORKGROUP_SIZE`
-    /// injected.
+    /// injected ([`WORKGROUP_SIZE`]).
     pub fn new(
         device: &wgpu::Device,
         label: &str,
         source: &str,
         layouts: &[&BindGroupLayout],
         entry_points: &[&str],
+    ) -> Self {
+        Self::with_workgroup_size(device, label, source, layouts, entry_points, WORKGROUP_SIZE)
+    }
+
+    /// [`Kernel::new`] with another `WORKGROUP_SIZE` (benchmarks matching a floor's).
+    pub fn with_workgroup_size(
+        device: &wgpu::Device,
+        label: &str,
+        source: &str,
+        layouts: &[&BindGroupLayout],
+        entry_points: &[&str],
+        workgroup_size: u32,
     ) -> Self {
         let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
             label: Some(label),
@@ -77,7 +90,7 @@ impl Kernel {
                     module: &module,
                     entry_point: Some(entry),
                     compilation_options: wgpu::PipelineCompilationOptions {
-                        constants: &[("WORKGROUP_SIZE", f64::from(WORKGROUP_SIZE))],
+                        constants: &[("WORKGROUP_SIZE", f64::from(workgroup_size))],
                         ..Default::default()
                     },
                     cache: None,
@@ -88,6 +101,7 @@ impl Kernel {
         Self {
             label: label.to_owned(),
             pipelines,
+            workgroup_size,
         }
     }
 
@@ -116,7 +130,7 @@ impl Kernel {
             pipeline: self.pipeline(entry).clone(),
             groups: groups.iter().map(|g| (*g).clone()).collect(),
             workgroups: dispatch_2d(
-                items.div_ceil(WORKGROUP_SIZE),
+                items.div_ceil(self.workgroup_size),
                 device.limits().max_compute_workgroups_per_dimension,
             ),
         }

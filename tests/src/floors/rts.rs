@@ -39,16 +39,7 @@ impl ReduceThenScan {
     pub const TILE: u32 = WORKGROUP_SIZE * ITEMS;
 
     pub fn new(device: &wgpu::Device, max_len: u32) -> Self {
-        let entry = |binding, ty| wgpu::BindGroupLayoutEntry {
-            binding,
-            visibility: wgpu::ShaderStages::COMPUTE,
-            ty: wgpu::BindingType::Buffer {
-                ty,
-                has_dynamic_offset: false,
-                min_binding_size: None,
-            },
-            count: None,
-        };
+        let entry = crate::buffers::layout_entry;
         use wgpu::BufferBindingType as B;
         let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("floors/rts"),
