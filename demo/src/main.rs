@@ -253,7 +253,7 @@ fn prepare_out_dir(out: &Path) -> Result<bool> {
 
 /// Runs `work` with `out` prepared; a failed run removes `out` again when it created it and
 /// left it empty.
-fn with_out_dir(out: &Path, work: impl FnOnce() -> Result<()>) -> Result<()> {
+pub(crate) fn with_out_dir<T>(out: &Path, work: impl FnOnce() -> Result<T>) -> Result<T> {
     let existed = prepare_out_dir(out)?;
     let result = work();
     if result.is_err() && !existed {

@@ -12,7 +12,7 @@
 //! - [`render`]: the renderer's shared passes and the `nee`/`ris` baselines;
 //!   [`world_restir`] builds on it.
 //! - [`methods`]: the registry of methods, the one frame loop (`run_frames`) and readback.
-//! - [`reference`] (CPU) and [`gpu_reference`]: converged references; [`metrics`].
+//! - [`reference`](mod@reference) (CPU) and [`gpu_reference`]: converged references; [`metrics`].
 
 pub mod gpu;
 pub mod gpu_reference;

@@ -92,13 +92,12 @@ fn read_renderer(
         }
         Readback::LastFrame => ([&b.direct_frame, &b.indirect_frame], 1, 1.0),
     };
-    let [direct, indirect] = r.read_rgb(ctx, sums, scale)?;
     Ok(FrameImages {
         width: r.camera().width,
         height: r.camera().height,
         frames,
-        direct,
-        indirect,
+        direct: r.read_rgb(ctx, sums[0], scale)?,
+        indirect: r.read_rgb(ctx, sums[1], scale)?,
     })
 }
 

@@ -903,15 +903,7 @@ pub fn run(ctx: &GpuContext, opts: &CompareOptions, command: String) -> Result<R
         .iter()
         .map(|name| load_scene(name, opts))
         .collect::<Result<_>>()?;
-    let existed = opts.out.is_dir();
-    std::fs::create_dir_all(&opts.out)
-        .with_context(|| format!("cannot create the output directory {}", opts.out.display()))?;
-    let result = run_scenes(ctx, opts, command, loaded);
-    if result.is_err() && !existed {
-        // Only when empty: a failed run leaves no directory of its own behind.
-        let _ = std::fs::remove_dir(&opts.out);
-    }
-    result
+    crate::with_out_dir(&opts.out, || run_scenes(ctx, opts, command, loaded))
 }
 
 fn run_scenes(

@@ -107,13 +107,6 @@ impl BindingSet {
         self
     }
 
-    /// All of `other`'s bindings after this set's (its blocks keep their layouts, which must
-    /// have been made for this position).
-    pub fn extend(mut self, other: &BindingSet) -> Self {
-        self.slots.extend(other.slots.iter().cloned());
-        self
-    }
-
     /// The binding number the next declaration gets.
     pub fn next_binding(&self) -> u32 {
         self.slots
@@ -220,11 +213,6 @@ pub struct BindGroupLayout {
 }
 
 impl BindGroupLayout {
-    /// The declaration it was made from.
-    pub fn set(&self) -> &BindingSet {
-        &self.set
-    }
-
     /// A bind group with each declared name bound to its resource. Every declared name must
     /// be given exactly once and no other name: otherwise an error naming it.
     pub fn bind<'a>(

@@ -51,14 +51,6 @@ impl SpanTimes {
     pub fn get(&self, name: &str) -> Option<f64> {
         self.0.iter().find(|(n, _)| n == name).map(|(_, ms)| *ms)
     }
-    /// Sum of all spans whose name starts with `prefix`.
-    pub fn sum_prefix(&self, prefix: &str) -> f64 {
-        self.0
-            .iter()
-            .filter(|(n, _)| n.starts_with(prefix))
-            .map(|(_, ms)| ms)
-            .sum()
-    }
     /// Sum of all spans.
     pub fn total(&self) -> f64 {
         self.0.iter().map(|(_, ms)| ms).sum()
@@ -197,13 +189,7 @@ pub struct PassTimes {
 }
 
 impl PassTimes {
-    /// Adds one frame's spans (same names add up, new names go last).
-    pub fn add_frame(&mut self, times: &SpanTimes) {
-        self.add(times);
-        self.frames += 1;
-    }
-
-    /// Adds spans without counting a frame.
+    /// Adds spans (same names add up, new names go last; frames are counted by the caller).
     pub fn add(&mut self, times: &SpanTimes) {
         for (name, ms) in &times.0 {
             match self.passes.iter_mut().find(|(n, _)| n == name) {

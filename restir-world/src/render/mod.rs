@@ -522,21 +522,15 @@ impl Renderer {
         self.accumulated = 0;
     }
 
-    /// Reads `sums` (direct, indirect) back as RGB scaled by `scale`.
+    /// Reads a per-pixel `vec4` buffer back as RGB scaled by `scale`.
     pub(crate) fn read_rgb(
         &self,
         ctx: &GpuContext,
-        sums: [&wgpu::Buffer; 2],
+        image: &wgpu::Buffer,
         scale: f32,
-    ) -> Result<[Vec<[f32; 3]>; 2], GpuError> {
-        let n = self.pixels() as usize;
-        let read = |b: &wgpu::Buffer| -> Result<Vec<[f32; 3]>, GpuError> {
-            let v: Vec<[f32; 4]> = buffers::read(ctx, b)?;
-            Ok(v.iter()
-                .take(n)
-                .map(|p| [p[0] * scale, p[1] * scale, p[2] * scale])
-                .collect())
-        };
-        Ok([read(sums[0])?, read(sums[1])?])
+    ) -> Result<Vec<[f32; 3]>, GpuError> {
+        let v: Vec<[f32; 4]> = buffers::read(ctx, image)?;
+        let rgb = |p: &[f32; 4]| [p[0] * scale, p[1] * scale, p[2] * scale];
+        Ok(v.iter().take(self.pixels() as usize).map(rgb).collect())
     }
 }

@@ -19,10 +19,10 @@
 //! double-buffered and swap roles each frame, so the temporal pass looks vertices up in last
 //! frame's grid with last frame's eye (each table's own params uniform).
 //!
-//! Composition: every kernel module is `render::library()` (render buffers in group 0, BVH in 1,
-//! lights in 2; it carries the rng and reservoir WGSL) + (for the grid passes) `gpu_hash::wgsl::compose(..)` in the
-//! table role (insert) or the lookup role (reuse) + this module's constants and group-3 header +
-//! `world_restir.wgsl` + the kernel file. No scan, hash or reservoir math is written here.
+//! Composition: each kernel is a `KernelDef`: its own group-3 [`BindingSet`] (plus gpu-hash's
+//! table or lookup role as the block `wr_hash`) and its WGSL file, composed after
+//! `render::library()` (render buffers at group 0, BVH at 1, lights at 2, rng and reservoir
+//! WGSL) with `world_restir.wgsl`. No scan, hash or reservoir math is written here.
 
 use gpu_hash::{CellSizing, HashGridParams, HashStats, HashTable, TableConfig};
 use gpu_scan::{Scan, ScanBinding, ScanDescriptor, ScanKind};
@@ -910,11 +910,7 @@ impl WorldRestir {
         let mut encoder = ctx.device.create_command_encoder(&Default::default());
         self.passes.debug.record(&mut encoder);
         ctx.queue.submit([encoder.finish()]);
-        let v: Vec<[f32; 4]> = buffers::read(ctx, &self.buffers.debug)?;
-        Ok(v.iter()
-            .take(self.renderer.pixels() as usize)
-            .map(|p| [p[0], p[1], p[2]])
-            .collect())
+        self.renderer.read_rgb(ctx, &self.buffers.debug, 1.0)
     }
 }
 
