@@ -61,34 +61,52 @@ fn wgsl_header_and_layout_agree() {
 }
 
 /// Every binding naga finds in the composed renderer and tracer modules is the one the
-/// binding sets declare at that (group, binding), by name.
+/// binding sets declare at that (group, binding), by name. Planted fault: the same check
+/// against a declaration with two names swapped must find the mismatch.
 #[test]
 fn composed_modules_bind_what_the_sets_declare() {
-    let declared: Vec<(u32, Vec<String>)> = render::shared_bindings()
+    let declared: Vec<Vec<String>> = render::shared_bindings()
         .iter()
         .enumerate()
-        .map(|(g, set)| (g as u32, names(&set.wgsl(g as u32))))
+        .map(|(g, set)| names(&set.wgsl(g as u32)))
         .collect();
-    for (name, source) in [
-        ("render", render::passes_source()),
-        ("trace_rays", trace::kernel_source()),
+    let mut swapped = declared.clone();
+    swapped[0].swap(2, 3);
+    for (name, source, groups) in [
+        ("render", render::passes_source(), 0..3),
+        ("trace_rays", trace::kernel_source(), 1..2),
     ] {
         let module = wgsl::validate(name, &source).expect("valid");
-        let mut checked = 0;
-        for (_, var) in module.global_variables.iter() {
-            let Some(b) = &var.binding else { continue };
-            let Some((_, names)) = declared.iter().find(|(g, _)| *g == b.group) else {
-                continue;
-            };
-            if name == "trace_rays" && b.group != 1 {
-                continue;
-            }
-            let want = &names[b.binding as usize];
-            assert_eq!(var.name.as_deref(), Some(want.as_str()), "{name}: {b:?}");
-            checked += 1;
-        }
+        let (checked, wrong) = check(&module, &declared, groups.clone());
         assert!(checked >= 2, "{name}: only {checked} bindings checked");
+        assert!(wrong.is_empty(), "{name}: {wrong:?}");
+        if name == "render" {
+            let (_, wrong) = check(&module, &swapped, groups);
+            assert_eq!(wrong.len(), 2, "planted swap not found: {wrong:?}");
+        }
     }
+}
+
+/// (bindings checked, mismatches) of `module`'s globals in `groups` against `declared`.
+fn check(
+    module: &naga::Module,
+    declared: &[Vec<String>],
+    groups: std::ops::Range<u32>,
+) -> (usize, Vec<String>) {
+    let mut checked = 0;
+    let mut wrong = Vec::new();
+    for (_, var) in module.global_variables.iter() {
+        let Some(b) = &var.binding else { continue };
+        if !groups.contains(&b.group) {
+            continue;
+        }
+        let want = &declared[b.group as usize][b.binding as usize];
+        if var.name.as_deref() != Some(want.as_str()) {
+            wrong.push(format!("{b:?}: {:?}, declared {want}", var.name));
+        }
+        checked += 1;
+    }
+    (checked, wrong)
 }
 
 /// Variable names of a binding header, in binding order.
