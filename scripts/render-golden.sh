@@ -10,10 +10,10 @@ mkdir -p "$out"
 for scene in cornell many-lights; do
   for method in nee ris world-restir; do
     "$bin" render --scene "$scene" --lights 2000 --method "$method" --size 64x48 --frames 6 \
-      --seed 7 --out "$out/$scene-$method-static" >/dev/null
+      --seed 7 --out "$out/$scene-$method-static" >/dev/null 2>>"$out/render.log"
   done
   "$bin" render --scene "$scene" --lights 2000 --method world-restir --animation orbit \
     --anim-frames 4 --orbit-degrees 20 --size 64x48 --frames 6 --seed 7 \
-    --out "$out/$scene-world-restir-orbit" >/dev/null
+    --out "$out/$scene-world-restir-orbit" >/dev/null 2>>"$out/render.log"
 done
 find "$out" -name '*.exr' | sort
