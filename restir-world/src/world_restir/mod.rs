@@ -825,19 +825,12 @@ impl WorldRestir {
 
     /// Records one whole frame.
     pub fn encode_frame(&mut self, f: &mut FrameEncoder) -> Result<(), WorldRestirError> {
-        let (p, passes, b) = (self.parity, &self.passes, &self.buffers);
+        let (p, passes) = (self.parity, &self.passes);
         let grid = self.grid_params.with_eye(self.renderer.camera().eye)?;
         f.upload(self.tables[p].params(), 0, &grid);
         self.renderer.encode_primary_and_gi(f);
         f.span("generate", |f| f.dispatch(&passes.generate));
-        f.span("build", |f| -> Result<(), WorldRestirError> {
-            self.tables[p].encode_clear(f.raw());
-            f.dispatch(&passes.insert[p]);
-            self.scan.encode(f.raw(), &self.scan_bindings[p])?;
-            f.dispatch(&passes.scatter[p]);
-            passes.sort.iter().for_each(|sort| f.dispatch(&sort[p]));
-            Ok(())
-        })?;
+        f.span("build", |f| self.encode_build(f, p))?;
         if let Some(temporal) = &passes.temporal {
             f.span("temporal", |f| f.dispatch(&temporal[p]));
         }
@@ -849,14 +842,31 @@ impl WorldRestir {
         f.span("shade", |f| f.dispatch(&passes.shade));
         self.renderer.encode_shade_direct(f);
         if self.config.temporal {
-            f.span("persist", |f| {
-                f.copy(&b.reservoirs[passes.final_index], &b.prev_reservoirs);
-                f.copy(&self.renderer.buffers.secondary, &b.prev_vertices);
-            });
+            f.span("persist", |f| self.encode_persist(f));
         }
         self.renderer.encode_accumulate(f);
         self.parity = 1 - p;
         Ok(())
+    }
+
+    /// Algorithm 2 into table `p`: clear, insert, scan the slot counts, scatter, sort cells.
+    fn encode_build(&self, f: &mut FrameEncoder, p: usize) -> Result<(), WorldRestirError> {
+        self.tables[p].encode_clear(f.raw());
+        f.dispatch(&self.passes.insert[p]);
+        self.scan.encode(f.raw(), &self.scan_bindings[p])?;
+        f.dispatch(&self.passes.scatter[p]);
+        self.passes
+            .sort
+            .iter()
+            .for_each(|sort| f.dispatch(&sort[p]));
+        Ok(())
+    }
+
+    /// Keeps this frame's final reservoirs and secondary vertices for the next temporal pass.
+    fn encode_persist(&self, f: &mut FrameEncoder) {
+        let b = &self.buffers;
+        f.copy(&b.reservoirs[self.passes.final_index], &b.prev_reservoirs);
+        f.copy(&self.renderer.buffers.secondary, &b.prev_vertices);
     }
 
     /// Clears the accumulated images (the temporal history stays).
