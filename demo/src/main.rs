@@ -9,7 +9,7 @@ use anyhow::{Context, Result};
 use clap::{Parser, Subcommand};
 use glam::Vec3;
 use indicatif::{ProgressBar, ProgressStyle};
-use restir_world::gpu::{Access, BindingSet, Kernel, buffers, workgroup_size_wgsl};
+use restir_world::gpu::{Access, BindingSet, Kernel, Tracer, buffers, workgroup_size_wgsl};
 use restir_world::lights::Lights;
 use restir_world::sampling::Estimator;
 use restir_world::scene::Scene;
@@ -24,6 +24,32 @@ mod scenes;
 struct Cli {
     #[command(subcommand)]
     command: Option<Command>,
+    /// How rays are traced: auto (ray queries on GPUs that have them, else the software BVH),
+    /// bvh (our CWBVH traversal, every adapter) or ray-query (the adapter's ray queries).
+    #[arg(long, global = true, default_value = "auto", value_parser = parse_tracer)]
+    tracer: TracerChoice,
+}
+
+/// `--tracer`: `None` is auto.
+#[derive(Debug, Clone, Copy)]
+struct TracerChoice(Option<Tracer>);
+
+fn parse_tracer(s: &str) -> Result<TracerChoice, String> {
+    match s {
+        "auto" => Ok(TracerChoice(None)),
+        _ => s.parse().map(|t| TracerChoice(Some(t))),
+    }
+}
+
+/// `--tracer` (`None`: auto), set once from the command line.
+static TRACER: std::sync::OnceLock<Option<Tracer>> = std::sync::OnceLock::new();
+
+/// The GPU context every command uses: the chosen adapter, tracing with `--tracer`.
+pub(crate) fn gpu_context() -> Result<GpuContext> {
+    let mut ctx = GpuContext::new()?;
+    ctx.set_tracer(TRACER.get().copied().flatten())
+        .context("--tracer")?;
+    Ok(ctx)
 }
 
 #[derive(Subcommand, Debug)]
@@ -217,6 +243,7 @@ fn parse_vec3(s: &str) -> Result<Vec3, String> {
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
+    let _ = TRACER.set(cli.tracer.0);
     let result = match cli.command.unwrap_or(Command::Smoke {
         out: "out".into(),
         size: (256, 256),
@@ -263,8 +290,17 @@ pub(crate) fn with_out_dir<T>(out: &Path, work: impl FnOnce() -> Result<T>) -> R
 }
 
 fn info(scene_name: Option<&str>, opts: &scenes::SceneArgs) -> Result<()> {
-    let ctx = GpuContext::new()?;
+    let ctx = gpu_context()?;
     println!("{}", ctx.describe());
+    println!(
+        "tracers: bvh (software CWBVH): yes; ray-query: {}; auto picks {}; this run: {}",
+        match ctx.features.ray_query {
+            true => "yes",
+            false => "unavailable (no EXPERIMENTAL_RAY_QUERY on this adapter)",
+        },
+        ctx.auto_tracer().name(),
+        ctx.tracer.name()
+    );
     let l = ctx.limits();
     println!(
         "limits: max_storage_buffer_binding_size={} max_buffer_size={} \
@@ -503,7 +539,7 @@ fn smoke(out: &Path, size: (u32, u32)) -> Result<()> {
 }
 
 fn smoke_into(out: &Path, (width, height): (u32, u32)) -> Result<()> {
-    let ctx = GpuContext::new()?;
+    let ctx = gpu_context()?;
     println!("{}", ctx.describe());
     let bytes = u64::from(width) * u64::from(height) * 4;
     let limit = ctx.max_storage_u32s() * 4;
@@ -576,7 +612,7 @@ fn compare_cmd(a: CompareArgs) -> Result<()> {
     };
     let command = std::env::args().collect::<Vec<_>>().join(" ");
     compare::check(&opts)?;
-    let ctx = GpuContext::new()?;
+    let ctx = gpu_context()?;
     eprintln!("{}", ctx.describe());
     let report = compare::run(&ctx, &opts, command)?;
     for sc in &report.scenes {

@@ -6,7 +6,6 @@ use std::path::Path;
 
 use anyhow::Result;
 use clap::Args;
-use restir_world::GpuContext;
 use restir_world::image_io::{Image, write_png};
 use restir_world::methods::{self, FrameLoop, MethodError, Readback, run_frames};
 use restir_world::reference::Rendered;
@@ -76,7 +75,7 @@ pub fn render_method(
     out: &Path,
     tag: &str,
 ) -> Result<Rendered> {
-    let ctx = GpuContext::new()?;
+    let ctx = crate::gpu_context()?;
     eprintln!("{}", ctx.describe());
     let mut m = methods::build_method(spec, &ctx, scene, camera, seed)?;
     let l = FrameLoop {

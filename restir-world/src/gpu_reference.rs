@@ -103,11 +103,12 @@ impl Fnv64 {
 
 /// The cache key of a reference: a hash of the scene's triangles and materials, the camera,
 /// the settings, this crate's version and the renderer's composed WGSL (so a change of the
-/// estimator's code invalidates old references even within one version).
+/// estimator's code invalidates old references even within one version; the software
+/// tracer's composition: both tracers estimate the same image).
 pub fn cache_key(scene: &Scene, camera: &Camera, settings: &ReferenceSettings) -> String {
     let mut h = Fnv64::default();
     h.bytes(env!("CARGO_PKG_VERSION").as_bytes());
-    h.bytes(crate::render::passes_source().as_bytes());
+    h.bytes(crate::render::passes_source(crate::gpu::Tracer::Bvh).as_bytes());
     for t in &scene.triangles {
         for v in t.v {
             h.f32s(&v.to_array());

@@ -1,18 +1,23 @@
-//! Rays per second of the WGSL CWBVH traversal on the GPU for coherent primary rays, incoherent
-//! GI rays and shadow rays (any hit), against obvhs's CPU traversal (same watertight test) on all
-//! host cores on the same rays. Also reports the BVH build time (CPU, obvhs medium preset).
+//! Rays per second of both GPU tracers, our WGSL CWBVH traversal (`bvh_rays_per_s`) and the
+//! adapter's ray queries (`rq_rays_per_s`, "unavailable" without them), for coherent primary
+//! rays, incoherent GI rays and shadow rays (any hit), against obvhs's CPU traversal (same
+//! watertight test) on all host cores on the same rays, in one run. Also reports the BVH build
+//! time (CPU, obvhs medium preset) and the acceleration structures' build time (upload + build,
+//! wall clock, waited for).
 //!
-//! On lavapipe the "GPU" is the same CPU, so the CPU traversal is the honest peer: the ratio
-//! gpu_rays_per_s / cpu_rays_per_s is the number to read.
+//! On lavapipe the "GPU" is the same CPU, so the CPU traversal is the honest peer: the ratios
+//! bvh_rays_per_s / cpu_rays_per_s and rq_rays_per_s / cpu_rays_per_s are the numbers to read.
 
 use std::time::Instant;
 
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 use glam::Vec3;
 use rand::{Rng, SeedableRng, rngs::StdRng};
+use restir_world::GpuContext;
+use restir_world::gpu::Tracer;
 use restir_world::sampling::CameraGpu;
 use restir_world::scene::{BuiltinOptions, Scene, builtin};
-use restir_world::trace::{Bvh, Hit, Ray, TraceKernel};
+use restir_world::trace::{Bvh, Hit, Ray, TraceBinding, TraceKernel};
 use tests::{bench, buffers, gpu};
 
 const SIDE: u32 = 256;
@@ -127,14 +132,32 @@ fn cpu_rays_per_s(bvh: &Bvh, rays: &[Ray], any_hit: bool) -> f64 {
     rays.len() as f64 / best
 }
 
+/// A bound dispatch of `rays` on one tracer.
+struct Traced {
+    kernel: TraceKernel,
+    binding: TraceBinding,
+}
+
+/// GPU milliseconds of one trace of the bound rays (after a warm-up), timed with criterion too.
+fn gpu_ms(ctx: &GpuContext, t: &Traced) -> f64 {
+    bench::gpu_ms(ctx, 5, |enc| t.kernel.encode_with(enc, &t.binding))
+}
+
 fn trace(c: &mut Criterion) {
     let ctx = gpu::context();
-    let kernel = TraceKernel::new(&ctx.device);
+    let rq_ctx = gpu::with_tracer(Tracer::RayQuery);
+    let mut bvh_ctx = ctx.clone();
+    bvh_ctx.set_tracer(Some(Tracer::Bvh)).expect("bvh");
     let mut lines = Vec::new();
     for (name, scene) in scenes() {
         let bvh = Bvh::build(&scene).expect("bvh build");
         let build_ms = bvh.build_time.as_secs_f64() * 1e3;
-        let gpu_bvh = bvh.upload(ctx).expect("upload");
+        let gpu_bvh = bvh.upload(&bvh_ctx).expect("upload");
+        let rq = rq_ctx.as_ref().map(|rq| {
+            let t0 = Instant::now();
+            let up = bvh.upload(rq).expect("ray-query upload");
+            (up, t0.elapsed().as_secs_f64() * 1e3)
+        });
         let primary = primary_rays(&scene);
         let primary_hits: Vec<Hit> = primary.iter().map(|r| bvh.closest_hit(r)).collect();
         let (gi, shadow) = secondary_rays(&scene, &bvh, &primary, &primary_hits);
@@ -152,18 +175,26 @@ fn trace(c: &mut Criterion) {
                 "hits",
                 u64::from(n) * size_of::<Hit>() as u64,
             );
-            let binding = kernel
-                .bind(&ctx.device, &gpu_bvh, &rays_buf, &hits_buf, n, any_hit)
-                .expect("bind");
+            let bind = |kernel: TraceKernel, up: &restir_world::trace::GpuBvh| {
+                let binding = kernel
+                    .bind(&ctx.device, up, &rays_buf, &hits_buf, n, any_hit)
+                    .expect("bind");
+                Traced { kernel, binding }
+            };
+            let sw = bind(TraceKernel::new(&ctx.device, Tracer::Bvh), &gpu_bvh);
             group.throughput(Throughput::Elements(u64::from(n)));
             group.bench_function(kind, |b| {
                 b.iter_custom(|iters| {
-                    bench::gpu_time(ctx, iters, |enc| kernel.encode_with(enc, &binding))
+                    bench::gpu_time(ctx, iters, |enc| sw.kernel.encode_with(enc, &sw.binding))
                 })
             });
-            let gpu_ms = bench::gpu_ms(ctx, 5, |enc| kernel.encode_with(enc, &binding));
-            let gpu_rps = f64::from(n) / (gpu_ms * 1e-3);
+            let gpu_rps = f64::from(n) / (gpu_ms(ctx, &sw) * 1e-3);
+            let rq_rps = rq.as_ref().map(|(up, _)| {
+                let hw = bind(TraceKernel::new(&ctx.device, Tracer::RayQuery), up);
+                f64::from(n) / (gpu_ms(ctx, &hw) * 1e-3)
+            });
             let cpu_rps = cpu_rays_per_s(&bvh, rays, any_hit);
+            let unavailable = || "unavailable".to_string();
             lines.push((
                 name,
                 kind,
@@ -172,10 +203,20 @@ fn trace(c: &mut Criterion) {
                     ("kind", kind.to_string()),
                     ("rays", n.to_string()),
                     ("triangles", scene.triangles.len().to_string()),
-                    ("gpu_rays_per_s", bench::sci(gpu_rps)),
+                    ("bvh_rays_per_s", bench::sci(gpu_rps)),
+                    ("rq_rays_per_s", rq_rps.map_or_else(unavailable, bench::sci)),
                     ("cpu_rays_per_s", bench::sci(cpu_rps)),
-                    ("ratio", format!("{:.3}", gpu_rps / cpu_rps)),
+                    ("bvh_vs_cpu", format!("{:.3}", gpu_rps / cpu_rps)),
+                    (
+                        "rq_vs_cpu",
+                        rq_rps.map_or_else(unavailable, |r| format!("{:.3}", r / cpu_rps)),
+                    ),
                     ("bvh_build_ms", format!("{build_ms:.3}")),
+                    (
+                        "rq_build_ms",
+                        rq.as_ref()
+                            .map_or_else(unavailable, |(_, ms)| format!("{ms:.3}")),
+                    ),
                     (
                         "cpu_threads",
                         std::thread::available_parallelism()

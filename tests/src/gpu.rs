@@ -84,6 +84,12 @@ pub fn block_on<F: std::future::Future>(f: F) -> F::Output {
     }
 }
 
+/// A copy of the shared context tracing with `tracer`, or `None` when the adapter cannot.
+pub fn with_tracer(tracer: restir_world::gpu::Tracer) -> Option<GpuContext> {
+    let mut ctx = context().clone();
+    ctx.set_tracer(Some(tracer)).ok().map(|()| ctx)
+}
+
 /// `frames` timed frames of `m` on the shared context (static camera), through the one frame
 /// loop; the span totals when the adapter has timestamps.
 pub fn render(m: &mut dyn FrameMethod, frames: u32) -> Option<PassTimes> {

@@ -2,7 +2,7 @@
 //! missing, unknown, repeated or wrongly shaped binding; every composed module declares, at
 //! each (group, binding), the buffer its binding set names there.
 
-use restir_world::gpu::{Access, BindingSet, Resource};
+use restir_world::gpu::{Access, BindingSet, Resource, Tracer};
 use restir_world::{render, trace};
 use tests::{buffers, gpu, wgsl};
 
@@ -65,7 +65,7 @@ fn wgsl_header_and_layout_agree() {
 /// against a declaration with two names swapped must find the mismatch.
 #[test]
 fn composed_modules_bind_what_the_sets_declare() {
-    let declared: Vec<Vec<String>> = render::shared_bindings()
+    let declared: Vec<Vec<String>> = render::shared_bindings(Tracer::Bvh)
         .iter()
         .enumerate()
         .map(|(g, set)| names(&set.wgsl(g as u32)))
@@ -73,8 +73,8 @@ fn composed_modules_bind_what_the_sets_declare() {
     let mut swapped = declared.clone();
     swapped[0].swap(2, 3);
     for (name, source, groups) in [
-        ("render", render::passes_source(), 0..3),
-        ("trace_rays", trace::kernel_source(), 1..2),
+        ("render", render::passes_source(Tracer::Bvh), 0..3),
+        ("trace_rays", trace::kernel_source(Tracer::Bvh), 1..2),
     ] {
         let module = wgsl::validate(name, &source).expect("valid");
         let (checked, wrong) = check(&module, &declared, groups.clone());

@@ -237,7 +237,7 @@ fn bad_settings_are_errors() {
 #[test]
 fn render_structs_match_wgsl_layout() {
     use restir_world::render::{GVertex, RenderParams, RenderState, passes_source};
-    let src = passes_source();
+    let src = passes_source(restir_world::gpu::Tracer::Bvh);
     tests::assert_wgsl_layout!(
         GVertex,
         src,

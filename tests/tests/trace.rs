@@ -1,10 +1,15 @@
-//! GPU CWBVH traversal (restir-world `trace.wgsl`) against obvhs's CPU traversal with the same
-//! watertight triangle test, on 10^5 random rays per scene: same hit/miss, same triangle, t within
-//! 1e-4 relative. Rays that graze an edge (a barycentric within 1e-4 of 0) may resolve to the
-//! neighbouring triangle or miss on one side only; those are counted and must stay below 0.1%.
+//! Both GPU tracers against obvhs's CPU traversal with the same watertight triangle test, on
+//! 10^5 random rays per scene: our CWBVH traversal (`trace.wgsl`) on every adapter, and the
+//! ray-query backend (`trace_rq.wgsl`) where the adapter has ray queries (skipped with a printed
+//! reason otherwise). Same hit/miss, same triangle, t within 1e-4 relative (to the larger of t
+//! and the ray origin's coordinates; hardware t carries the origin's rounding). Rays that graze an
+//! edge (a barycentric within 1e-4 of 0) may resolve to the neighbouring triangle or miss on one
+//! side only; those are counted and must stay below 0.1%.
 
 use glam::Vec3;
 use rand::{Rng, SeedableRng, rngs::StdRng};
+use restir_world::GpuContext;
+use restir_world::gpu::Tracer;
 use restir_world::scene::{Material, Scene, Triangle};
 use restir_world::trace::{self, Bvh, BvhTriangle, Hit, Ray, TraceKernel};
 use tests::{buffers, gpu};
@@ -13,6 +18,9 @@ const RAYS: usize = 100_000;
 const T_REL: f32 = 1e-4;
 const EDGE: f32 = 1e-4;
 const MAX_GRAZING: f64 = 1e-3;
+/// Most rays whose closest hit the tracers resolve to different coplanar triangles at the same
+/// t (many-lights has lamps lying on its surfaces).
+const MAX_TIES: f64 = 5e-3;
 
 fn material_scene(triangles: Vec<Triangle>) -> Scene {
     Scene {
@@ -164,10 +172,21 @@ fn random_rays(scene: &Scene, n: usize, seed: u64) -> Vec<Ray> {
         .collect()
 }
 
-fn gpu_trace(bvh: &Bvh, rays: &[Ray], any_hit: bool) -> Vec<Hit> {
-    let ctx = gpu::context();
+/// The contexts to test: the software BVH always, ray queries when the adapter has them.
+fn tracers() -> Vec<GpuContext> {
+    let mut bvh = gpu::context().clone();
+    bvh.set_tracer(Some(Tracer::Bvh)).expect("bvh");
+    let mut out = vec![bvh];
+    match gpu::with_tracer(Tracer::RayQuery) {
+        Some(rq) => out.push(rq),
+        None => eprintln!("skipped: the ray-query tracer (this adapter has no ray queries)"),
+    }
+    out
+}
+
+fn gpu_trace(ctx: &GpuContext, bvh: &Bvh, rays: &[Ray], any_hit: bool) -> Vec<Hit> {
     let gpu_bvh = bvh.upload(ctx).expect("upload");
-    let kernel = TraceKernel::new(&ctx.device);
+    let kernel = TraceKernel::new(&ctx.device, ctx.tracer);
     let rays_buf = buffers::storage_from(&ctx.device, "rays", rays);
     let hits_buf =
         buffers::storage_zeroed(&ctx.device, "hits", (rays.len() * size_of::<Hit>()) as u64);
@@ -189,6 +208,23 @@ fn gpu_trace(bvh: &Bvh, rays: &[Ray], any_hit: bool) -> Vec<Hit> {
     hits
 }
 
+/// Whether `tri` contains the point at `t` on `ray` (within 1e-4 of its plane, relative to t,
+/// and of its edges in barycentric terms).
+fn contains(ray: &Ray, tri: &BvhTriangle, t: f32) -> bool {
+    let (v0, v1, v2) = (Vec3::from(tri.v0), Vec3::from(tri.v1), Vec3::from(tri.v2));
+    let p = Vec3::from(ray.origin) + Vec3::from(ray.dir) * t;
+    let (e1, e2) = (v1 - v0, v2 - v0);
+    let n = e1.cross(e2);
+    if n.length_squared() == 0.0 || (p - v0).dot(n.normalize()).abs() > T_REL * t.max(1.0) {
+        return false;
+    }
+    // Barycentrics of p by areas.
+    let area = n.length();
+    let b1 = (p - v0).cross(e2).length() / area;
+    let b2 = e1.cross(p - v0).length() / area;
+    b1 <= 1.0 + EDGE && b2 <= 1.0 + EDGE && b1 + b2 <= 1.0 + EDGE
+}
+
 fn grazing(h: &Hit) -> bool {
     h.is_hit() && (h.b1 < EDGE || h.b2 < EDGE || 1.0 - h.b1 - h.b2 < EDGE)
 }
@@ -197,6 +233,9 @@ fn grazing(h: &Hit) -> bool {
 struct Report {
     hits: usize,
     grazing: usize,
+    /// Both hit at the same t, on different triangles that both contain the hit point
+    /// (coplanar overlapping triangles: which one wins is the tracer's choice).
+    ties: usize,
     /// The GPU hit a triangle nearer than obvhs's node clamp, which obvhs cannot report.
     near: usize,
     wrong: usize,
@@ -212,17 +251,26 @@ const MAX_NEAR: f64 = 1e-3;
 /// Compares closest hits. A disagreement is tolerated (counted as grazing) only when one side
 /// grazes an edge and the t values agree or one side missed; or (counted as near) when the GPU
 /// hit is nearer than obvhs's node clamp, where obvhs cannot see it.
-fn compare_closest(tris: &[BvhTriangle], cpu: &[Hit], gpu: &[Hit]) -> Report {
+fn compare_closest(tris: &[BvhTriangle], rays: &[Ray], cpu: &[Hit], gpu: &[Hit]) -> Report {
     let mut r = Report::default();
     for (i, (c, g)) in cpu.iter().zip(gpu).enumerate() {
         r.hits += usize::from(c.is_hit());
-        let t_ok = (c.t - g.t).abs() <= T_REL * c.t.abs().max(1e-3);
+        // Hit points are only as precise as the coordinates: t relative to the larger of t and
+        // the ray origin's magnitude.
+        let scale =
+            c.t.abs()
+                .max(Vec3::from(rays[i].origin).abs().max_element());
+        let t_ok = (c.t - g.t).abs() <= T_REL * scale.max(1e-3);
         let same = c.is_hit() == g.is_hit() && (!c.is_hit() || (c.prim == g.prim && t_ok));
         if same {
             continue;
         }
         if g.is_hit() && g.t < OBVHS_NODE_TMIN && (!c.is_hit() || c.t > g.t) {
             r.near += 1;
+            continue;
+        }
+        if c.is_hit() && g.is_hit() && t_ok && contains(&rays[i], &tris[g.prim as usize], c.t) {
+            r.ties += 1;
             continue;
         }
         let edge = grazing(c) || grazing(g);
@@ -248,20 +296,34 @@ fn compare_closest(tris: &[BvhTriangle], cpu: &[Hit], gpu: &[Hit]) -> Report {
 }
 
 fn check_scene(name: &str, scene: &Scene, seed: u64) {
+    for ctx in tracers() {
+        let label = format!("{name} ({})", ctx.tracer.name());
+        check_scene_on(&ctx, &label, scene, seed);
+    }
+}
+
+fn check_scene_on(ctx: &GpuContext, name: &str, scene: &Scene, seed: u64) {
     let bvh = Bvh::build(scene).expect("build");
     let rays = random_rays(scene, RAYS, seed);
     let cpu: Vec<Hit> = rays.iter().map(|r| bvh.closest_hit(r)).collect();
-    let gpu_hits = gpu_trace(&bvh, &rays, false);
-    let report = compare_closest(&bvh.triangles, &cpu, &gpu_hits);
+    let gpu_hits = gpu_trace(ctx, &bvh, &rays, false);
+    let report = compare_closest(&bvh.triangles, &rays, &cpu, &gpu_hits);
     eprintln!(
-        "{name}: {} triangles, {} nodes, {} of {} rays hit, {} grazing, {} near, {} wrong",
+        "{name}: {} triangles, {} nodes, {} of {} rays hit, {} grazing, {} ties, {} near, {} \
+         wrong",
         scene.triangles.len(),
         bvh.cwbvh.nodes.len(),
         report.hits,
         rays.len(),
         report.grazing,
+        report.ties,
         report.near,
         report.wrong
+    );
+    assert!(
+        (report.ties as f64) < MAX_TIES * rays.len() as f64,
+        "{name}: {} coplanar ties",
+        report.ties
     );
     assert!(
         (report.near as f64) < MAX_NEAR * rays.len() as f64,
@@ -281,7 +343,7 @@ fn check_scene(name: &str, scene: &Scene, seed: u64) {
 
     // Any hit (shadow rays): same occlusion answer, except where the closest hit grazes an edge
     // or lies nearer than obvhs's node clamp.
-    let any_gpu = gpu_trace(&bvh, &rays, true);
+    let any_gpu = gpu_trace(ctx, &bvh, &rays, true);
     let mut any_wrong = Vec::new();
     for (i, ((ray, c), g)) in rays.iter().zip(&cpu).zip(&any_gpu).enumerate() {
         let cpu_any = bvh.any_hit(ray);
@@ -334,12 +396,15 @@ fn comparison_catches_a_planted_geometry_error() {
             v[1] += 1e-3;
         }
     }
-    let gpu_hits = gpu_trace(&nudged, &rays, false);
-    let report = compare_closest(&bvh.triangles, &cpu, &gpu_hits);
-    assert!(
-        report.wrong > 100,
-        "planted error went unnoticed: {report:?}"
-    );
+    for ctx in tracers() {
+        let gpu_hits = gpu_trace(&ctx, &nudged, &rays, false);
+        let report = compare_closest(&bvh.triangles, &rays, &cpu, &gpu_hits);
+        assert!(
+            report.wrong > 100,
+            "{}: planted error went unnoticed: {report:?}",
+            ctx.tracer.name()
+        );
+    }
 }
 
 #[test]
@@ -352,7 +417,7 @@ fn empty_scene_is_an_error() {
 
 #[test]
 fn gpu_structs_match_wgsl_layout() {
-    let src = trace::kernel_source();
+    let src = trace::kernel_source(Tracer::Bvh);
     tests::assert_wgsl_layout!(
         trace::BvhNode,
         src,

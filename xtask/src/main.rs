@@ -40,6 +40,7 @@ fn main() -> ExitCode {
 
 fn test(args: &[String]) -> Result<(), String> {
     ensure_vulkan()?;
+    ensure_ray_query_mesa()?;
     // Print the adapter up front, so every log names the device the tests ran on.
     cargo(&["run", "--quiet", "--package", "demo", "--", "info"])?;
     let mut test_args = vec!["test", "--workspace"];
@@ -93,6 +94,7 @@ const DEMO_SCENES: [&str; 2] = ["cornell", "many-lights"];
 
 fn demo(args: &[String]) -> Result<(), String> {
     ensure_vulkan()?;
+    ensure_ray_query_mesa()?;
     let base = ["run", "--release", "--package", "demo", "--"];
     if args.is_empty() {
         for scene in DEMO_SCENES {
@@ -201,6 +203,100 @@ fn ensure_vulkan() -> Result<(), String> {
     } else {
         Err("installed lavapipe but still found no Vulkan loader and driver".into())
     }
+}
+
+/// The first Mesa whose lavapipe exposes wgpu's `EXPERIMENTAL_RAY_QUERY`.
+const RAY_QUERY_MESA_MAJOR: u32 = 25;
+
+/// On Debian 12 (bookworm) as root with lavapipe older than Mesa 25: installs lavapipe from the
+/// bookworm-backports suite of the machine's own Debian mirror (read from its apt sources), so
+/// that the ray-query tracer is tested. Anywhere else it changes nothing.
+fn ensure_ray_query_mesa() -> Result<(), String> {
+    let bookworm = std::fs::read_to_string("/etc/os-release")
+        .is_ok_and(|s| s.lines().any(|l| l == "VERSION_CODENAME=bookworm"));
+    if !bookworm || !is_root() || !on_path("apt-get") || !lavapipe_installed() {
+        return Ok(());
+    }
+    if mesa_major().is_some_and(|m| m >= RAY_QUERY_MESA_MAJOR) {
+        return Ok(());
+    }
+    let mirror = debian_mirror().ok_or(
+        "Debian 12 without a bookworm suite in /etc/apt/sources.list{,.d}: cannot find the \
+         mirror to take Mesa 25 (ray queries) from bookworm-backports",
+    )?;
+    let sources = Path::new("/etc/apt/sources.list.d/restir-bookworm-backports.sources");
+    if !apt_sources().contains("bookworm-backports") {
+        let stanza = format!(
+            "Types: deb\nURIs: {mirror}\nSuites: bookworm-backports\nComponents: main\n\
+             Signed-By: /usr/share/keyrings/debian-archive-keyring.gpg\n"
+        );
+        std::fs::write(sources, stanza)
+            .map_err(|e| format!("writing {}: {e}", sources.display()))?;
+    }
+    eprintln!("xtask: installing lavapipe from bookworm-backports (Mesa 25: ray queries)");
+    run_apt(&["update", "-qq"])?;
+    let mut install = vec!["install", "-y", "-qq", "--no-install-recommends"];
+    install.extend(["-t", "bookworm-backports"]);
+    install.extend(LAVAPIPE_PACKAGES);
+    run_apt(&install)?;
+    match mesa_major() {
+        Some(m) if m >= RAY_QUERY_MESA_MAJOR => Ok(()),
+        m => Err(format!(
+            "installed lavapipe from bookworm-backports but found Mesa {m:?}"
+        )),
+    }
+}
+
+fn lavapipe_installed() -> bool {
+    mesa_major().is_some()
+}
+
+/// The major version of the installed `mesa-vulkan-drivers` package.
+fn mesa_major() -> Option<u32> {
+    let out = Command::new("dpkg-query")
+        .args(["-W", "-f", "${Version}", "mesa-vulkan-drivers"])
+        .output()
+        .ok()?;
+    let version = String::from_utf8_lossy(&out.stdout);
+    version.split(['.', ':']).next()?.trim().parse().ok()
+}
+
+/// Every apt source line of the machine.
+fn apt_sources() -> String {
+    let mut all = std::fs::read_to_string("/etc/apt/sources.list").unwrap_or_default();
+    if let Ok(dir) = std::fs::read_dir("/etc/apt/sources.list.d") {
+        for entry in dir.flatten() {
+            all.push('\n');
+            all.push_str(&std::fs::read_to_string(entry.path()).unwrap_or_default());
+        }
+    }
+    all
+}
+
+/// The URI of the machine's Debian mirror: of the deb822 stanza or one-line source whose suites
+/// include plain `bookworm`.
+fn debian_mirror() -> Option<String> {
+    let sources = apt_sources();
+    for stanza in sources.split("\n\n") {
+        let field = |name: &str| {
+            stanza
+                .lines()
+                .find_map(|l| l.strip_prefix(name))
+                .map(str::trim)
+        };
+        if let (Some(uris), Some(suites)) = (field("URIs:"), field("Suites:"))
+            && suites.split_whitespace().any(|s| s == "bookworm")
+        {
+            return uris.split_whitespace().next().map(str::to_owned);
+        }
+    }
+    sources.lines().find_map(|l| {
+        let words: Vec<&str> = l.split_whitespace().collect();
+        match words[..] {
+            ["deb", uri, "bookworm", ..] => Some(uri.to_owned()),
+            _ => None,
+        }
+    })
 }
 
 fn run_apt(args: &[&str]) -> Result<(), String> {

@@ -42,12 +42,14 @@ enum Slot {
         name: String,
         entries: Vec<wgpu::BindGroupLayoutEntry>,
     },
+    /// A top-level acceleration structure (ray queries).
+    Accel { name: String },
 }
 
 impl Slot {
     fn name(&self) -> &str {
         match self {
-            Slot::Buffer { name, .. } | Slot::Block { name, .. } => name,
+            Slot::Buffer { name, .. } | Slot::Block { name, .. } | Slot::Accel { name } => name,
         }
     }
 }
@@ -91,6 +93,15 @@ impl BindingSet {
         self
     }
 
+    /// Declares the next binding: a top-level acceleration structure named `name` (needs
+    /// `Features::EXPERIMENTAL_RAY_QUERY`).
+    pub fn accel(mut self, name: &str) -> Self {
+        self.slots.push(Slot::Accel {
+            name: name.to_owned(),
+        });
+        self
+    }
+
     /// Declares a block of bindings from the next binding on, whose WGSL a primitive crate
     /// declares (`layout` gives its entries from [`BindingSet::next_binding`]); bound as one
     /// name with the primitive's own bind-group entries.
@@ -112,7 +123,7 @@ impl BindingSet {
         self.slots
             .iter()
             .map(|s| match s {
-                Slot::Buffer { .. } => 1,
+                Slot::Buffer { .. } | Slot::Accel { .. } => 1,
                 Slot::Block { entries, .. } => entries.len() as u32,
             })
             .sum()
@@ -131,6 +142,12 @@ impl BindingSet {
                     ));
                     binding += 1;
                 }
+                Slot::Accel { name } => {
+                    out.push_str(&format!(
+                        "@group({group}) @binding({binding}) var {name}: acceleration_structure;\n"
+                    ));
+                    binding += 1;
+                }
                 Slot::Block { entries, .. } => binding += entries.len() as u32,
             }
         }
@@ -145,6 +162,17 @@ impl BindingSet {
             match slot {
                 Slot::Buffer { access, .. } => {
                     out.push(super::buffers::layout_entry(binding, access.buffer_type()));
+                    binding += 1;
+                }
+                Slot::Accel { .. } => {
+                    out.push(wgpu::BindGroupLayoutEntry {
+                        binding,
+                        visibility: wgpu::ShaderStages::COMPUTE,
+                        ty: wgpu::BindingType::AccelerationStructure {
+                            vertex_return: false,
+                        },
+                        count: None,
+                    });
                     binding += 1;
                 }
                 Slot::Block { entries, .. } => {
@@ -197,6 +225,8 @@ pub enum Resource<'a> {
     Buffer(&'a wgpu::Buffer),
     /// A block's entries, as the primitive crate makes them for its first binding.
     Block(Vec<wgpu::BindGroupEntry<'a>>),
+    /// A top-level acceleration structure.
+    Accel(&'a wgpu::Tlas),
 }
 
 impl<'a> From<&'a wgpu::Buffer> for Resource<'a> {
@@ -239,6 +269,13 @@ impl BindGroupLayout {
                     entries.push(wgpu::BindGroupEntry {
                         binding,
                         resource: b.as_entire_binding(),
+                    });
+                    binding += 1;
+                }
+                (Slot::Accel { .. }, Resource::Accel(tlas)) => {
+                    entries.push(wgpu::BindGroupEntry {
+                        binding,
+                        resource: wgpu::BindingResource::AccelerationStructure(tlas),
                     });
                     binding += 1;
                 }

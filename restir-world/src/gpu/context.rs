@@ -68,6 +68,39 @@ pub struct OptionalFeatures {
     pub subgroup: bool,
     /// `Features::TIMESTAMP_QUERY` + `TIMESTAMP_QUERY_INSIDE_ENCODERS`: GPU timing spans.
     pub timestamps: bool,
+    /// `Features::EXPERIMENTAL_RAY_QUERY`: hardware (or driver) ray queries in WGSL.
+    pub ray_query: bool,
+}
+
+/// How rays are traced: the same WGSL interface (`trace_closest`, `trace_any`) on either.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Tracer {
+    /// Our software traversal of an obvhs compressed wide BVH: runs on every adapter.
+    Bvh,
+    /// WGSL ray queries on the adapter's acceleration structures
+    /// (`Features::EXPERIMENTAL_RAY_QUERY`).
+    RayQuery,
+}
+
+impl Tracer {
+    /// The command-line name.
+    pub fn name(self) -> &'static str {
+        match self {
+            Tracer::Bvh => "bvh",
+            Tracer::RayQuery => "ray-query",
+        }
+    }
+}
+
+impl std::str::FromStr for Tracer {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s {
+            "bvh" => Ok(Tracer::Bvh),
+            "ray-query" => Ok(Tracer::RayQuery),
+            _ => Err(format!("unknown tracer {s:?}; known: auto, bvh, ray-query")),
+        }
+    }
 }
 
 /// An adapter, its device and queue, and what we learned about them.
@@ -80,6 +113,9 @@ pub struct GpuContext {
     pub queue: wgpu::Queue,
     pub info: wgpu::AdapterInfo,
     pub features: OptionalFeatures,
+    /// How renderers on this context trace rays ([`GpuContext::auto_tracer`] unless set with
+    /// [`GpuContext::set_tracer`]).
+    pub tracer: Tracer,
 }
 
 impl fmt::Debug for GpuContext {
@@ -88,6 +124,7 @@ impl fmt::Debug for GpuContext {
             .field("adapter", &self.info.name)
             .field("backend", &self.info.backend)
             .field("features", &self.features)
+            .field("tracer", &self.tracer)
             .finish()
     }
 }
@@ -157,6 +194,7 @@ impl GpuContext {
     }
 
     /// Creates the device on a given adapter (the caller chose it).
+    #[allow(unsafe_code)] // opting into wgpu's experimental ray queries, see below
     pub async fn from_adapter(adapter: wgpu::Adapter) -> Result<Self, GpuError> {
         let info = adapter.get_info();
         let available = adapter.features();
@@ -165,6 +203,7 @@ impl GpuContext {
         let features = OptionalFeatures {
             subgroup: available.contains(wgpu::Features::SUBGROUP),
             timestamps: available.contains(timestamp_features),
+            ray_query: available.contains(wgpu::Features::EXPERIMENTAL_RAY_QUERY),
         };
         let mut required = wgpu::Features::empty();
         if features.subgroup {
@@ -173,12 +212,20 @@ impl GpuContext {
         if features.timestamps {
             required |= timestamp_features;
         }
+        let mut experimental_features = wgpu::ExperimentalFeatures::disabled();
+        if features.ray_query {
+            required |= wgpu::Features::EXPERIMENTAL_RAY_QUERY;
+            // SAFETY: wgpu marks ray queries experimental (its validation may be incomplete);
+            // our ray-query WGSL only traces opaque triangles of one validated BLAS, and the
+            // differential tests check every hit against obvhs's CPU traversal.
+            experimental_features = unsafe { wgpu::ExperimentalFeatures::enabled() };
+        }
         let (device, queue) = adapter
             .request_device(&wgpu::DeviceDescriptor {
                 label: Some("restir-world device"),
                 required_features: required,
                 required_limits: adapter.limits(),
-                experimental_features: wgpu::ExperimentalFeatures::disabled(),
+                experimental_features,
                 memory_hints: wgpu::MemoryHints::Performance,
                 trace: wgpu::Trace::Off,
             })
@@ -187,13 +234,41 @@ impl GpuContext {
                 adapter: info.name.clone(),
                 source,
             })?;
+        let tracer = Self::auto_tracer_for(&info, &features);
         Ok(Self {
             adapter,
             device,
             queue,
             info,
             features,
+            tracer,
         })
+    }
+
+    /// The tracer `auto` picks: ray queries on GPUs that have them; the software BVH on CPU
+    /// adapters (llvmpipe's ray queries traverse on the same cores, measured slower than our
+    /// CWBVH there) and wherever ray queries are missing.
+    pub fn auto_tracer(&self) -> Tracer {
+        Self::auto_tracer_for(&self.info, &self.features)
+    }
+
+    fn auto_tracer_for(info: &wgpu::AdapterInfo, features: &OptionalFeatures) -> Tracer {
+        match features.ray_query && info.device_type != wgpu::DeviceType::Cpu {
+            true => Tracer::RayQuery,
+            false => Tracer::Bvh,
+        }
+    }
+
+    /// Forces a tracer (`None`: [`GpuContext::auto_tracer`]); ray queries need the feature.
+    pub fn set_tracer(&mut self, tracer: Option<Tracer>) -> Result<(), GpuError> {
+        let tracer = tracer.unwrap_or_else(|| self.auto_tracer());
+        if tracer == Tracer::RayQuery && !self.features.ray_query {
+            return Err(GpuError::Unavailable(
+                "ray queries (wgpu Features::EXPERIMENTAL_RAY_QUERY; on lavapipe from Mesa 25)",
+            ));
+        }
+        self.tracer = tracer;
+        Ok(())
     }
 
     /// The device's limits (equal to the adapter's: we request all of them).
@@ -255,7 +330,8 @@ impl GpuContext {
     /// One line naming the adapter, backend, driver and optional features.
     pub fn describe(&self) -> String {
         format!(
-            "adapter \"{}\" ({:?}, {:?}, driver {} {}); subgroup: {}; timestamps: {}",
+            "adapter \"{}\" ({:?}, {:?}, driver {} {}); subgroup: {}; timestamps: {}; ray \
+             queries: {}; tracer: {}",
             self.info.name,
             self.info.device_type,
             self.info.backend,
@@ -271,6 +347,12 @@ impl GpuContext {
             } else {
                 "unavailable"
             },
+            if self.features.ray_query {
+                "yes"
+            } else {
+                "unavailable"
+            },
+            self.tracer.name(),
         )
     }
 }

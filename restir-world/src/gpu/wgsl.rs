@@ -19,7 +19,8 @@ impl WgslModule {
 }
 
 /// Concatenates `modules` so that each comes after every module it needs (depth first, in the
-/// order given otherwise). An unknown need or a cycle is an error naming it.
+/// order given otherwise); `enable` directives, which WGSL wants before any declaration, are
+/// moved to the top. An unknown need or a cycle is an error naming it.
 pub fn compose(modules: &[WgslModule]) -> Result<String, String> {
     fn visit<'m>(
         m: &'m WgslModule,
@@ -52,7 +53,16 @@ pub fn compose(modules: &[WgslModule]) -> Result<String, String> {
     for m in modules {
         visit(m, modules, &mut state, &mut out)?;
     }
-    Ok(out.join("\n"))
+    let source = out.join("\n");
+    let is_enable = |l: &&str| l.trim_start().starts_with("enable ");
+    let mut enables: Vec<&str> = source.lines().filter(is_enable).collect();
+    enables.sort_unstable();
+    enables.dedup();
+    if enables.is_empty() {
+        return Ok(source);
+    }
+    let rest: Vec<&str> = source.lines().filter(|l| !is_enable(l)).collect();
+    Ok(format!("{}\n{}", enables.join("\n"), rest.join("\n")))
 }
 
 #[cfg(test)]
@@ -71,6 +81,10 @@ mod tests {
         assert_eq!(s, "consts\nlib\nkernel");
         let e = compose(&[m("a", &["b"])]).unwrap_err();
         assert!(e.contains("\"b\""), "{e}");
+        let e = compose(&[m("a", &["b"]), m("b", &["a"])]).unwrap_err();
+        assert!(e.contains("needs itself"), "{e}");
+        let s = compose(&[m("x", &[]), WgslModule::new("y", &["x"], "enable f16;\ny")]).unwrap();
+        assert_eq!(s, "enable f16;\nx\ny");
         let e = compose(&[m("a", &["b"]), m("b", &["a"])]).unwrap_err();
         assert!(e.contains("needs itself"), "{e}");
     }

@@ -21,11 +21,13 @@
 //! are two-sided; shading uses the geometric normal.
 //!
 //! A later pass composes [`library`] + its own kernel module and binds [`SharedGroups`]
-//! (render buffers at group 0, BVH at 1, lights at 2) before its own groups.
+//! (render buffers at group 0, the tracer's at 1, lights at 2) before its own groups. Rays are
+//! traced by the context's [`Tracer`]: the software CWBVH or the adapter's ray queries, behind
+//! the same WGSL functions.
 
 use crate::gpu::{
     Access, BindGroupLayout, BindingSet, FrameEncoder, GpuContext, GpuError, Kernel, Pass,
-    Resource, WgslModule, buffers, compose, workgroup_size_wgsl,
+    Resource, Tracer, WgslModule, buffers, compose, workgroup_size_wgsl,
 };
 use crate::lights::{self, GpuLights, Lights};
 use crate::sampling::{CameraGpu, Estimator};
@@ -172,16 +174,16 @@ pub fn bindings() -> BindingSet {
         .buffer("render_materials", "array<Material>", Access::Read)
 }
 
-/// The bind groups every pixel pass binds first: render buffers, BVH, lights.
-pub fn shared_bindings() -> [BindingSet; 3] {
-    [bindings(), trace::bindings(), lights::bindings()]
+/// The bind groups every pixel pass binds first: render buffers, the tracer's, lights.
+pub fn shared_bindings(tracer: Tracer) -> [BindingSet; 3] {
+    [bindings(), trace::bindings(tracer), lights::bindings()]
 }
 
 /// The WGSL every pixel pass composes its kernel with: constants, the shared bindings
-/// (groups 0..3) and the libraries (rng, reservoir, sampling, lights, trace, render,
+/// (groups 0..3) and the libraries (rng, reservoir, sampling, lights, `tracer`'s trace, render,
 /// `WORKGROUP_SIZE` and `item_index`).
-pub fn library() -> Vec<WgslModule> {
-    let mut m = trace::modules(1);
+pub fn library(tracer: Tracer) -> Vec<WgslModule> {
+    let mut m = trace::modules(1, tracer);
     m.extend(lights::modules(2));
     m.extend([
         WgslModule::new("rng", &[], reservoir::rng::WGSL),
@@ -205,8 +207,8 @@ pub fn library() -> Vec<WgslModule> {
 }
 
 /// [`library`] + `modules`, which need what they name of the library and of each other.
-pub fn compose_with_library(modules: Vec<WgslModule>) -> String {
-    let mut m = library();
+pub fn compose_with_library(tracer: Tracer, modules: Vec<WgslModule>) -> String {
+    let mut m = library(tracer);
     m.extend(modules);
     compose(&m).expect("the render library composes")
 }
@@ -215,14 +217,21 @@ fn passes_module() -> WgslModule {
     WgslModule::new("render-passes", &["render", "workgroup"], PASSES_WGSL)
 }
 
-/// The composed pass module.
-pub fn passes_source() -> String {
-    compose_with_library(vec![passes_module()])
+/// The composed pass module on `tracer`.
+pub fn passes_source(tracer: Tracer) -> String {
+    compose_with_library(tracer, vec![passes_module()])
 }
 
 /// WGSL modules of the renderer, composed as used.
 pub fn wgsl_modules() -> Vec<(String, String)> {
-    vec![("restir-world/render".into(), passes_source())]
+    [Tracer::Bvh, Tracer::RayQuery]
+        .map(|t| {
+            (
+                format!("restir-world/render/{}", t.name()),
+                passes_source(t),
+            )
+        })
+        .into()
 }
 
 /// The render buffers (per pixel unless noted).
@@ -279,12 +288,13 @@ impl RenderBuffers {
     }
 }
 
-/// The shared bind groups (render buffers, BVH, lights) with their layouts, and the frame's
-/// pixel count: what a pixel pass is made from.
+/// The shared bind groups (render buffers, tracer, lights) with their layouts, the tracer
+/// and the frame's pixel count: what a pixel pass is made from.
 #[derive(Debug, Clone)]
 pub struct SharedGroups {
     pub layouts: [BindGroupLayout; 3],
     pub groups: [wgpu::BindGroup; 3],
+    pub tracer: Tracer,
     pub pixels: u32,
 }
 
@@ -301,7 +311,7 @@ impl SharedGroups {
     ) -> Kernel {
         let mut layouts: Vec<&BindGroupLayout> = self.layouts.iter().collect();
         layouts.extend(own);
-        let source = compose_with_library(modules);
+        let source = compose_with_library(self.tracer, modules);
         Kernel::new(device, label, &source, &layouts, entry_points)
     }
 
@@ -360,7 +370,7 @@ impl Renderer {
             Estimator::Ris { candidates } => candidates,
         };
         check_candidates(candidates).map_err(RenderError::Settings)?;
-        let sets = shared_bindings();
+        let sets = shared_bindings(ctx.tracer);
         ctx.check_storage_buffers("render", &sets.each_ref())?;
         camera
             .validate()
@@ -406,6 +416,7 @@ impl Renderer {
         let shared = SharedGroups {
             layouts,
             groups,
+            tracer: ctx.tracer,
             pixels,
         };
         let entries = [

@@ -19,14 +19,18 @@ use obvhs::{
 };
 
 use crate::gpu::{
-    Access, BindGroupLayout, BindingSet, Kernel, Pass, Resource, WgslModule, buffers, compose,
-    workgroup_size_wgsl,
+    Access, BindGroupLayout, BindingSet, Kernel, Pass, Resource, Tracer, WgslModule, buffers,
+    compose, workgroup_size_wgsl,
 };
 use crate::scene::Scene;
 use crate::{GpuContext, GpuError};
 
-/// The traversal library (structs and functions, no bindings).
+/// The software traversal (structs and functions, no bindings).
 pub const WGSL: &str = include_str!("trace.wgsl");
+/// The ray-query backend: the same functions on the adapter's acceleration structures.
+pub const RAY_QUERY_WGSL: &str = include_str!("trace_rq.wgsl");
+/// The types both backends share (`Ray`, `Hit`, `BvhTriangle`).
+pub const TYPES_WGSL: &str = include_str!("trace_types.wgsl");
 /// The standalone ray-buffer kernel.
 pub const KERNEL_WGSL: &str = include_str!("trace_rays.wgsl");
 
@@ -53,6 +57,17 @@ pub enum TraceError {
         bytes: u64,
         limit: u64,
     },
+    #[error(
+        "the scene is too large for this adapter's ray queries: {needed} {what}, the adapter \
+         allows {limit} (use --tracer bvh)"
+    )]
+    AccelLimit {
+        what: &'static str,
+        needed: u64,
+        limit: u64,
+    },
+    #[error("building the acceleration structures failed: {0}")]
+    Gpu(String),
 }
 
 /// Rust mirror of the WGSL `BvhNode`: the same 80 bytes as [`CwBvhNode`] with the byte arrays
@@ -134,21 +149,34 @@ pub fn constants_wgsl() -> String {
     )
 }
 
-/// The BVH's bindings: `bvh_nodes` and `bvh_triangles`.
-pub fn bindings() -> BindingSet {
-    BindingSet::new("bvh")
-        .buffer("bvh_nodes", "array<BvhNode>", Access::Read)
-        .buffer("bvh_triangles", "array<BvhTriangle>", Access::Read)
+/// The tracer's bindings: the BVH's `bvh_nodes`, or the ray-query backend's `bvh_accel`
+/// (top-level acceleration structure), then `bvh_triangles` (what a hit's `prim` indexes).
+pub fn bindings(tracer: Tracer) -> BindingSet {
+    let set = BindingSet::new("bvh");
+    let set = match tracer {
+        Tracer::Bvh => set.buffer("bvh_nodes", "array<BvhNode>", Access::Read),
+        Tracer::RayQuery => set.accel("bvh_accel"),
+    };
+    set.buffer("bvh_triangles", "array<BvhTriangle>", Access::Read)
 }
 
-/// The tracer's WGSL modules with its bindings at `group`: `bvh-constants`, `bvh-bindings`
-/// and `trace` (structs `BvhNode`, `BvhTriangle`, `Ray`, `Hit`; functions `trace_closest`,
-/// `trace_any`, `bvh_traverse`).
-pub fn modules(group: u32) -> Vec<WgslModule> {
+/// The tracer's WGSL modules with its bindings at `group`: `bvh-constants`, `bvh-bindings`,
+/// `trace-types` (structs `BvhTriangle`, `Ray`, `Hit`) and `trace` (functions
+/// `trace_closest`, `trace_any`, `bvh_traverse`), whichever the backend.
+pub fn modules(group: u32, tracer: Tracer) -> Vec<WgslModule> {
+    let source = match tracer {
+        Tracer::Bvh => WGSL,
+        Tracer::RayQuery => RAY_QUERY_WGSL,
+    };
     vec![
         WgslModule::new("bvh-constants", &[], constants_wgsl()),
-        WgslModule::new("bvh-bindings", &[], bindings().wgsl(group)),
-        WgslModule::new("trace", &["bvh-constants", "bvh-bindings"], WGSL),
+        WgslModule::new("bvh-bindings", &[], bindings(tracer).wgsl(group)),
+        WgslModule::new("trace-types", &[], TYPES_WGSL),
+        WgslModule::new(
+            "trace",
+            &["bvh-constants", "bvh-bindings", "trace-types"],
+            source,
+        ),
     ]
 }
 
@@ -321,8 +349,9 @@ impl Bvh {
         })
     }
 
-    /// Uploads nodes (as-is) and triangles; fails before creating any buffer when either is
-    /// larger than the adapter's storage-binding or buffer limits.
+    /// Uploads nodes (as-is) and triangles, and for [`Tracer::RayQuery`] (`ctx.tracer`) builds
+    /// the acceleration structures; fails before creating any buffer when the scene exceeds the
+    /// adapter's storage-binding, buffer or acceleration-structure limits.
     pub fn upload(&self, ctx: &GpuContext) -> Result<GpuBvh, TraceError> {
         let limits = ctx.limits();
         let limit = limits
@@ -339,12 +368,96 @@ impl Bvh {
                 });
             }
         }
+        let accel = match ctx.tracer {
+            Tracer::Bvh => None,
+            Tracer::RayQuery => Some(AccelStructures::build(ctx, &self.triangles)?),
+        };
         Ok(GpuBvh {
             nodes: buffers::storage_from(&ctx.device, "bvh nodes", nodes),
             triangles: buffers::storage_from(&ctx.device, "bvh triangles", tris),
             node_count: self.cwbvh.nodes.len() as u32,
             triangle_count: self.triangles.len() as u32,
+            accel,
         })
+    }
+}
+
+/// The ray-query backend's acceleration structures: one BLAS over the triangles in BVH order
+/// (so a hit's primitive index is its `bvh_triangles` index) in one identity instance.
+#[derive(Debug)]
+pub struct AccelStructures {
+    pub blas: wgpu::Blas,
+    pub tlas: wgpu::Tlas,
+}
+
+impl AccelStructures {
+    /// Builds both (submits and waits).
+    pub fn build(ctx: &GpuContext, triangles: &[BvhTriangle]) -> Result<Self, TraceError> {
+        let limits = ctx.limits();
+        let count = u32::try_from(triangles.len()).unwrap_or(u32::MAX);
+        if u64::from(count) > u64::from(limits.max_blas_primitive_count) {
+            return Err(TraceError::AccelLimit {
+                what: "triangles in one bottom-level acceleration structure",
+                needed: u64::from(count),
+                limit: u64::from(limits.max_blas_primitive_count),
+            });
+        }
+        let vertices: Vec<[f32; 3]> = triangles.iter().flat_map(|t| [t.v0, t.v1, t.v2]).collect();
+        let bytes = (vertices.len() * 12) as u64;
+        if bytes > limits.max_buffer_size {
+            return Err(TraceError::TooLarge {
+                what: "acceleration-structure vertices",
+                bytes,
+                limit: limits.max_buffer_size,
+            });
+        }
+        let device = &ctx.device;
+        let usage = wgpu::BufferUsages::BLAS_INPUT;
+        let vertex_buffer = buffers::with_usage(device, "blas vertices", &vertices, usage);
+        let size = wgpu::BlasTriangleGeometrySizeDescriptor {
+            vertex_format: wgpu::VertexFormat::Float32x3,
+            vertex_count: count * 3,
+            index_format: None,
+            index_count: None,
+            flags: wgpu::AccelerationStructureGeometryFlags::OPAQUE,
+        };
+        let blas = device.create_blas(
+            &wgpu::CreateBlasDescriptor {
+                label: Some("scene blas"),
+                flags: wgpu::AccelerationStructureFlags::PREFER_FAST_TRACE,
+                update_mode: wgpu::AccelerationStructureUpdateMode::Build,
+            },
+            wgpu::BlasGeometrySizeDescriptors::Triangles {
+                descriptors: vec![size.clone()],
+            },
+        );
+        let mut tlas = device.create_tlas(&wgpu::CreateTlasDescriptor {
+            label: Some("scene tlas"),
+            max_instances: 1,
+            flags: wgpu::AccelerationStructureFlags::PREFER_FAST_TRACE,
+            update_mode: wgpu::AccelerationStructureUpdateMode::Build,
+        });
+        let identity = [1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0];
+        tlas[0] = Some(wgpu::TlasInstance::new(&blas, identity, 0, 0xff));
+        let geometry = wgpu::BlasTriangleGeometry {
+            size: &size,
+            vertex_buffer: &vertex_buffer,
+            first_vertex: 0,
+            vertex_stride: 12,
+            index_buffer: None,
+            first_index: None,
+            transform_buffer: None,
+            transform_buffer_offset: None,
+        };
+        let entry = wgpu::BlasBuildEntry {
+            blas: &blas,
+            geometry: wgpu::BlasGeometries::TriangleGeometries(vec![geometry]),
+        };
+        let mut encoder = device.create_command_encoder(&Default::default());
+        encoder.build_acceleration_structures([&entry], [&tlas]);
+        ctx.queue.submit([encoder.finish()]);
+        ctx.wait().map_err(|e| TraceError::Gpu(e.to_string()))?;
+        Ok(Self { blas, tlas })
     }
 }
 
@@ -355,15 +468,26 @@ pub struct GpuBvh {
     pub triangles: wgpu::Buffer,
     pub node_count: u32,
     pub triangle_count: u32,
+    /// The ray-query backend's acceleration structures (uploaded for [`Tracer::RayQuery`]).
+    pub accel: Option<AccelStructures>,
 }
 
 impl GpuBvh {
-    /// The buffers of [`bindings`], by name.
-    pub fn resources(&self) -> [(&'static str, Resource<'_>); 2] {
-        [
-            ("bvh_nodes", (&self.nodes).into()),
-            ("bvh_triangles", (&self.triangles).into()),
-        ]
+    /// The buffers of [`bindings`] for the backend it was uploaded for, by name.
+    pub fn resources(&self) -> Vec<(&'static str, Resource<'_>)> {
+        let first = match &self.accel {
+            None => ("bvh_nodes", (&self.nodes).into()),
+            Some(a) => ("bvh_accel", Resource::Accel(&a.tlas)),
+        };
+        vec![first, ("bvh_triangles", (&self.triangles).into())]
+    }
+
+    /// The backend it was uploaded for.
+    pub fn tracer(&self) -> Tracer {
+        match self.accel {
+            None => Tracer::Bvh,
+            Some(_) => Tracer::RayQuery,
+        }
     }
 }
 
@@ -375,9 +499,9 @@ pub fn io_bindings() -> BindingSet {
         .buffer("trace_params", "TraceParams", Access::Uniform)
 }
 
-/// Composed source of [`TraceKernel`].
-pub fn kernel_source() -> String {
-    let mut m = modules(1);
+/// Composed source of [`TraceKernel`] on `tracer`.
+pub fn kernel_source(tracer: Tracer) -> String {
+    let mut m = modules(1, tracer);
     m.push(WgslModule::new("workgroup", &[], workgroup_size_wgsl()));
     m.push(WgslModule::new("trace-io", &[], io_bindings().wgsl(0)));
     m.push(WgslModule::new(
@@ -397,13 +521,14 @@ pub struct TraceKernel {
 }
 
 impl TraceKernel {
-    pub fn new(device: &wgpu::Device) -> Self {
+    /// The kernel on `tracer` (bind BVHs uploaded for the same tracer).
+    pub fn new(device: &wgpu::Device, tracer: Tracer) -> Self {
         let io_layout = io_bindings().layout(device);
-        let bvh_layout = bindings().layout(device);
+        let bvh_layout = bindings(tracer).layout(device);
         let kernel = Kernel::new(
             device,
             "trace_rays",
-            &kernel_source(),
+            &kernel_source(tracer),
             &[&io_layout, &bvh_layout],
             &["trace_rays"],
         );
@@ -477,13 +602,17 @@ pub struct TraceBinding(Pass);
 
 /// The WGSL modules of the tracer, composed as used.
 pub fn wgsl_modules() -> Vec<(String, String)> {
-    vec![
-        (
-            "restir-world/trace".into(),
-            compose(&modules(1)).expect("the tracer's modules compose"),
-        ),
-        ("restir-world/trace_rays".into(), kernel_source()),
-    ]
+    let mut out = Vec::new();
+    for tracer in [Tracer::Bvh, Tracer::RayQuery] {
+        let name = tracer.name();
+        let library = compose(&modules(1, tracer)).expect("the tracer's modules compose");
+        out.push((format!("restir-world/trace/{name}"), library));
+        out.push((
+            format!("restir-world/trace_rays/{name}"),
+            kernel_source(tracer),
+        ));
+    }
+    out
 }
 
 #[cfg(test)]

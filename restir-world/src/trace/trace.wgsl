@@ -1,8 +1,9 @@
 // Ray tracing against an obvhs compressed wide BVH8 (Ylitie et al. 2017), uploaded as-is, and
 // full-precision triangles stored in BVH primitive order. Library file: structs and functions
-// only. Buffers come from the generated header `trace::bindings_wgsl` (`bvh_nodes`,
-// `bvh_triangles`); constants from `trace::constants_wgsl` (`BVH_STACK_SIZE`, `BVH_NO_HIT`,
-// `BVH_NODE_TMIN`).
+// only. Buffers come from `trace::bindings(Tracer::Bvh)` (`bvh_nodes`, `bvh_triangles`);
+// constants from `trace::constants_wgsl` (`BVH_STACK_SIZE`, `BVH_NO_HIT`, `BVH_NODE_TMIN`);
+// `Ray`, `Hit` and `BvhTriangle` from trace_types.wgsl. trace_rq.wgsl has the same interface
+// (`trace_closest`, `trace_any`, `bvh_traverse`) on the adapter's ray queries.
 // CPU twin: restir_world::trace::Bvh::{closest_hit, any_hit} (obvhs's CPU traversal + the same
 // watertight triangle test).
 
@@ -21,33 +22,6 @@ struct BvhNode {
     child_max_y: vec2<u32>,
     child_min_z: vec2<u32>,
     child_max_z: vec2<u32>,
-}
-
-// A triangle in BVH primitive order: full f32 vertices, its material, and its index in the
-// scene's triangle list.
-struct BvhTriangle {
-    v0: vec3<f32>,
-    material: u32,
-    v1: vec3<f32>,
-    index: u32,
-    v2: vec3<f32>,
-    flags: u32,
-}
-
-struct Ray {
-    origin: vec3<f32>,
-    tmin: f32,
-    dir: vec3<f32>,
-    tmax: f32,
-}
-
-// Closest hit: `prim` indexes `bvh_triangles` (BVH_NO_HIT on a miss); (b1, b2) are the
-// barycentric weights of v1 and v2.
-struct Hit {
-    t: f32,
-    prim: u32,
-    b1: f32,
-    b2: f32,
 }
 
 // Per-ray constants of the watertight test (Woop, Benthin, Wald 2013).

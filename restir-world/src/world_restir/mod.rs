@@ -29,7 +29,7 @@ use gpu_scan::{Scan, ScanBinding, ScanDescriptor, ScanKind};
 
 use crate::gpu::{
     Access, BindGroupLayout, BindingSet, FrameEncoder, GpuContext, GpuError, Kernel, Pass,
-    Resource, WgslModule, buffers,
+    Resource, Tracer, WgslModule, buffers,
 };
 use crate::render::{self, RenderError, Renderer, SharedGroups, shared_bindings};
 use crate::scene::{Camera, Scene};
@@ -550,7 +550,7 @@ pub fn wgsl_modules() -> Vec<(String, String)> {
         .map(|k| {
             (
                 format!("restir-world/world_restir/{}", k.name),
-                render::compose_with_library(k.modules()),
+                render::compose_with_library(Tracer::Bvh, k.modules()),
             )
         })
         .collect()
@@ -637,7 +637,7 @@ impl WrPasses {
     ) -> Result<Self, WorldRestirError> {
         let device = &ctx.device;
         let kernel = |k: &KernelDef| -> Result<(Kernel, BindGroupLayout), GpuError> {
-            let sets = shared_bindings();
+            let sets = shared_bindings(shared.tracer);
             let own = k.bindings();
             let name = format!("world-restir {}", k.name);
             ctx.check_storage_buffers(&name, &[&sets[0], &sets[1], &sets[2], &own])?;

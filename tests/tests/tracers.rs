@@ -1,0 +1,107 @@
+//! The two tracers render the same images: the ray-query backend (where the adapter has ray
+//! queries; skipped with a printed reason otherwise) against the software BVH, through the
+//! method registry, same seeds. Both draw the same random numbers and trace the same rays, so
+//! the images differ only where a ray grazes an edge or meets coplanar triangles: the per-channel
+//! means must agree within 0.5% and the per-pixel mean absolute difference stay below 1% of the
+//! mean. Negative control: the BVH image scaled by 1.03 must fail the same check.
+
+use restir_world::GpuContext;
+use restir_world::gpu::Tracer;
+use restir_world::methods::{self, Readback};
+use restir_world::scene::{BuiltinOptions, builtin};
+use tests::gpu;
+
+const MEAN_TOL: f64 = 5e-3;
+const PIXEL_TOL: f64 = 1e-2;
+
+fn images(ctx: &GpuContext, scene: &str, spec: &str) -> Vec<[f32; 3]> {
+    let opts = BuiltinOptions {
+        width: 48,
+        height: 48,
+        lights: 2000,
+        ..Default::default()
+    };
+    let s = builtin(scene, &opts).expect("scene");
+    let cam = s.camera_or_default(48, 48);
+    let mut m = methods::build_method(spec, ctx, &s, &cam, 5).expect("method");
+    let l = methods::FrameLoop::frames(8);
+    methods::run_frames(ctx, m.as_mut(), &l, |_, _| {
+        Ok::<(), methods::MethodError>(())
+    })
+    .expect("render");
+    m.read(ctx, Readback::Accumulated)
+        .expect("images")
+        .combined()
+}
+
+/// (largest relative difference of a channel mean, mean absolute pixel difference / mean).
+fn difference(a: &[[f32; 3]], b: &[[f32; 3]], scale_b: f32) -> (f64, f64) {
+    let mean = |img: &[[f32; 3]], c: usize, s: f32| {
+        img.iter().map(|p| f64::from(p[c] * s)).sum::<f64>() / img.len() as f64
+    };
+    let worst_mean = (0..3)
+        .map(|c| (mean(a, c, 1.0) / mean(b, c, scale_b) - 1.0).abs())
+        .fold(0.0, f64::max);
+    let total: f64 = (0..3).map(|c| mean(b, c, scale_b)).sum();
+    let abs: f64 = a
+        .iter()
+        .zip(b)
+        .map(|(p, q)| {
+            (0..3)
+                .map(|c| f64::from((p[c] - q[c] * scale_b).abs()))
+                .sum::<f64>()
+        })
+        .sum::<f64>()
+        / a.len() as f64;
+    (worst_mean, abs / total)
+}
+
+#[test]
+fn ray_query_images_equal_bvh_images() {
+    let Some(rq) = gpu::with_tracer(Tracer::RayQuery) else {
+        eprintln!("skipped: this adapter has no ray queries (the ray-query tracer is untested)");
+        return;
+    };
+    let bvh = gpu::with_tracer(Tracer::Bvh).expect("bvh");
+    for scene in ["cornell", "many-lights"] {
+        for spec in ["nee", "ris", "world-restir"] {
+            let a = images(&rq, scene, spec);
+            let b = images(&bvh, scene, spec);
+            assert!(
+                a.iter().flatten().all(|v| v.is_finite()),
+                "{scene} {spec}: NaN"
+            );
+            let (mean, pixel) = difference(&a, &b, 1.0);
+            eprintln!("{scene} {spec}: means within {mean:.2e}, pixels {pixel:.2e}");
+            assert!(
+                mean < MEAN_TOL && pixel < PIXEL_TOL,
+                "{scene} {spec}: ray-query image differs: means {mean:.3e}, pixels {pixel:.3e}"
+            );
+            let (mean, pixel) = difference(&a, &b, 1.03);
+            assert!(
+                mean >= MEAN_TOL || pixel >= PIXEL_TOL,
+                "{scene} {spec}: planted 3% difference not detected"
+            );
+        }
+    }
+}
+
+#[test]
+fn ray_query_is_refused_clearly_where_missing() {
+    let mut ctx = gpu::context().clone();
+    match ctx.set_tracer(Some(Tracer::RayQuery)) {
+        Ok(()) => assert!(ctx.features.ray_query),
+        Err(e) => {
+            assert!(!ctx.features.ray_query);
+            assert!(e.to_string().contains("ray queries"), "{e}");
+        }
+    }
+    ctx.set_tracer(None).expect("auto");
+    let cpu = ctx.info.device_type == wgpu::DeviceType::Cpu;
+    let want = if ctx.features.ray_query && !cpu {
+        Tracer::RayQuery
+    } else {
+        Tracer::Bvh
+    };
+    assert_eq!(ctx.tracer, want, "auto");
+}
