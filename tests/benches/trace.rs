@@ -28,10 +28,16 @@ fn scenes() -> Vec<(&'static str, Scene)> {
         height: SIDE,
         ..Default::default()
     };
-    ["cornell", "many-lights"]
+    let mut out: Vec<(&'static str, Scene)> = ["cornell", "many-lights"]
         .into_iter()
         .map(|name| (name, builtin(name, &opts).expect("built-in scene")))
-        .collect()
+        .collect();
+    if let Some(dir) = tests::scenes_dir() {
+        let path = dir.join("sponza-capsaicin/Sponza.gltf");
+        let sponza = restir_world::scene::load(&path).expect("Sponza loads");
+        out.push(("sponza", sponza.scene));
+    }
+    out
 }
 
 /// Pinhole rays through pixel centres.

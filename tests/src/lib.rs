@@ -20,3 +20,20 @@ pub mod wgsl;
 
 pub use restir_world::GpuContext;
 pub use restir_world::gpu::buffers;
+
+/// The public test scenes (`$RESTIR_SCENES_DIR`, else `shared/scenes` next to the workspace),
+/// or `None` with the reason printed: tests that use them then pass without them.
+pub fn scenes_dir() -> Option<std::path::PathBuf> {
+    let dir = std::env::var_os("RESTIR_SCENES_DIR")
+        .map(std::path::PathBuf::from)
+        .unwrap_or_else(|| wgsl::workspace_root().join("../shared/scenes"));
+    if dir.is_dir() {
+        Some(dir)
+    } else {
+        eprintln!(
+            "skipping: the public scenes are not at {} (set RESTIR_SCENES_DIR)",
+            dir.display()
+        );
+        None
+    }
+}

@@ -17,20 +17,7 @@ use restir_world::sampling::Estimator;
 use restir_world::scene::{self, Camera, Scene};
 use tests::gpu;
 
-fn scenes_dir() -> Option<PathBuf> {
-    let dir = std::env::var_os("RESTIR_SCENES_DIR")
-        .map(PathBuf::from)
-        .unwrap_or_else(|| tests::wgsl::workspace_root().join("../shared/scenes"));
-    if dir.is_dir() {
-        Some(dir)
-    } else {
-        eprintln!(
-            "skipping: the public scenes are not at {} (set RESTIR_SCENES_DIR)",
-            dir.display()
-        );
-        None
-    }
-}
+use tests::scenes_dir;
 
 /// Each file, its triangle count after loading, and a distinctive part of every warning it
 /// prints, in order.

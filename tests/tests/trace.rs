@@ -455,3 +455,14 @@ fn builtin_scenes_match_obvhs() {
         check_scene(name, &scene, 100 + i as u64);
     }
 }
+
+/// Sponza (262k triangles, the public scenes' largest): both tracers against obvhs.
+#[test]
+fn sponza_matches_obvhs() {
+    let Some(dir) = tests::scenes_dir() else {
+        return;
+    };
+    let loaded =
+        restir_world::scene::load(&dir.join("sponza-capsaicin/Sponza.gltf")).expect("Sponza loads");
+    check_scene("sponza", &loaded.scene, 200);
+}
