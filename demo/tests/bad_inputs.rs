@@ -267,6 +267,18 @@ fn bad_inputs_are_refused_with_their_cause_and_leave_nothing_behind() {
             2,
             "0 is not in 1..=65535",
         ),
+        case(
+            "candidates-with-a-gpu-method",
+            &["render", "--method", "ris", "--candidates", "4"],
+            1,
+            "--method ris:K",
+        ),
+        case(
+            "unknown-tracer",
+            &["render", "--tracer", "optix"],
+            2,
+            "unknown tracer \"optix\"; known: auto, bvh, ray-query",
+        ),
         Case {
             args: compare(&["--methods", "ris:70000"]),
             ..case("compare-ris-above-cap", &[], 1, "must be in 1..=65535")
