@@ -85,9 +85,19 @@ pub fn block_on<F: std::future::Future>(f: F) -> F::Output {
 }
 
 /// A copy of the shared context tracing with `tracer`, or `None` when the adapter cannot.
+///
+/// # Panics
+/// When it cannot and `RESTIR_REQUIRE_RAY_QUERY=1` (set by `cargo xtask test` where it
+/// provides a driver with ray queries): tests must not skip the tracer silently there.
 pub fn with_tracer(tracer: restir_world::gpu::Tracer) -> Option<GpuContext> {
     let mut ctx = context().clone();
-    ctx.set_tracer(Some(tracer)).ok().map(|()| ctx)
+    match ctx.set_tracer(Some(tracer)) {
+        Ok(()) => Some(ctx),
+        Err(e) if std::env::var("RESTIR_REQUIRE_RAY_QUERY").is_ok_and(|v| v == "1") => {
+            panic!("RESTIR_REQUIRE_RAY_QUERY=1 but {e} ({})", ctx.describe())
+        }
+        Err(_) => None,
+    }
 }
 
 /// `frames` timed frames of `m` on the shared context (static camera), through the one frame
