@@ -7,7 +7,6 @@
 //! in `shared/scenes` next to the workspace. Without them every test here prints why and
 //! passes.
 
-
 use glam::Vec3;
 use restir_world::image_io::Image;
 use restir_world::reference::Rendered;

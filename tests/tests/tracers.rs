@@ -105,3 +105,29 @@ fn ray_query_is_refused_clearly_where_missing() {
     };
     assert_eq!(ctx.tracer, want, "auto");
 }
+
+/// A scene with more triangles than one bottom-level acceleration structure may hold is refused
+/// before any acceleration structure is made, with the limit named (a device whose
+/// `max_blas_primitive_count` is 16 against cornell's 38 triangles).
+#[test]
+fn scene_beyond_the_acceleration_structure_limits_is_refused() {
+    let base = gpu::context();
+    let limits = wgpu::Limits {
+        max_blas_primitive_count: 16,
+        ..base.limits()
+    };
+    let (device, queue) = gpu::device_with_limits(limits);
+    let ctx = GpuContext {
+        device,
+        queue,
+        tracer: Tracer::RayQuery,
+        ..base.clone()
+    };
+    let scene = builtin("cornell", &BuiltinOptions::default()).expect("cornell");
+    let bvh = restir_world::trace::Bvh::build(&scene).expect("bvh");
+    let e = bvh.upload(&ctx).expect_err("38 triangles > 16").to_string();
+    assert!(
+        e.contains("38") && e.contains("16") && e.contains("--tracer bvh"),
+        "{e}"
+    );
+}
