@@ -299,7 +299,7 @@ fn info(scene_name: Option<&str>, opts: &scenes::SceneArgs) -> Result<()> {
         }
         for l in &s.lights {
             println!(
-                "punctual light {:?} (not rendered): {:?} at {} towards {}, colour {:?}, \
+                "punctual light {:?}: {:?} at {} towards {}, colour {:?}, \
                  intensity {}",
                 l.name, l.kind, l.position, l.direction, l.color, l.intensity
             );

@@ -101,7 +101,8 @@ impl Fnv64 {
     }
 }
 
-/// The cache key of a reference: a hash of the scene's triangles and materials, the camera,
+/// The cache key of a reference: a hash of the scene's triangles, materials, environment and
+/// punctual lights, the camera,
 /// the settings, this crate's version and the renderer's composed WGSL (so a change of the
 /// estimator's code invalidates old references even within one version).
 pub fn cache_key(scene: &Scene, camera: &Camera, settings: &ReferenceSettings) -> String {
@@ -116,6 +117,21 @@ pub fn cache_key(scene: &Scene, camera: &Camera, settings: &ReferenceSettings) -
     }
     for m in &scene.materials {
         h.f32s(&m.albedo).f32s(&m.emission);
+    }
+    if let Some(env) = &scene.environment {
+        h.bytes(b"environment")
+            .bytes(&env.width.to_le_bytes())
+            .bytes(&env.height.to_le_bytes());
+        for p in &env.pixels {
+            h.f32s(p);
+        }
+    }
+    for l in &scene.lights {
+        h.bytes(format!("{:?}", l.kind).as_bytes())
+            .f32s(&l.position.to_array())
+            .f32s(&l.direction.to_array())
+            .f32s(&l.color)
+            .f32s(&[l.intensity, l.range.unwrap_or(0.0)]);
     }
     h.f32s(&camera.eye.to_array())
         .f32s(&camera.target.to_array())

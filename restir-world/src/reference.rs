@@ -3,17 +3,20 @@
 //! (`std::thread::scope`), accumulated in f64.
 //!
 //! Per sample of pixel p (box filter: the sub-pixel position is uniform in the pixel):
-//! 1. Primary ray from the eye; a miss contributes 0 everywhere (black background).
+//! 1. Primary ray from the eye; a miss sees the environment (black without one) in **direct**
+//!    and contributes 0 to **indirect**.
 //! 2. At the primary hit x1 (geometric normal n1 flipped towards the eye, albedo a1, emission
 //!    Le1): **direct** = Le1 (emission seen) + one light estimate at x1 (reflected direct light).
 //! 3. One cosine-weighted GI ray from x1. At its hit x2: **indirect** = a1 x (one light
 //!    estimate at x2). The cosine pdf cancels a1 cos / pi. Emission seen at x2 is *not* added
-//!    (that light is the direct light at x1, already estimated by NEE).
+//!    (that light is the direct light at x1, already estimated by NEE), and neither is the
+//!    environment seen by a GI ray that escapes (the same light, also estimated by NEE at x1).
 //! 4. **combined** = direct + indirect.
 //!
 //! A "light estimate" at x (normal n, albedo a) is, for method `Nee`, one power-proportional
-//! light sample y (see [`crate::lights`]) with a shadow ray:
-//! a/pi Le(y) cos_x cos_y / |x-y|^2 / pdf_area(y) V(x, y); for method `Ris { candidates: K }`,
+//! light sample y (see [`crate::lights`]: a triangle point, an environment direction or a
+//! punctual light) with a shadow ray: f(y) / pdf(y) V(x, y), for a triangle
+//! a/pi Le(y) cos_x cos_y / |x-y|^2 / pdf_area(y); for method `Ris { candidates: K }`,
 //! K such samples resampled by RIS with target p̂ = luminance of the unshadowed reflected
 //! radiance, then one shadow ray for the chosen one: f(y) V W, W = w_sum / (K p̂(y)).
 //!
@@ -31,7 +34,7 @@ use obvhs::{BvhBuildParams, cwbvh::CwBvh, ray::Ray, ray::RayHit};
 use reservoir::rng::Rng;
 
 use crate::image_io::Image;
-use crate::lights::Lights;
+use crate::lights::{self, LightSample, Lights};
 use crate::sampling::{self, CameraGpu, Estimator};
 use crate::scene::{Camera, Scene, SceneError, builtin::luminance};
 
@@ -172,28 +175,33 @@ impl ReferenceRenderer {
         })
     }
 
-    /// Unshadowed reflected radiance at x (normal n, albedo a) from light sample `u`, and the
-    /// sample: (f, position, pdf_area); None when the sample cannot contribute.
-    fn light_term(&self, x: Vec3, n: Vec3, a: Vec3, u: [f32; 4]) -> Option<(Vec3, Vec3, f32)> {
-        let s = self.lights.sample(u)?;
-        let to = s.position - x;
-        let d2 = to.length_squared();
-        if d2 <= 0.0 || s.pdf_area <= 0.0 {
+    /// Unshadowed reflected radiance at x (normal n, albedo a) from light sample `u` (and, for
+    /// an environment sample, two more uniforms from `rng`), and the sample; None when the
+    /// sample cannot contribute.
+    fn light_term(
+        &self,
+        x: Vec3,
+        n: Vec3,
+        a: Vec3,
+        u: [f32; 4],
+        rng: &mut Rng,
+    ) -> Option<(Vec3, LightSample)> {
+        let s = self.lights.sample(u, rng)?;
+        if s.pdf_area <= 0.0 {
             return None;
         }
-        let d = d2.sqrt();
-        let cos_x = n.dot(to) / d;
-        let cos_l = s.normal.dot(to).abs() / d;
-        if cos_x <= 0.0 || cos_l <= 0.0 {
-            return None;
-        }
-        let f = a * std::f32::consts::FRAC_1_PI * s.emission * (cos_x * cos_l / d2);
-        Some((f, s.position, s.pdf_area))
+        let f = self.lights.contribution(x, n, a, &s);
+        (f != Vec3::ZERO).then_some((f, s))
     }
 
-    fn visible(&self, x: Vec3, n: Vec3, y: Vec3) -> bool {
+    /// Whether sample `s` is unoccluded from x (normal n): the segment to its point, or the ray
+    /// along its direction for lights at infinity.
+    fn visible(&self, x: Vec3, n: Vec3, s: &LightSample) -> bool {
         let o = x + n * self.eps;
-        let to = y - o;
+        if lights::at_infinity(s.kind) {
+            return self.unoccluded(o, s.position, f32::INFINITY);
+        }
+        let to = s.position - o;
         let d = to.length();
         d > 0.0 && self.unoccluded(o, to / d, d * (1.0 - 1e-4))
     }
@@ -204,30 +212,34 @@ impl ReferenceRenderer {
             return Vec3::ZERO;
         }
         match method {
-            Estimator::Nee => match self.light_term(x, n, a, u4(rng)) {
-                Some((f, y, pdf)) if self.visible(x, n, y) => f / pdf,
-                _ => Vec3::ZERO,
-            },
+            Estimator::Nee => {
+                let u = u4(rng);
+                match self.light_term(x, n, a, u, rng) {
+                    Some((f, s)) if self.visible(x, n, &s) => f / s.pdf_area,
+                    _ => Vec3::ZERO,
+                }
+            }
             Estimator::Ris { candidates } => {
                 let k = candidates.max(1);
                 let mut w_sum = 0.0f32;
-                let mut chosen: Option<(Vec3, Vec3, f32)> = None;
+                let mut chosen: Option<(Vec3, LightSample, f32)> = None;
                 for _ in 0..k {
                     let u = u4(rng);
+                    let term = self.light_term(x, n, a, u, rng);
                     let pick = rng.next_f32();
-                    if let Some((f, y, pdf)) = self.light_term(x, n, a, u) {
+                    if let Some((f, s)) = term {
                         let p_hat = luminance(f.to_array());
-                        let w = p_hat / pdf;
+                        let w = p_hat / s.pdf_area;
                         if w > 0.0 && w.is_finite() {
                             w_sum += w;
                             if pick * w_sum < w {
-                                chosen = Some((f, y, p_hat));
+                                chosen = Some((f, s, p_hat));
                             }
                         }
                     }
                 }
                 match chosen {
-                    Some((f, y, p_hat)) if self.visible(x, n, y) => {
+                    Some((f, s, p_hat)) if self.visible(x, n, &s) => {
                         f * (w_sum / (k as f32 * p_hat))
                     }
                     _ => Vec3::ZERO,
@@ -264,7 +276,8 @@ impl ReferenceRenderer {
         let eye = Vec3::from(cam.eye);
         let dir = cam.ray_dir(px, jitter);
         let Some(h1) = self.closest(eye, dir) else {
-            return (Vec3::ZERO, Vec3::ZERO);
+            // The camera ray escaped: it sees the environment.
+            return (self.lights.env_radiance(dir.normalize()), Vec3::ZERO);
         };
         let (x1, n1, a1, le1) = self.surface(eye, dir, &h1);
         let direct = le1 + self.estimate(method, x1, n1, a1, rng);

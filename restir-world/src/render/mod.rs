@@ -14,11 +14,15 @@
 //! 6. `accumulate`: running sums of both frames; advances the GPU frame counter that seeds
 //!    every pass.
 //!
-//! NEE is one light sample (power-proportional alias table, uniform on the triangle) with one
-//! shadow ray; [`Estimator::Ris`] draws K candidates, resamples one by RIS (target: luminance
-//! of the unshadowed contribution) and traces one shadow ray. Outputs: `direct` = emission
-//! seen + reflected direct light, `indirect` = one-bounce indirect light, linear HDR. Emitters
-//! are two-sided; shading uses the geometric normal.
+//! NEE is one light sample (power-proportional alias table over emissive triangles, the
+//! environment and punctual lights: see [`crate::lights`]) with one shadow ray (to the light
+//! point, or to infinity for the environment and directional lights); [`Estimator::Ris`] draws
+//! K candidates, resamples one by RIS (target: luminance of the unshadowed contribution) and
+//! traces one shadow ray. Outputs: `direct` = emission seen (the environment where a camera ray
+//! escapes) + reflected direct light, `indirect` = one-bounce indirect light (a GI ray that
+//! escapes adds nothing: the environment it sees is direct light at the primary vertex,
+//! estimated by NEE there), linear HDR. Emitters are two-sided; shading uses the geometric
+//! normal.
 //!
 //! A later pass composes [`library`] + its own kernel module and binds [`SharedGroups`]
 //! (render buffers at group 0, BVH at 1, lights at 2) before its own groups.
@@ -184,7 +188,6 @@ pub fn library() -> Vec<WgslModule> {
     let mut m = trace::modules(1);
     m.extend(lights::modules(2));
     m.extend([
-        WgslModule::new("rng", &[], reservoir::rng::WGSL),
         WgslModule::new("reservoir", &["rng"], reservoir::wgsl()),
         WgslModule::new("workgroup", &[], workgroup_size_wgsl()),
         WgslModule::new("render-constants", &[], constants_wgsl()),

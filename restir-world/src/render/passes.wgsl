@@ -40,13 +40,14 @@ fn render_gi(id: Invocation) {
     render_secondary[i] = render_surface(ray.dir, trace_closest(ray));
 }
 
-// Direct light at the primary vertex: emission seen + NEE.
+// Direct light at the primary vertex: emission seen + NEE (a camera ray that missed sees the
+// environment, stored as the vertex's emission by render_surface).
 @compute @workgroup_size(WORKGROUP_SIZE)
 fn render_shade_direct(id: Invocation) {
     let i = item_index(id);
     if i >= render_params.pixel_count { return; }
     let g = render_gbuffer[i];
-    var c = vec3<f32>(0.0);
+    var c = g.emission;
     if g.prim != BVH_NO_HIT {
         var rng = render_rng(i, RENDER_PASS_DIRECT);
         c = g.emission + render_nee(g, &rng);

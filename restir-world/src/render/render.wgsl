@@ -67,6 +67,8 @@ fn render_surface(dir: vec3<f32>, hit: Hit) -> GVertex {
     var v: GVertex;
     v.prim = hit.prim;
     if hit.prim == BVH_NO_HIT {
+        // The ray escaped: it sees the environment.
+        v.emission = lights_env_radiance(dir);
         return v;
     }
     let tri = bvh_triangles[hit.prim];
@@ -90,8 +92,14 @@ fn render_offset(p: vec3<f32>, n: vec3<f32>) -> vec3<f32> {
     return p + n * (RENDER_RAY_EPS * scale);
 }
 
-// Unshadowed reflected radiance integrand in area measure (no pdf): BRDF * Le * G.
+// Unshadowed reflected radiance integrand in the sample's measure (no pdf): BRDF * Le * G for
+// a triangle point (area), BRDF * I * falloff * cos / d^2 for a point or spot light (discrete),
+// BRDF * L (or E) * cos for a direction at infinity (solid angle, or discrete for a directional
+// light). Twin: lights::Lights::contribution.
 fn render_light_contribution(p: vec3<f32>, n: vec3<f32>, albedo: vec3<f32>, s: LightSample) -> vec3<f32> {
+    if s.kind != LIGHTS_KIND_TRIANGLE {
+        return render_other_light_contribution(p, n, albedo, s);
+    }
     let to_light = s.position - p;
     let d2 = dot(to_light, to_light);
     if d2 <= 0.0 {
@@ -104,6 +112,28 @@ fn render_light_contribution(p: vec3<f32>, n: vec3<f32>, albedo: vec3<f32>, s: L
         return vec3<f32>(0.0);
     }
     return albedo * SAMPLING_INV_PI * s.emission * (cos_x * cos_l / d2);
+}
+
+fn render_other_light_contribution(p: vec3<f32>, n: vec3<f32>, albedo: vec3<f32>, s: LightSample) -> vec3<f32> {
+    if lights_at_infinity(s.kind) {
+        let cos_x = dot(n, s.position);
+        if cos_x <= 0.0 {
+            return vec3<f32>(0.0);
+        }
+        return albedo * SAMPLING_INV_PI * s.emission * cos_x;
+    }
+    let to_light = s.position - p;
+    let d2 = dot(to_light, to_light);
+    if d2 <= 0.0 {
+        return vec3<f32>(0.0);
+    }
+    let d = sqrt(d2);
+    let cos_x = dot(n, to_light) / d;
+    if cos_x <= 0.0 {
+        return vec3<f32>(0.0);
+    }
+    let falloff = lights_point_falloff(s.light, -to_light / d, d2);
+    return albedo * SAMPLING_INV_PI * s.emission * (cos_x * falloff / d2);
 }
 
 // What ray offsets at p are relative to: the point's largest coordinate (float precision
@@ -129,14 +159,28 @@ fn render_visible(p: vec3<f32>, n: vec3<f32>, q: vec3<f32>) -> bool {
     return !trace_any(ray);
 }
 
+// Whether light sample s is unoccluded from the surface point p (normal n): the segment to its
+// point, or a ray to infinity along its direction.
+fn render_visible_sample(p: vec3<f32>, n: vec3<f32>, s: LightSample) -> bool {
+    if !lights_at_infinity(s.kind) {
+        return render_visible(p, n, s.position);
+    }
+    var ray: Ray;
+    ray.origin = render_offset(p, n);
+    ray.tmin = 0.0;
+    ray.dir = s.position;
+    ray.tmax = RENDER_T_MAX;
+    return !trace_any(ray);
+}
+
 // Reflected direct light at (p, n, albedo) from one light sample with a shadow ray.
 fn render_nee_one(p: vec3<f32>, n: vec3<f32>, albedo: vec3<f32>, rng: ptr<function, u32>) -> vec3<f32> {
-    let s = lights_sample(render_rand4(rng));
+    let s = lights_sample(render_rand4(rng), rng);
     if s.pdf_area <= 0.0 {
         return vec3<f32>(0.0);
     }
     let f = render_light_contribution(p, n, albedo, s);
-    if all(f == vec3<f32>(0.0)) || !render_visible(p, n, s.position) {
+    if all(f == vec3<f32>(0.0)) || !render_visible_sample(p, n, s) {
         return vec3<f32>(0.0);
     }
     return f / s.pdf_area;
@@ -160,7 +204,7 @@ fn render_ris_lights(p: vec3<f32>, n: vec3<f32>, albedo: vec3<f32>, candidates: 
     var out: RisLightSample;
     out.p_hat = 0.0;
     for (var k = 0u; k < candidates; k++) {
-        let s = lights_sample(render_rand4(rng));
+        let s = lights_sample(render_rand4(rng), rng);
         let u = rng_next_f32(rng);
         var w = 0.0;
         var p_hat = 0.0;
@@ -183,7 +227,7 @@ fn render_ris_lights(p: vec3<f32>, n: vec3<f32>, albedo: vec3<f32>, candidates: 
 fn render_nee_ris(p: vec3<f32>, n: vec3<f32>, albedo: vec3<f32>, candidates: u32,
                   rng: ptr<function, u32>) -> vec3<f32> {
     let ris = render_ris_lights(p, n, albedo, candidates, rng);
-    if ris.reservoir.ucw <= 0.0 || !render_visible(p, n, ris.light.position) {
+    if ris.reservoir.ucw <= 0.0 || !render_visible_sample(p, n, ris.light) {
         return vec3<f32>(0.0);
     }
     return render_light_contribution(p, n, albedo, ris.light) * ris.reservoir.ucw;

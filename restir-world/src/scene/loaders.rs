@@ -577,14 +577,6 @@ pub fn load_gltf(path: &Path, warnings: &mut Vec<String>) -> Result<Scene, Scene
         ));
     }
     scene.camera = scene.cameras.first().map(|c| c.camera);
-    if !scene.lights.is_empty() {
-        warnings.push(format!(
-            "{}: {} punctual lights (KHR_lights_punctual) parsed but not rendered: the \
-             renderers sample emissive triangles only",
-            path.display(),
-            scene.lights.len()
-        ));
-    }
     Ok(scene)
 }
 

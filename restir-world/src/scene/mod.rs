@@ -13,6 +13,7 @@
 
 mod add_lights;
 pub mod builtin;
+pub mod environment;
 mod framing;
 mod loaders;
 
@@ -21,6 +22,7 @@ pub use builtin::{
     BUILTIN_NAMES, BuiltinOptions, builtin, colonnade, cornell, furnace, furnace_sphere,
     many_lights,
 };
+pub use environment::Environment;
 pub use framing::DEFAULT_VFOV_DEG;
 pub use loaders::{
     DEFAULT_ALBEDO, ExtensionPolicy, Loaded, extension_policy, load, load_gltf, load_obj,
@@ -243,8 +245,8 @@ pub enum PunctualKind {
     Directional,
 }
 
-/// A punctual light from a scene file (glTF `KHR_lights_punctual`), in world space. Parsed and
-/// validated; the renderers do not sample it yet (they sample emissive triangles).
+/// A punctual light from a scene file (glTF `KHR_lights_punctual`), in world space, parsed and
+/// validated; every renderer samples it (`lights`: one entry of the power-proportional table).
 #[derive(Debug, Clone, PartialEq)]
 pub struct PunctualLight {
     /// The node's name, else the light's, else `light N`.
@@ -313,8 +315,11 @@ pub struct Scene {
     /// All cameras of a scene file, in file order (depth-first over the default scene's
     /// nodes); empty for the built-in scenes.
     pub cameras: Vec<NamedCamera>,
-    /// Punctual lights of a scene file (parsed, not rendered yet: see [`PunctualLight`]).
+    /// Punctual lights of a scene file, sampled by every renderer with the emissive triangles
+    /// (see `lights`).
     pub lights: Vec<PunctualLight>,
+    /// Light from infinity seen by rays that miss the scene (`None`: black).
+    pub environment: Option<Environment>,
 }
 
 /// What [`Scene::sanitize`] dropped or repaired. All counts are zero for a clean scene.

@@ -21,5 +21,6 @@ fn wr_generate(id: Invocation) {
     out.light_position = chosen.position;
     out.light_normal = chosen.normal;
     out.light_emission = chosen.emission;
+    out.light_kind = chosen.kind | (chosen.light << 2u);
     wr_out[i] = out;
 }
