@@ -492,13 +492,14 @@ impl Lights {
         a
     }
 
-    /// Twin of `render_light_contribution`: the unshadowed reflected radiance at x (normal n,
-    /// albedo a) from sample `s`, in the sample's measure (no pdf).
-    pub fn contribution(&self, x: Vec3, n: Vec3, a: Vec3, s: &LightSample) -> Vec3 {
+    /// Twin of `render_light_contribution`: the unshadowed reflected radiance at x (geometric
+    /// normal n: the light must be on its side; shading normal ns: the cosine; albedo a) from
+    /// sample `s`, in the sample's measure (no pdf).
+    pub fn contribution(&self, x: Vec3, n: Vec3, ns: Vec3, a: Vec3, s: &LightSample) -> Vec3 {
         let brdf = a * std::f32::consts::FRAC_1_PI;
         if at_infinity(s.kind) {
-            let cos_x = n.dot(s.position);
-            return if cos_x > 0.0 {
+            let cos_x = ns.dot(s.position);
+            return if cos_x > 0.0 && n.dot(s.position) > 0.0 {
                 brdf * s.emission * cos_x
             } else {
                 Vec3::ZERO
@@ -510,8 +511,8 @@ impl Lights {
             return Vec3::ZERO;
         }
         let d = d2.sqrt();
-        let cos_x = n.dot(to) / d;
-        if cos_x <= 0.0 {
+        let cos_x = ns.dot(to) / d;
+        if cos_x <= 0.0 || n.dot(to) <= 0.0 {
             return Vec3::ZERO;
         }
         if s.kind == KIND_POINT {

@@ -23,8 +23,11 @@
 //! In the furnace (closed box, albedo rho, emission Le everywhere) this gives:
 //! direct = Le + rho Le, indirect = rho^2 Le, exactly in expectation.
 //!
-//! Surfaces are two-sided (see [`crate::scene`]); shading uses the geometric normal (per-vertex
-//! normals are not used yet). Ray origins are offset along the normal by 1e-5 of the scene's
+//! Surfaces are two-sided (see [`crate::scene`]). Shading uses the interpolated vertex normals
+//! where a triangle has them (turned to the side of the geometric normal): the cosine of the
+//! BRDF and the GI ray's cosine distribution; the geometric normal keeps the ray offsets and
+//! which side a light must be on (a light behind the geometric surface contributes nothing; a
+//! GI direction below it ends the path). Ray origins are offset along the normal by 1e-5 of the scene's
 //! extent; shadow rays stop 1e-4 short of the light point (relative).
 
 use std::sync::atomic::{AtomicU32, Ordering};
@@ -88,6 +91,37 @@ fn u4(rng: &mut Rng) -> [f32; 4] {
 struct Hit {
     t: f32,
     triangle: usize,
+}
+
+/// Barycentric coordinates (of vertices 1 and 2) of the point x on the triangle v.
+fn barycentrics(v: [Vec3; 3], x: Vec3) -> Vec2 {
+    let (e1, e2, p) = (v[1] - v[0], v[2] - v[0], x - v[0]);
+    let (d00, d01, d11) = (e1.dot(e1), e1.dot(e2), e2.dot(e2));
+    let (d20, d21) = (p.dot(e1), p.dot(e2));
+    let denom = d00 * d11 - d01 * d01;
+    Vec2::new(d11 * d20 - d01 * d21, d00 * d21 - d01 * d20) / denom
+}
+
+/// A surface point: position, geometric normal facing the incoming ray (offsets, light
+/// sidedness), shading normal, albedo, emission.
+struct Surface {
+    x: Vec3,
+    n: Vec3,
+    ns: Vec3,
+    albedo: Vec3,
+    emission: Vec3,
+}
+
+/// Twin of `render_shading_normal`: the interpolated vertex normals at barycentrics b,
+/// normalized and turned to the side of the geometric normal n (n when they cancel out).
+fn shading_normal(vn: [Vec3; 3], b: Vec2, n: Vec3) -> Vec3 {
+    let raw = (1.0 - b.x - b.y) * vn[0] + b.x * vn[1] + b.y * vn[2];
+    let l2 = raw.length_squared();
+    if l2.is_nan() || l2 <= 1e-30 {
+        return n;
+    }
+    let ns = raw / l2.sqrt();
+    if ns.dot(n) < 0.0 { -ns } else { ns }
 }
 
 /// Most memory the CPU reference may use for its images (larger sizes are refused before any
@@ -178,19 +212,12 @@ impl ReferenceRenderer {
     /// Unshadowed reflected radiance at x (normal n, albedo a) from light sample `u` (and, for
     /// an environment sample, two more uniforms from `rng`), and the sample; None when the
     /// sample cannot contribute.
-    fn light_term(
-        &self,
-        x: Vec3,
-        n: Vec3,
-        a: Vec3,
-        u: [f32; 4],
-        rng: &mut Rng,
-    ) -> Option<(Vec3, LightSample)> {
+    fn light_term(&self, v: &Surface, u: [f32; 4], rng: &mut Rng) -> Option<(Vec3, LightSample)> {
         let s = self.lights.sample(u, rng)?;
         if s.pdf_area <= 0.0 {
             return None;
         }
-        let f = self.lights.contribution(x, n, a, &s);
+        let f = self.lights.contribution(v.x, v.n, v.ns, v.albedo, &s);
         (f != Vec3::ZERO).then_some((f, s))
     }
 
@@ -206,15 +233,16 @@ impl ReferenceRenderer {
         d > 0.0 && self.unoccluded(o, to / d, d * (1.0 - 1e-4))
     }
 
-    /// One light estimate of the reflected radiance at x.
-    fn estimate(&self, method: Estimator, x: Vec3, n: Vec3, a: Vec3, rng: &mut Rng) -> Vec3 {
+    /// One light estimate of the reflected radiance at surface point v.
+    fn estimate(&self, method: Estimator, v: &Surface, rng: &mut Rng) -> Vec3 {
+        let (x, n) = (v.x, v.n);
         if self.lights.is_empty() {
             return Vec3::ZERO;
         }
         match method {
             Estimator::Nee => {
                 let u = u4(rng);
-                match self.light_term(x, n, a, u, rng) {
+                match self.light_term(v, u, rng) {
                     Some((f, s)) if self.visible(x, n, &s) => f / s.pdf_area,
                     _ => Vec3::ZERO,
                 }
@@ -225,7 +253,7 @@ impl ReferenceRenderer {
                 let mut chosen: Option<(Vec3, LightSample, f32)> = None;
                 for _ in 0..k {
                     let u = u4(rng);
-                    let term = self.light_term(x, n, a, u, rng);
+                    let term = self.light_term(v, u, rng);
                     let pick = rng.next_f32();
                     if let Some((f, s)) = term {
                         let p_hat = luminance(f.to_array());
@@ -248,20 +276,26 @@ impl ReferenceRenderer {
         }
     }
 
-    /// Surface data at a hit: position, normal facing against `dir`, albedo, emission.
-    fn surface(&self, origin: Vec3, dir: Vec3, h: &Hit) -> (Vec3, Vec3, Vec3, Vec3) {
+    /// The surface at a hit of the ray (origin, dir).
+    fn surface(&self, origin: Vec3, dir: Vec3, h: &Hit) -> Surface {
         let t = &self.scene.triangles[h.triangle];
         let m = self.scene.materials[t.material as usize];
         let mut n = t.cross().normalize();
         if n.dot(dir) > 0.0 {
             n = -n;
         }
-        (
-            origin + dir * h.t,
+        let x = origin + dir * h.t;
+        let ns = match t.n {
+            Some(vn) => shading_normal(vn, barycentrics(t.v, x), n),
+            None => n,
+        };
+        Surface {
+            x,
             n,
-            Vec3::from(m.albedo),
-            Vec3::from(m.emission),
-        )
+            ns,
+            albedo: Vec3::from(m.albedo),
+            emission: Vec3::from(m.emission),
+        }
     }
 
     /// (direct, indirect) of one sample.
@@ -277,16 +311,20 @@ impl ReferenceRenderer {
         let dir = cam.ray_dir(px, jitter);
         let Some(h1) = self.closest(eye, dir) else {
             // The camera ray escaped: it sees the environment.
-            return (self.lights.env_radiance(dir.normalize()), Vec3::ZERO);
+            return (self.lights.env_radiance(dir), Vec3::ZERO);
         };
-        let (x1, n1, a1, le1) = self.surface(eye, dir, &h1);
-        let direct = le1 + self.estimate(method, x1, n1, a1, rng);
-        let wi = sampling::cosine_hemisphere(n1, Vec2::new(rng.next_f32(), rng.next_f32()));
-        let o1 = x1 + n1 * self.eps;
+        let v1 = self.surface(eye, dir, &h1);
+        let direct = v1.emission + self.estimate(method, &v1, rng);
+        let wi = sampling::cosine_hemisphere(v1.ns, Vec2::new(rng.next_f32(), rng.next_f32()));
+        if wi.dot(v1.n) <= 0.0 && v1.ns != v1.n {
+            // Cosine-distributed about the shading normal but below the surface: no path.
+            return (direct, Vec3::ZERO);
+        }
+        let o1 = v1.x + v1.n * self.eps;
         let indirect = match self.closest(o1, wi) {
             Some(h2) => {
-                let (x2, n2, a2, _) = self.surface(o1, wi, &h2);
-                a1 * self.estimate(method, x2, n2, a2, rng)
+                let v2 = self.surface(o1, wi, &h2);
+                v1.albedo * self.estimate(method, &v2, rng)
             }
             None => Vec3::ZERO,
         };

@@ -276,3 +276,42 @@ fn world_restir_reuses_sky_samples_without_bias() {
         "a planted 5% darkening went unnoticed"
     );
 }
+
+/// Shading normals: the floor's vertex normals all tilted by alpha = 60 degrees. Under a
+/// constant sky L the shading cosine is integrated over the sky above the geometric surface
+/// (lights behind the geometric normal do not count), which is the sky-view factor of a tilted
+/// plane: direct = rho L (1 + cos alpha) / 2 = 0.75 rho L; GI rays are cosine-distributed about
+/// the shading normal, those below the geometric surface end, the others escape: indirect = 0.
+/// GPU (nee, ris) and CPU (nee), tolerance 1.5% (as the flat sky furnace, whose samples these
+/// are). Measured: GPU nee +0.16%, ris -0.12%, CPU nee -0.32%. Negative control: the
+/// flat-shaded value rho L (33% off).
+#[test]
+fn tilted_shading_normals_see_the_sky_view_factor() {
+    let sky = [1.0, 0.8, 0.6];
+    let (mut s, cam) = floor(Environment::constant(sky).unwrap(), 48);
+    let alpha = 60f32.to_radians();
+    let tilted = Vec3::new(alpha.sin(), alpha.cos(), 0.0);
+    for t in &mut s.triangles {
+        t.n = Some([tilted; 3]);
+    }
+    let want = sky.map(|c| f64::from(RHO * c) * (1.0 + f64::from(alpha.cos())) / 2.0);
+    let flat = sky.map(|c| f64::from(RHO * c));
+    for (name, [direct, indirect]) in [
+        ("gpu nee", gpu_render(&s, &cam, Estimator::Nee, 128)),
+        (
+            "gpu ris",
+            gpu_render(&s, &cam, Estimator::Ris { candidates: 8 }, 128),
+        ),
+        ("cpu nee", cpu_render(&s, &cam, Estimator::Nee, 64)),
+    ] {
+        let d = means(&direct);
+        let err = rel_err(d, want);
+        eprintln!("tilted normals {name}: direct {d:?} (want {want:?}) rel err {err:.4}");
+        assert!(err < 0.015, "{name}: {d:?} vs {want:?}");
+        assert!(
+            indirect.iter().flatten().all(|&v| v == 0.0),
+            "{name}: indirect"
+        );
+        assert!(rel_err(d, flat) >= 0.015, "{name}: flat shading passed");
+    }
+}

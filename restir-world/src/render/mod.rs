@@ -21,8 +21,12 @@
 //! traces one shadow ray. Outputs: `direct` = emission seen (the environment where a camera ray
 //! escapes) + reflected direct light, `indirect` = one-bounce indirect light (a GI ray that
 //! escapes adds nothing: the environment it sees is direct light at the primary vertex,
-//! estimated by NEE there), linear HDR. Emitters are two-sided; shading uses the geometric
-//! normal.
+//! estimated by NEE there), linear HDR. Emitters are two-sided. Shading uses the interpolated
+//! vertex normals where a triangle has them ([`TriangleAttributes`], `GVertex::shading`): the
+//! BRDF's cosine and the GI ray's cosine distribution; the geometric normal keeps the ray
+//! offsets and the sidedness of lights (a light behind the geometric surface contributes
+//! nothing; a GI direction below it ends the path). Scenes without vertex normals (the
+//! built-in ones) take the flat path unchanged.
 //!
 //! A later pass composes [`library`] + its own kernel module and binds [`SharedGroups`]
 //! (render buffers at group 0, BVH at 1, lights at 2) before its own groups.
@@ -107,6 +111,62 @@ pub struct GVertex {
     pub _pad1: u32,
     pub emission: [f32; 3],
     pub _pad2: u32,
+    /// Unit shading normal (interpolated vertex normals, on the side of `normal`; equal to
+    /// `normal` for a triangle without them).
+    pub shading: [f32; 3],
+    pub _pad3: u32,
+}
+
+/// [`TriangleAttributes::flags`]: the vertex normals are set.
+pub const ATTR_NORMALS: u32 = 1;
+/// [`TriangleAttributes::flags`]: the texture coordinates are set.
+pub const ATTR_UV: u32 = 2;
+
+/// WGSL `TriangleAttributes`: per scene triangle (indexed by `Scene::triangles` order), its
+/// vertex normals and texture coordinates, each present when its flag is set.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct TriangleAttributes {
+    pub n0: [f32; 3],
+    pub flags: u32,
+    pub n1: [f32; 3],
+    pub _pad0: u32,
+    pub n2: [f32; 3],
+    pub _pad1: u32,
+    pub uv0: [f32; 2],
+    pub uv1: [f32; 2],
+    pub uv2: [f32; 2],
+    pub _pad2: [u32; 2],
+}
+
+/// The per-triangle attributes of `scene`, or `None` when no triangle has vertex normals or
+/// texture coordinates (the renderer then binds one dummy entry and shades flat).
+pub fn triangle_attributes(scene: &Scene) -> Option<Vec<TriangleAttributes>> {
+    if scene
+        .triangles
+        .iter()
+        .all(|t| t.n.is_none() && t.uv.is_none())
+    {
+        return None;
+    }
+    Some(
+        scene
+            .triangles
+            .iter()
+            .map(|t| {
+                let mut a: TriangleAttributes = bytemuck::Zeroable::zeroed();
+                if let Some(n) = t.n {
+                    a.flags |= ATTR_NORMALS;
+                    (a.n0, a.n1, a.n2) = (n[0].to_array(), n[1].to_array(), n[2].to_array());
+                }
+                if let Some(uv) = t.uv {
+                    a.flags |= ATTR_UV;
+                    (a.uv0, a.uv1, a.uv2) = (uv[0].to_array(), uv[1].to_array(), uv[2].to_array());
+                }
+                a
+            })
+            .collect(),
+    )
 }
 
 /// WGSL `RenderParams`.
@@ -120,7 +180,9 @@ pub struct RenderParams {
     pub candidates: u32,
     /// Smallest scale ray offsets are relative to: [`ray_offset_floor`] of the scene.
     pub ray_offset_floor: f32,
-    pub _pad0: u32,
+    /// 1 when `render_attributes` holds the scene's [`TriangleAttributes`], 0 when it is a
+    /// dummy (flat shading, no texture coordinates).
+    pub attributes: u32,
     pub _pad1: u32,
     pub _pad2: u32,
 }
@@ -174,6 +236,11 @@ pub fn bindings() -> BindingSet {
         .buffer("render_accum_direct", image, rw)
         .buffer("render_accum_indirect", image, rw)
         .buffer("render_materials", "array<Material>", Access::Read)
+        .buffer(
+            "render_attributes",
+            "array<TriangleAttributes>",
+            Access::Read,
+        )
 }
 
 /// The bind groups every pixel pass binds first: render buffers, BVH, lights.
@@ -241,10 +308,17 @@ pub(crate) struct RenderBuffers {
     pub accum_indirect: wgpu::Buffer,
     /// Per material.
     pub materials: wgpu::Buffer,
+    /// Per scene triangle (one dummy entry when `RenderParams::attributes` is 0).
+    pub attributes: wgpu::Buffer,
 }
 
 impl RenderBuffers {
-    fn new(device: &wgpu::Device, params: &RenderParams, materials: &[Material]) -> Self {
+    fn new(
+        device: &wgpu::Device,
+        params: &RenderParams,
+        materials: &[Material],
+        attributes: &[TriangleAttributes],
+    ) -> Self {
         let px = u64::from(params.pixel_count);
         let vertices = px * size_of::<GVertex>() as u64;
         let zeroed = |label: &str, size: u64| buffers::storage_zeroed(device, label, size);
@@ -263,11 +337,12 @@ impl RenderBuffers {
             accum_direct: zeroed("render_accum_direct", px * 16),
             accum_indirect: zeroed("render_accum_indirect", px * 16),
             materials: buffers::storage_from(device, "render_materials", materials),
+            attributes: buffers::storage_from(device, "render_attributes", attributes),
         }
     }
 
     /// The buffers of [`bindings`], by name.
-    fn resources(&self) -> [(&'static str, Resource<'_>); 9] {
+    fn resources(&self) -> [(&'static str, Resource<'_>); 10] {
         [
             ("render_params", (&self.params).into()),
             ("render_state", (&self.state).into()),
@@ -278,6 +353,7 @@ impl RenderBuffers {
             ("render_accum_direct", (&self.accum_direct).into()),
             ("render_accum_indirect", (&self.accum_indirect).into()),
             ("render_materials", (&self.materials).into()),
+            ("render_attributes", (&self.attributes).into()),
         ]
     }
 }
@@ -379,6 +455,13 @@ impl Renderer {
         let bvh = Bvh::build(scene)?;
         let gpu_bvh = bvh.upload(ctx)?;
         let gpu_lights = GpuLights::new(&ctx.device, &Lights::build(scene))?;
+        let attributes = triangle_attributes(scene);
+        if let Some(a) = &attributes {
+            ctx.check_binding_size(
+                "the triangle attributes",
+                (a.len() * size_of::<TriangleAttributes>()) as u64,
+            )?;
+        }
         let device = &ctx.device;
         let params = RenderParams {
             camera: CameraGpu::new(camera),
@@ -390,7 +473,7 @@ impl Renderer {
             },
             candidates,
             ray_offset_floor: ray_offset_floor(scene),
-            _pad0: 0,
+            attributes: u32::from(attributes.is_some()),
             _pad1: 0,
             _pad2: 0,
         };
@@ -399,7 +482,13 @@ impl Renderer {
             true => &no_material[..],
             false => &scene.materials,
         };
-        let buffers = RenderBuffers::new(device, &params, materials);
+        let dummy = [bytemuck::Zeroable::zeroed()];
+        let buffers = RenderBuffers::new(
+            device,
+            &params,
+            materials,
+            attributes.as_deref().unwrap_or(&dummy),
+        );
         let layouts = sets.map(|s| s.layout(device));
         let groups = [
             layouts[0].bind(device, buffers.resources())?,

@@ -14,7 +14,9 @@ struct Material {
 }
 
 // A surface vertex: `prim` is the BVH-order triangle (BVH_NO_HIT: the ray escaped), `normal`
-// the unit geometric normal turned towards the incoming ray.
+// the unit geometric normal turned towards the incoming ray (ray offsets, light sidedness),
+// `shading` the unit shading normal (interpolated vertex normals turned to the side of
+// `normal`; `normal` itself for a triangle without them).
 struct GVertex {
     position: vec3<f32>,
     prim: u32,
@@ -24,6 +26,23 @@ struct GVertex {
     _pad1: u32,
     emission: vec3<f32>,
     _pad2: u32,
+    shading: vec3<f32>,
+    _pad3: u32,
+}
+
+// Per scene triangle: vertex normals (flags & 1) and texture coordinates (flags & 2)
+// (Rust: render::TriangleAttributes).
+struct TriangleAttributes {
+    n0: vec3<f32>,
+    flags: u32,
+    n1: vec3<f32>,
+    _pad0: u32,
+    n2: vec3<f32>,
+    _pad1: u32,
+    uv0: vec2<f32>,
+    uv1: vec2<f32>,
+    uv2: vec2<f32>,
+    _pad2: vec2<u32>,
 }
 
 // Per-render constants. method: RENDER_METHOD_NEE or RENDER_METHOD_RIS.
@@ -34,7 +53,7 @@ struct RenderParams {
     method: u32,
     candidates: u32,
     ray_offset_floor: f32,
-    _pad0: u32,
+    attributes: u32,
     _pad1: u32,
     _pad2: u32,
 }
@@ -80,10 +99,29 @@ fn render_surface(dir: vec3<f32>, hit: Hit) -> GVertex {
         n = -n;
     }
     v.normal = n;
+    v.shading = n;
     let m = render_materials[tri.material];
     v.albedo = m.albedo;
     v.emission = m.emission;
+    if render_params.attributes != 0u {
+        let a = render_attributes[tri.index];
+        if (a.flags & 1u) != 0u {
+            v.shading = render_shading_normal(a, hit, n);
+        }
+    }
     return v;
+}
+
+// Interpolated vertex normals at the hit, normalized and turned to the side of the geometric
+// normal n (n when they cancel out). Twin: reference::shading_normal.
+fn render_shading_normal(a: TriangleAttributes, hit: Hit, n: vec3<f32>) -> vec3<f32> {
+    let raw = (1.0 - hit.b1 - hit.b2) * a.n0 + hit.b1 * a.n1 + hit.b2 * a.n2;
+    let l2 = dot(raw, raw);
+    if !(l2 > 1e-30) {
+        return n;
+    }
+    let ns = raw * inverseSqrt(l2);
+    return select(ns, -ns, dot(ns, n) < 0.0);
 }
 
 // Origin offset off a surface along its normal, scaled with the coordinates' magnitude.
@@ -96,9 +134,11 @@ fn render_offset(p: vec3<f32>, n: vec3<f32>) -> vec3<f32> {
 // a triangle point (area), BRDF * I * falloff * cos / d^2 for a point or spot light (discrete),
 // BRDF * L (or E) * cos for a direction at infinity (solid angle, or discrete for a directional
 // light). Twin: lights::Lights::contribution.
-fn render_light_contribution(p: vec3<f32>, n: vec3<f32>, albedo: vec3<f32>, s: LightSample) -> vec3<f32> {
+// n is the geometric normal (the light must be on its side), ns the shading normal (the
+// cosine).
+fn render_light_contribution(p: vec3<f32>, n: vec3<f32>, ns: vec3<f32>, albedo: vec3<f32>, s: LightSample) -> vec3<f32> {
     if s.kind != LIGHTS_KIND_TRIANGLE {
-        return render_other_light_contribution(p, n, albedo, s);
+        return render_other_light_contribution(p, n, ns, albedo, s);
     }
     let to_light = s.position - p;
     let d2 = dot(to_light, to_light);
@@ -106,18 +146,18 @@ fn render_light_contribution(p: vec3<f32>, n: vec3<f32>, albedo: vec3<f32>, s: L
         return vec3<f32>(0.0);
     }
     let wi = to_light * inverseSqrt(d2);
-    let cos_x = dot(n, wi);
+    let cos_x = dot(ns, wi);
     let cos_l = abs(dot(s.normal, wi));
-    if cos_x <= 0.0 {
+    if cos_x <= 0.0 || dot(n, wi) <= 0.0 {
         return vec3<f32>(0.0);
     }
     return albedo * SAMPLING_INV_PI * s.emission * (cos_x * cos_l / d2);
 }
 
-fn render_other_light_contribution(p: vec3<f32>, n: vec3<f32>, albedo: vec3<f32>, s: LightSample) -> vec3<f32> {
+fn render_other_light_contribution(p: vec3<f32>, n: vec3<f32>, ns: vec3<f32>, albedo: vec3<f32>, s: LightSample) -> vec3<f32> {
     if lights_at_infinity(s.kind) {
-        let cos_x = dot(n, s.position);
-        if cos_x <= 0.0 {
+        let cos_x = dot(ns, s.position);
+        if cos_x <= 0.0 || dot(n, s.position) <= 0.0 {
             return vec3<f32>(0.0);
         }
         return albedo * SAMPLING_INV_PI * s.emission * cos_x;
@@ -128,8 +168,8 @@ fn render_other_light_contribution(p: vec3<f32>, n: vec3<f32>, albedo: vec3<f32>
         return vec3<f32>(0.0);
     }
     let d = sqrt(d2);
-    let cos_x = dot(n, to_light) / d;
-    if cos_x <= 0.0 {
+    let cos_x = dot(ns, to_light) / d;
+    if cos_x <= 0.0 || dot(n, to_light) <= 0.0 {
         return vec3<f32>(0.0);
     }
     let falloff = lights_point_falloff(s.light, -to_light / d, d2);
@@ -174,12 +214,12 @@ fn render_visible_sample(p: vec3<f32>, n: vec3<f32>, s: LightSample) -> bool {
 }
 
 // Reflected direct light at (p, n, albedo) from one light sample with a shadow ray.
-fn render_nee_one(p: vec3<f32>, n: vec3<f32>, albedo: vec3<f32>, rng: ptr<function, u32>) -> vec3<f32> {
+fn render_nee_one(p: vec3<f32>, n: vec3<f32>, ns: vec3<f32>, albedo: vec3<f32>, rng: ptr<function, u32>) -> vec3<f32> {
     let s = lights_sample(render_rand4(rng), rng);
     if s.pdf_area <= 0.0 {
         return vec3<f32>(0.0);
     }
-    let f = render_light_contribution(p, n, albedo, s);
+    let f = render_light_contribution(p, n, ns, albedo, s);
     if all(f == vec3<f32>(0.0)) || !render_visible_sample(p, n, s) {
         return vec3<f32>(0.0);
     }
@@ -196,7 +236,7 @@ struct RisLightSample {
     p_hat: f32,
 }
 
-fn render_ris_lights(p: vec3<f32>, n: vec3<f32>, albedo: vec3<f32>, candidates: u32,
+fn render_ris_lights(p: vec3<f32>, n: vec3<f32>, ns: vec3<f32>, albedo: vec3<f32>, candidates: u32,
                      rng: ptr<function, u32>) -> RisLightSample {
     // A whole local reservoir (not a pointer into a struct field): naga's SPIR-V backend
     // rejects the latter as a function argument.
@@ -209,7 +249,7 @@ fn render_ris_lights(p: vec3<f32>, n: vec3<f32>, albedo: vec3<f32>, candidates: 
         var w = 0.0;
         var p_hat = 0.0;
         if s.pdf_area > 0.0 {
-            p_hat = render_luminance(render_light_contribution(p, n, albedo, s));
+            p_hat = render_luminance(render_light_contribution(p, n, ns, albedo, s));
             w = p_hat / s.pdf_area;
         }
         if reservoir_update(&r, w, u) {
@@ -224,13 +264,13 @@ fn render_ris_lights(p: vec3<f32>, n: vec3<f32>, albedo: vec3<f32>, candidates: 
 
 // Reflected direct light by RIS over `candidates` light samples, then one shadow ray for the
 // selected sample.
-fn render_nee_ris(p: vec3<f32>, n: vec3<f32>, albedo: vec3<f32>, candidates: u32,
+fn render_nee_ris(p: vec3<f32>, n: vec3<f32>, ns: vec3<f32>, albedo: vec3<f32>, candidates: u32,
                   rng: ptr<function, u32>) -> vec3<f32> {
-    let ris = render_ris_lights(p, n, albedo, candidates, rng);
+    let ris = render_ris_lights(p, n, ns, albedo, candidates, rng);
     if ris.reservoir.ucw <= 0.0 || !render_visible_sample(p, n, ris.light) {
         return vec3<f32>(0.0);
     }
-    return render_light_contribution(p, n, albedo, ris.light) * ris.reservoir.ucw;
+    return render_light_contribution(p, n, ns, albedo, ris.light) * ris.reservoir.ucw;
 }
 
 // Reflected direct light at a surface vertex with the render's method.
@@ -239,7 +279,7 @@ fn render_nee(v: GVertex, rng: ptr<function, u32>) -> vec3<f32> {
         return vec3<f32>(0.0);
     }
     if render_params.method == RENDER_METHOD_RIS {
-        return render_nee_ris(v.position, v.normal, v.albedo, render_params.candidates, rng);
+        return render_nee_ris(v.position, v.normal, v.shading, v.albedo, render_params.candidates, rng);
     }
-    return render_nee_one(v.position, v.normal, v.albedo, rng);
+    return render_nee_one(v.position, v.normal, v.shading, v.albedo, rng);
 }

@@ -538,6 +538,10 @@ pub fn load_gltf(path: &Path, warnings: &mut Vec<String>) -> Result<Scene, Scene
                 ));
             }
             let normals = normals.filter(|n| n.len() == positions.len());
+            let uvs: Option<Vec<glam::Vec2>> = reader
+                .read_tex_coords(0)
+                .map(|tc| tc.into_f32().map(glam::Vec2::from).collect())
+                .filter(|uv: &Vec<glam::Vec2>| uv.len() == positions.len());
             let mat = prim.material();
             let key = mat.index();
             let material = match material_of.get(&key) {
@@ -565,6 +569,7 @@ pub fn load_gltf(path: &Path, warnings: &mut Vec<String>) -> Result<Scene, Scene
                 scene.triangles.push(Triangle {
                     v: idx.map(|i| positions[i]),
                     n: normals.as_ref().map(|n| idx.map(|i| n[i])),
+                    uv: uvs.as_ref().map(|uv| idx.map(|i| uv[i])),
                     material,
                 });
             }
@@ -816,6 +821,7 @@ pub fn load_obj(path: &Path, warnings: &mut Vec<String>) -> Result<Scene, SceneE
             scene.triangles.push(Triangle {
                 v: [a, b, c],
                 n,
+                uv: None,
                 material,
             });
         }

@@ -98,11 +98,16 @@ impl Material {
     }
 }
 
-/// One triangle: positions, optional per-vertex shading normals, and its material index.
+/// One triangle: positions, optional per-vertex shading normals and texture coordinates, and
+/// its material index.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Triangle {
     pub v: [Vec3; 3],
+    /// Per-vertex normals (any length but 0; the renderers interpolate and normalize them for
+    /// shading).
     pub n: Option<[Vec3; 3]>,
+    /// Per-vertex texture coordinates (glTF `TEXCOORD_0`).
+    pub uv: Option<[glam::Vec2; 3]>,
     pub material: u32,
 }
 
@@ -112,6 +117,7 @@ impl Triangle {
         Self {
             v,
             n: None,
+            uv: None,
             material,
         }
     }
@@ -415,6 +421,12 @@ impl Scene {
                 && !n.iter().all(|n| n.is_finite() && n.length_squared() > 0.0)
             {
                 t.n = None;
+                report.bad_normals += 1;
+            }
+            if let Some(uv) = &t.uv
+                && !uv.iter().all(|uv| uv.is_finite())
+            {
+                t.uv = None;
                 report.bad_normals += 1;
             }
             true

@@ -11,9 +11,9 @@ fn wr_generate(id: Invocation) {
         return;
     }
     let v = render_secondary[i];
-    out.vertex_normal = v.normal;
+    out.vertex_normal = v.shading;
     var rng = wr_rng(i, WR_PASS_GENERATE, 0u);
-    let ris = render_ris_lights(v.position, v.normal, v.albedo, wr_params.candidates, &rng);
+    let ris = render_ris_lights(v.position, v.normal, v.shading, v.albedo, wr_params.candidates, &rng);
     let chosen = ris.light;
     let packed = reservoir_pack(ris.reservoir);
     out.ucw = packed.ucw;

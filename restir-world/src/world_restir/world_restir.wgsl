@@ -77,7 +77,7 @@ fn wr_light_sample(r: WrReservoir) -> LightSample {
 
 // Unshadowed reflected radiance of the light sample at vertex v (the target's integrand).
 fn wr_contribution(v: GVertex, s: LightSample) -> vec3<f32> {
-    return render_light_contribution(v.position, v.normal, v.albedo, s);
+    return render_light_contribution(v.position, v.normal, v.shading, v.albedo, s);
 }
 
 // Target function p_hat: luminance of the unshadowed reflected radiance.
