@@ -48,6 +48,18 @@ pub struct SceneArgs {
     /// Scale of --env's (or --sky's) radiance.
     #[arg(long, value_name = "K")]
     pub env_intensity: Option<f32>,
+    /// Scale of the scene file's punctual lights (KHR_lights_punctual intensities are candela
+    /// and lux, rendered 1:1 as radiometric units: a 6830 lux sun outshines a surface of
+    /// radiance 20 by far); 0 turns them off.
+    #[arg(long, value_name = "K", default_value_t = 1.0, value_parser = non_negative_f32)]
+    pub punctual_intensity: f32,
+}
+
+fn non_negative_f32(s: &str) -> Result<f32, String> {
+    match s.trim().parse::<f32>() {
+        Ok(v) if v.is_finite() && v >= 0.0 => Ok(v),
+        _ => Err(format!("expected a finite number >= 0, got {s:?}")),
+    }
 }
 
 /// Parses `--sky`: `R,G,B` or one value, each finite and >= 0.
@@ -115,6 +127,12 @@ pub fn load(name: &str, opts: &SceneArgs, size: Option<(u32, u32)>) -> Result<Sc
 
 /// Applies `--camera`, `--add-lights`, `--sky` and `--env`.
 fn prepare(s: &mut Scene, opts: &SceneArgs) -> Result<()> {
+    if opts.punctual_intensity == 0.0 {
+        s.lights.clear();
+    }
+    for l in &mut s.lights {
+        l.intensity *= opts.punctual_intensity;
+    }
     let k = opts.env_intensity;
     if let Some(k) = k {
         scene::environment::check_intensity("--env-intensity", k)?;

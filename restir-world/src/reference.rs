@@ -213,9 +213,18 @@ impl ReferenceRenderer {
     /// an environment sample, two more uniforms from `rng`), and the sample; None when the
     /// sample cannot contribute.
     fn light_term(&self, v: &Surface, u: [f32; 4], rng: &mut Rng) -> Option<(Vec3, LightSample)> {
-        let s = self.lights.sample(u, rng)?;
+        let mut s = self.lights.sample(u, rng)?;
         if s.pdf_area <= 0.0 {
             return None;
+        }
+        if s.kind == lights::KIND_TRIANGLE {
+            // A textured emitter's radiance at the sampled point (twin of render_light_sample).
+            let t = &self.scene.triangles[s.triangle as usize];
+            let m = self.scene.materials[t.material as usize];
+            if let (Some(uv), true) = (t.uv, m.emissive_texture != 0) {
+                let b = sampling::triangle_uniform(Vec2::new(u[2], u[3]));
+                s.emission *= self.texture(m.emissive_texture, uv, b);
+            }
         }
         let f = self.lights.contribution(v.x, v.n, v.ns, v.albedo, &s);
         (f != Vec3::ZERO).then_some((f, s))
@@ -285,17 +294,34 @@ impl ReferenceRenderer {
             n = -n;
         }
         let x = origin + dir * h.t;
+        let b = barycentrics(t.v, x);
         let ns = match t.n {
-            Some(vn) => shading_normal(vn, barycentrics(t.v, x), n),
+            Some(vn) => shading_normal(vn, b, n),
             None => n,
         };
+        let (mut albedo, mut emission) = (Vec3::from(m.albedo), Vec3::from(m.emission));
+        if let Some(uv) = t.uv {
+            if m.base_color_texture != 0 {
+                albedo *= self.texture(m.base_color_texture, uv, b);
+            }
+            if m.emissive_texture != 0 {
+                emission *= self.texture(m.emissive_texture, uv, b);
+            }
+        }
         Surface {
             x,
             n,
             ns,
-            albedo: Vec3::from(m.albedo),
-            emission: Vec3::from(m.emission),
+            albedo,
+            emission,
         }
+    }
+
+    /// Texture ref `index - 1` at the texture coordinates of barycentrics b (of vertices 1, 2).
+    fn texture(&self, index: u32, uv: [Vec2; 3], b: Vec2) -> Vec3 {
+        let at = (1.0 - b.x - b.y) * uv[0] + b.x * uv[1] + b.y * uv[2];
+        let r = &self.scene.texture_refs[index as usize - 1];
+        Vec3::from(r.sample(&self.scene.textures, at))
     }
 
     /// (direct, indirect) of one sample.

@@ -267,7 +267,7 @@ fn render_structs_match_wgsl_layout() {
         restir_world::scene::Material,
         src,
         "Material",
-        [albedo, _pad0, emission, _pad1]
+        [albedo, base_color_texture, emission, emissive_texture]
     );
 }
 

@@ -130,7 +130,9 @@ pub struct TriangleAttributes {
     pub n0: [f32; 3],
     pub flags: u32,
     pub n1: [f32; 3],
-    pub _pad0: u32,
+    /// The triangle's material's emissive texture (1 + texture ref, 0: none), for light
+    /// samples, which know their triangle but not its material.
+    pub emissive_texture: u32,
     pub n2: [f32; 3],
     pub _pad1: u32,
     pub uv0: [f32; 2],
@@ -159,6 +161,10 @@ pub fn triangle_attributes(scene: &Scene) -> Option<Vec<TriangleAttributes>> {
                     a.flags |= ATTR_NORMALS;
                     (a.n0, a.n1, a.n2) = (n[0].to_array(), n[1].to_array(), n[2].to_array());
                 }
+                a.emissive_texture = scene
+                    .materials
+                    .get(t.material as usize)
+                    .map_or(0, |m| m.emissive_texture);
                 if let Some(uv) = t.uv {
                     a.flags |= ATTR_UV;
                     (a.uv0, a.uv1, a.uv2) = (uv[0].to_array(), uv[1].to_array(), uv[2].to_array());
@@ -167,6 +173,50 @@ pub fn triangle_attributes(scene: &Scene) -> Option<Vec<TriangleAttributes>> {
             })
             .collect(),
     )
+}
+
+/// WGSL `TextureGpu`: one texture ref (a material's use of a texture): its affine map of the
+/// texture coordinates, its texels' offset in `render_texels`, size, and wrap modes
+/// (s | t << 8, [`crate::scene::Wrap`] values).
+#[repr(C)]
+#[derive(Debug, Clone, Copy, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct TextureGpu {
+    pub row0: [f32; 4],
+    pub row1: [f32; 4],
+    pub offset: u32,
+    pub width: u32,
+    pub height: u32,
+    pub wrap: u32,
+}
+
+/// The scene's texture refs and all texels (RGBA8 sRGB, one u32 each, textures one after the
+/// other); one dummy each when the scene has none.
+pub fn texture_tables(scene: &Scene) -> (Vec<TextureGpu>, Vec<u32>) {
+    let mut texels = Vec::new();
+    let mut offsets = Vec::new();
+    for t in &scene.textures {
+        offsets.push(texels.len() as u32);
+        texels.extend(t.texels.iter().map(|p| u32::from_le_bytes(*p)));
+    }
+    let refs: Vec<TextureGpu> = scene
+        .texture_refs
+        .iter()
+        .map(|r| {
+            let t = &scene.textures[r.texture as usize];
+            TextureGpu {
+                row0: [r.row0[0], r.row0[1], r.row0[2], 0.0],
+                row1: [r.row1[0], r.row1[1], r.row1[2], 0.0],
+                offset: offsets[r.texture as usize],
+                width: t.width,
+                height: t.height,
+                wrap: r.wrap[0] as u32 | (r.wrap[1] as u32) << 8,
+            }
+        })
+        .collect();
+    match (refs.is_empty(), texels.is_empty()) {
+        (false, false) => (refs, texels),
+        _ => (vec![bytemuck::Zeroable::zeroed()], vec![0]),
+    }
 }
 
 /// WGSL `RenderParams`.
@@ -241,6 +291,8 @@ pub fn bindings() -> BindingSet {
             "array<TriangleAttributes>",
             Access::Read,
         )
+        .buffer("render_textures", "array<TextureGpu>", Access::Read)
+        .buffer("render_texels", "array<u32>", Access::Read)
 }
 
 /// The bind groups every pixel pass binds first: render buffers, BVH, lights.
@@ -310,6 +362,9 @@ pub(crate) struct RenderBuffers {
     pub materials: wgpu::Buffer,
     /// Per scene triangle (one dummy entry when `RenderParams::attributes` is 0).
     pub attributes: wgpu::Buffer,
+    /// Per texture ref, and all texels.
+    pub textures: wgpu::Buffer,
+    pub texels: wgpu::Buffer,
 }
 
 impl RenderBuffers {
@@ -318,6 +373,7 @@ impl RenderBuffers {
         params: &RenderParams,
         materials: &[Material],
         attributes: &[TriangleAttributes],
+        textures: &(Vec<TextureGpu>, Vec<u32>),
     ) -> Self {
         let px = u64::from(params.pixel_count);
         let vertices = px * size_of::<GVertex>() as u64;
@@ -338,11 +394,13 @@ impl RenderBuffers {
             accum_indirect: zeroed("render_accum_indirect", px * 16),
             materials: buffers::storage_from(device, "render_materials", materials),
             attributes: buffers::storage_from(device, "render_attributes", attributes),
+            textures: buffers::storage_from(device, "render_textures", &textures.0),
+            texels: buffers::storage_from(device, "render_texels", &textures.1),
         }
     }
 
     /// The buffers of [`bindings`], by name.
-    fn resources(&self) -> [(&'static str, Resource<'_>); 10] {
+    fn resources(&self) -> [(&'static str, Resource<'_>); 12] {
         [
             ("render_params", (&self.params).into()),
             ("render_state", (&self.state).into()),
@@ -354,6 +412,8 @@ impl RenderBuffers {
             ("render_accum_indirect", (&self.accum_indirect).into()),
             ("render_materials", (&self.materials).into()),
             ("render_attributes", (&self.attributes).into()),
+            ("render_textures", (&self.textures).into()),
+            ("render_texels", (&self.texels).into()),
         ]
     }
 }
@@ -462,6 +522,11 @@ impl Renderer {
                 (a.len() * size_of::<TriangleAttributes>()) as u64,
             )?;
         }
+        let textures = texture_tables(scene);
+        ctx.check_binding_size(
+            "the scene's textures (resize them)",
+            (textures.1.len() * 4) as u64,
+        )?;
         let device = &ctx.device;
         let params = RenderParams {
             camera: CameraGpu::new(camera),
@@ -488,6 +553,7 @@ impl Renderer {
             &params,
             materials,
             attributes.as_deref().unwrap_or(&dummy),
+            &textures,
         );
         let layouts = sets.map(|s| s.layout(device));
         let groups = [

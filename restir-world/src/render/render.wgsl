@@ -5,12 +5,24 @@
 // bindings header `render::bindings_wgsl` (render_params, render_materials, ...).
 // CPU reference with the same estimators: restir_world::reference.
 
-// Material, as restir_world::scene::Material.
+// Material, as restir_world::scene::Material. The textures are 1 + a texture ref index (0:
+// none); the texture multiplies the factor.
 struct Material {
     albedo: vec3<f32>,
-    _pad0: f32,
+    base_color_texture: u32,
     emission: vec3<f32>,
-    _pad1: f32,
+    emissive_texture: u32,
+}
+
+// A material's use of a texture (Rust: render::TextureGpu): (s, t) = (row0, row1) . (u, v, 1);
+// texels at render_texels[offset ..], wrap = s | t << 8 (0 repeat, 1 mirrored, 2 clamp).
+struct TextureGpu {
+    row0: vec4<f32>,
+    row1: vec4<f32>,
+    offset: u32,
+    width: u32,
+    height: u32,
+    wrap: u32,
 }
 
 // A surface vertex: `prim` is the BVH-order triangle (BVH_NO_HIT: the ray escaped), `normal`
@@ -36,7 +48,7 @@ struct TriangleAttributes {
     n0: vec3<f32>,
     flags: u32,
     n1: vec3<f32>,
-    _pad0: u32,
+    emissive_texture: u32,
     n2: vec3<f32>,
     _pad1: u32,
     uv0: vec2<f32>,
@@ -108,8 +120,88 @@ fn render_surface(dir: vec3<f32>, hit: Hit) -> GVertex {
         if (a.flags & 1u) != 0u {
             v.shading = render_shading_normal(a, hit, n);
         }
+        if (a.flags & 2u) != 0u {
+            let uv = render_uv(a, hit.b1, hit.b2);
+            if m.base_color_texture != 0u {
+                v.albedo *= render_texture(m.base_color_texture, uv);
+            }
+            if m.emissive_texture != 0u {
+                v.emission *= render_texture(m.emissive_texture, uv);
+            }
+        }
     }
     return v;
+}
+
+// Texture coordinates at barycentrics (b1, b2) (of vertices 1 and 2).
+fn render_uv(a: TriangleAttributes, b1: f32, b2: f32) -> vec2<f32> {
+    return (1.0 - b1 - b2) * a.uv0 + b1 * a.uv1 + b2 * a.uv2;
+}
+
+// An integer texel coordinate wrapped into 0..n (twin: scene::texture::wrap).
+fn render_wrap(i: i32, n: i32, mode: u32) -> i32 {
+    if mode == 0u {
+        return ((i % n) + n) % n;
+    }
+    if mode == 2u {
+        return clamp(i, 0, n - 1);
+    }
+    let m = 2 * n;
+    let p = ((i % m) + m) % m;
+    return select(p, m - 1 - p, p >= n);
+}
+
+fn render_srgb_to_linear(c: u32) -> f32 {
+    let x = f32(c) / 255.0;
+    if x <= 0.04045 {
+        return x / 12.92;
+    }
+    return pow((x + 0.055) / 1.055, 2.4);
+}
+
+fn render_texel(t: TextureGpu, i: i32, j: i32) -> vec3<f32> {
+    let x = u32(render_wrap(i, i32(t.width), t.wrap & 255u));
+    let y = u32(render_wrap(j, i32(t.height), t.wrap >> 8u));
+    let p = render_texels[t.offset + y * t.width + x];
+    return vec3<f32>(render_srgb_to_linear(p & 255u), render_srgb_to_linear((p >> 8u) & 255u),
+                     render_srgb_to_linear((p >> 16u) & 255u));
+}
+
+// Bilinear linear-RGB sample of texture ref `index - 1` at vertex coordinates uv (twin:
+// scene::TextureRef::sample).
+fn render_texture(index: u32, uv: vec2<f32>) -> vec3<f32> {
+    let t = render_textures[index - 1u];
+    let st = clamp(vec2<f32>(t.row0.x * uv.x + t.row0.y * uv.y + t.row0.z,
+                             t.row1.x * uv.x + t.row1.y * uv.y + t.row1.z),
+                   vec2<f32>(-1e6), vec2<f32>(1e6));
+    let x = st.x * f32(t.width) - 0.5;
+    let y = st.y * f32(t.height) - 0.5;
+    let x0 = floor(x);
+    let y0 = floor(y);
+    let fx = x - x0;
+    let fy = y - y0;
+    let i = i32(x0);
+    let j = i32(y0);
+    let a = render_texel(t, i, j);
+    let b = render_texel(t, i + 1, j);
+    let c = render_texel(t, i, j + 1);
+    let d = render_texel(t, i + 1, j + 1);
+    let top = a + (b - a) * fx;
+    let bottom = c + (d - c) * fx;
+    return top + (bottom - top) * fy;
+}
+
+// lights_sample with the emission of a textured emissive triangle at the sampled point.
+fn render_light_sample(u: vec4<f32>, rng: ptr<function, u32>) -> LightSample {
+    var s = lights_sample(u, rng);
+    if render_params.attributes != 0u && s.kind == LIGHTS_KIND_TRIANGLE && s.pdf_area > 0.0 {
+        let a = render_attributes[s.triangle];
+        if a.emissive_texture != 0u && (a.flags & 2u) != 0u {
+            let b = sampling_triangle_uniform(u.zw);
+            s.emission *= render_texture(a.emissive_texture, render_uv(a, b.x, b.y));
+        }
+    }
+    return s;
 }
 
 // Interpolated vertex normals at the hit, normalized and turned to the side of the geometric
@@ -215,7 +307,7 @@ fn render_visible_sample(p: vec3<f32>, n: vec3<f32>, s: LightSample) -> bool {
 
 // Reflected direct light at (p, n, albedo) from one light sample with a shadow ray.
 fn render_nee_one(p: vec3<f32>, n: vec3<f32>, ns: vec3<f32>, albedo: vec3<f32>, rng: ptr<function, u32>) -> vec3<f32> {
-    let s = lights_sample(render_rand4(rng), rng);
+    let s = render_light_sample(render_rand4(rng), rng);
     if s.pdf_area <= 0.0 {
         return vec3<f32>(0.0);
     }
@@ -244,7 +336,7 @@ fn render_ris_lights(p: vec3<f32>, n: vec3<f32>, ns: vec3<f32>, albedo: vec3<f32
     var out: RisLightSample;
     out.p_hat = 0.0;
     for (var k = 0u; k < candidates; k++) {
-        let s = lights_sample(render_rand4(rng), rng);
+        let s = render_light_sample(render_rand4(rng), rng);
         let u = rng_next_f32(rng);
         var w = 0.0;
         var p_hat = 0.0;
