@@ -4,7 +4,7 @@
 //! transforms, the first perspective camera met, baseColorFactor as albedo, emissiveFactor x
 //! KHR_materials_emissive_strength as emission. Buffers: the GLB binary chunk, base64 data
 //! URIs and files relative to the .gltf. OBJ: Kd as albedo, Ke as emission, polygons
-//! triangulated. glTF base colour and emissive textures (PNG) are read into
+//! triangulated. glTF base colour and emissive textures (PNG, JPEG) are read into
 //! `Scene::textures`/`texture_refs` with their sampler's wrap modes and `KHR_texture_transform`;
 //! a texture without a `source` (DDS only), a missing image file, an undecodable image, a data:
 //! uri or a `TEXCOORD_1` texture keeps its material's factor with a warning, never an error.
@@ -267,7 +267,9 @@ pub fn extension_policy(name: &str) -> ExtensionPolicy {
         "EXT_mesh_gpu_instancing" => Refused("GPU-instanced meshes"),
         "AMD_split_roughnessMetallic" => Ignored("split roughness/metallic textures"),
         "MSFT_texture_dds" | "KHR_texture_basisu" | "EXT_texture_webp" | "EXT_texture_avif" => {
-            Ignored("alternative texture image formats (only PNG is read: the factors are used)")
+            Ignored(
+                "alternative texture image formats (only PNG and JPEG are read: the factors are used)",
+            )
         }
         "KHR_materials_variants" => Ignored("material variants (the default is used)"),
         "KHR_materials_unlit" => Ignored("unlit materials (shaded as diffuse)"),

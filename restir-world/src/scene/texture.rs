@@ -123,8 +123,8 @@ impl TextureRef {
     }
 }
 
-/// Decodes an image file's bytes (PNG) into a texture; `None` with the decoder's message when it
-/// cannot be read or is larger than [`MAX_TEXTURE_SIDE`].
+/// Decodes an image file's bytes (PNG or JPEG) into a texture; an error with the decoder's
+/// message when it cannot be read or is larger than [`MAX_TEXTURE_SIDE`].
 pub fn decode(name: &str, bytes: &[u8]) -> Result<Texture, String> {
     let reader = image::ImageReader::new(std::io::Cursor::new(bytes))
         .with_guessed_format()
@@ -194,5 +194,22 @@ mod tests {
     #[test]
     fn undecodable_bytes_are_an_error() {
         assert!(decode("x.png", b"not a png").is_err());
+    }
+
+    #[test]
+    fn png_and_jpeg_decode() {
+        let img = image::RgbImage::from_pixel(8, 4, image::Rgb([200, 100, 50]));
+        for format in [image::ImageFormat::Png, image::ImageFormat::Jpeg] {
+            let mut bytes = std::io::Cursor::new(Vec::new());
+            img.write_to(&mut bytes, format).unwrap();
+            let t = decode("t", bytes.get_ref()).unwrap();
+            assert_eq!((t.width, t.height), (8, 4));
+            let p = t.texels[9];
+            assert!(
+                (i32::from(p[0]) - 200).abs() <= 3 && (i32::from(p[2]) - 50).abs() <= 3,
+                "{format:?}: {p:?}"
+            );
+            assert_eq!(p[3], 255);
+        }
     }
 }
