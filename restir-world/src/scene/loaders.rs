@@ -61,6 +61,15 @@ pub fn load(path: &Path) -> Result<Loaded, SceneError> {
             });
         }
     };
+    let halvings = texture::fit(&mut scene.textures, texture::MAX_TEXEL_BYTES);
+    if halvings > 0 {
+        warnings.push(format!(
+            "{}: the textures need more than {} MiB (the renderers keep them in one storage \
+             binding): the largest were halved {halvings} times to fit",
+            path.display(),
+            texture::MAX_TEXEL_BYTES >> 20
+        ));
+    }
     let report = scene.sanitize(&path.display().to_string())?;
     Ok(Loaded {
         scene,

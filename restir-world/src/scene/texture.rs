@@ -42,6 +42,78 @@ pub struct TextureRef {
 /// Largest side of a texture in texels.
 pub const MAX_TEXTURE_SIDE: u32 = 16_384;
 
+/// Most bytes all of a scene's texels may take (4 a texel): the renderers keep them in one
+/// storage binding, and 128 MiB is lavapipe's limit and WebGPU's default. The loader halves the
+/// largest textures until a scene fits ([`fit`]).
+pub const MAX_TEXEL_BYTES: u64 = 128 << 20;
+
+/// sRGB encoding of a linear value in [0, 1] to 8 bits (inverse of [`srgb_to_linear`]).
+pub fn linear_to_srgb(c: f32) -> u8 {
+    let c = c.clamp(0.0, 1.0);
+    let s = if c <= 0.003_130_8 {
+        c * 12.92
+    } else {
+        1.055 * c.powf(1.0 / 2.4) - 0.055
+    };
+    (s * 255.0).round() as u8
+}
+
+impl Texture {
+    /// The texture at half the size (rounded up) a side, each texel the mean of its 2 x 2
+    /// block in linear light (alpha averaged as is).
+    pub fn halved(&self) -> Texture {
+        let (w, h) = (self.width.div_ceil(2), self.height.div_ceil(2));
+        let mut texels = Vec::with_capacity((w * h) as usize);
+        for y in 0..h {
+            for x in 0..w {
+                let mut sum = [0.0f32; 4];
+                let mut n = 0.0;
+                for (dx, dy) in [(0, 0), (1, 0), (0, 1), (1, 1)] {
+                    let (sx, sy) = (2 * x + dx, 2 * y + dy);
+                    if sx < self.width && sy < self.height {
+                        let p = self.texels[(sy * self.width + sx) as usize];
+                        for c in 0..3 {
+                            sum[c] += srgb_to_linear(p[c]);
+                        }
+                        sum[3] += f32::from(p[3]);
+                        n += 1.0;
+                    }
+                }
+                texels.push([
+                    linear_to_srgb(sum[0] / n),
+                    linear_to_srgb(sum[1] / n),
+                    linear_to_srgb(sum[2] / n),
+                    (sum[3] / n).round() as u8,
+                ]);
+            }
+        }
+        Texture {
+            name: self.name.clone(),
+            width: w,
+            height: h,
+            texels,
+        }
+    }
+}
+
+/// Halves the largest textures until all texels take at most `budget` bytes; returns how many
+/// halvings it made (0: they fitted).
+pub fn fit(textures: &mut [Texture], budget: u64) -> usize {
+    let bytes = |t: &[Texture]| t.iter().map(|t| 4 * t.texels.len() as u64).sum::<u64>();
+    let mut halvings = 0;
+    while bytes(textures) > budget {
+        let Some(largest) = (0..textures.len())
+            .filter(|&i| textures[i].texels.len() > 1)
+            .max_by_key(|&i| textures[i].texels.len())
+        else {
+            break;
+        };
+        textures[largest] = textures[largest].halved();
+        halvings += 1;
+    }
+    halvings
+}
+
 /// sRGB transfer function decoded to linear (IEC 61966-2-1), for one 8-bit channel.
 pub fn srgb_to_linear(c: u8) -> f32 {
     let c = f32::from(c) / 255.0;
@@ -189,6 +261,37 @@ mod tests {
             moved.sample(std::slice::from_ref(&t), Vec2::new(0.25, 0.5))[0],
             1.0
         );
+    }
+
+    #[test]
+    fn textures_are_halved_until_they_fit() {
+        let t = |w: u32, h: u32, v: u8| Texture {
+            name: "t".into(),
+            width: w,
+            height: h,
+            texels: vec![[v, v, v, 255]; (w * h) as usize],
+        };
+        let mut ts = vec![t(64, 64, 188), t(16, 8, 10), t(3, 3, 0)];
+        // 64x64 -> 32x32 -> 16x16: 4 x (256 + 128 + 9) bytes fit in 1600.
+        assert_eq!(fit(&mut ts, 1600), 2);
+        assert_eq!((ts[0].width, ts[0].height), (16, 16));
+        assert_eq!(
+            ts[0].texels[5],
+            [188, 188, 188, 255],
+            "a flat texture stays flat"
+        );
+        assert_eq!(fit(&mut ts, 1 << 20), 0);
+        let odd = t(3, 3, 0).halved();
+        assert_eq!((odd.width, odd.height), (2, 2));
+        // Black and white average to linear 0.5 (sRGB 188), not to sRGB 128.
+        let bw = Texture {
+            texels: vec![[0, 0, 0, 255], [255, 255, 255, 255]],
+            ..t(2, 1, 0)
+        };
+        assert_eq!(bw.halved().texels[0][0], 188);
+        for v in [0u8, 1, 50, 128, 188, 254, 255] {
+            assert_eq!(linear_to_srgb(srgb_to_linear(v)), v);
+        }
     }
 
     #[test]
