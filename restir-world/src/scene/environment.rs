@@ -309,6 +309,12 @@ mod tests {
         let env = Environment::load(&q, 2.0).unwrap();
         assert_eq!((env.width, env.height), (4, 2));
         assert_eq!(env.pixels[3], [6.0, 2.0, 4.0]);
+        // And a Radiance HDR (RGBE: 8-bit mantissas, so values like these are exact).
+        let h = dir.join("ok.hdr");
+        img.save(&h).unwrap();
+        let env = Environment::load(&h, 1.0).unwrap();
+        assert_eq!((env.width, env.height), (4, 2));
+        assert_eq!(env.pixels[3], [3.0, 1.0, 2.0]);
         std::fs::remove_dir_all(&dir).ok();
     }
 }
