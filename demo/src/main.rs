@@ -336,9 +336,22 @@ fn info(scene_name: Option<&str>, opts: &scenes::SceneArgs) -> Result<()> {
         }
         for l in &s.lights {
             println!(
-                "punctual light {:?} (not rendered): {:?} at {} towards {}, colour {:?}, \
+                "punctual light {:?}: {:?} at {} towards {}, colour {:?}, \
                  intensity {}",
                 l.name, l.kind, l.position, l.direction, l.color, l.intensity
+            );
+        }
+        if let Some(env) = &s.environment {
+            println!(
+                "environment: {} ({}x{} pixels)",
+                env.source, env.width, env.height
+            );
+        }
+        if !s.textures.is_empty() {
+            println!(
+                "textures: {} images, {} uses",
+                s.textures.len(),
+                s.texture_refs.len()
             );
         }
         match s.camera {

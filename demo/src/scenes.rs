@@ -37,6 +37,45 @@ pub struct SceneArgs {
     /// bounding-box diagonal).
     #[arg(long, value_parser = positive_f32)]
     pub add_light_size: Option<f32>,
+    /// A constant sky of linear radiance R,G,B (or one value for grey) lighting the scene from
+    /// every direction rays escape in.
+    #[arg(long, value_name = "R,G,B", conflicts_with = "env")]
+    pub sky: Option<String>,
+    /// An equirectangular environment map (.hdr or .exr, linear radiance; the map's top row
+    /// is straight up, its left edge looks along -z) lighting the scene.
+    #[arg(long, value_name = "FILE.hdr|FILE.exr")]
+    pub env: Option<std::path::PathBuf>,
+    /// Scale of --env's (or --sky's) radiance.
+    #[arg(long, value_name = "K")]
+    pub env_intensity: Option<f32>,
+    /// Scale of the scene file's punctual lights (KHR_lights_punctual intensities are candela
+    /// and lux, rendered 1:1 as radiometric units: a 6830 lux sun outshines a surface of
+    /// radiance 20 by far); 0 turns them off.
+    #[arg(long, value_name = "K", default_value_t = 1.0, value_parser = non_negative_f32)]
+    pub punctual_intensity: f32,
+}
+
+fn non_negative_f32(s: &str) -> Result<f32, String> {
+    match s.trim().parse::<f32>() {
+        Ok(v) if v.is_finite() && v >= 0.0 => Ok(v),
+        _ => Err(format!("expected a finite number >= 0, got {s:?}")),
+    }
+}
+
+/// Parses `--sky`: `R,G,B` or one value, each finite and >= 0.
+pub fn parse_sky(s: &str) -> Result<[f32; 3]> {
+    let v: Vec<f32> = s
+        .split(',')
+        .map(|x| x.trim().parse::<f32>())
+        .collect::<Result<_, _>>()
+        .map_err(|_| anyhow::anyhow!("--sky {s:?}: expected R,G,B or one number"))?;
+    let rgb = match v[..] {
+        [g] => [g; 3],
+        [r, g, b] => [r, g, b],
+        _ => anyhow::bail!("--sky {s:?}: expected R,G,B or one number"),
+    };
+    scene::Environment::constant(rgb).with_context(|| format!("--sky {s}"))?;
+    Ok(rgb)
 }
 
 fn positive_f32(s: &str) -> Result<f32, String> {
@@ -86,8 +125,30 @@ pub fn load(name: &str, opts: &SceneArgs, size: Option<(u32, u32)>) -> Result<Sc
     Ok(s)
 }
 
-/// Applies `--camera` and `--add-lights`.
+/// Applies `--camera`, `--add-lights`, `--sky` and `--env`.
 fn prepare(s: &mut Scene, opts: &SceneArgs) -> Result<()> {
+    if opts.punctual_intensity == 0.0 {
+        s.lights.clear();
+    }
+    for l in &mut s.lights {
+        l.intensity *= opts.punctual_intensity;
+    }
+    let k = opts.env_intensity;
+    if let Some(k) = k {
+        scene::environment::check_intensity("--env-intensity", k)?;
+    }
+    if let Some(sky) = &opts.sky {
+        let rgb = parse_sky(sky)?.map(|c| c * k.unwrap_or(1.0));
+        s.environment =
+            Some(scene::Environment::constant(rgb).with_context(|| format!("--sky {sky}"))?);
+    } else if let Some(path) = &opts.env {
+        s.environment = Some(
+            scene::Environment::load(path, k.unwrap_or(1.0))
+                .with_context(|| format!("--env {}", path.display()))?,
+        );
+    } else if k.is_some() {
+        anyhow::bail!("--env-intensity scales --env or --sky: give one of them");
+    }
     if let Some(c) = &opts.camera {
         s.select_camera(c)
             .with_context(|| format!("--camera {c}"))?;
@@ -115,7 +176,10 @@ fn prepare(s: &mut Scene, opts: &SceneArgs) -> Result<()> {
 
 /// A scene without emitters renders black: say so.
 pub fn warn_if_dark(name: &str, s: &Scene) {
-    if s.emissive_triangles() == 0 {
-        eprintln!("warning: {name}: the scene has no lights (no material emits): it renders black");
+    if restir_world::lights::Lights::build(s).is_empty() && s.environment.is_none() {
+        eprintln!(
+            "warning: {name}: the scene has no lights (no material emits, no punctual light, \
+             no --sky or --env): it renders black"
+        );
     }
 }

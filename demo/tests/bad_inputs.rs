@@ -151,6 +151,12 @@ fn generate(dir: &Path) -> PathBuf {
         .save_with_format(dir.join("srgb.png"), image::ImageFormat::Png)
         .unwrap();
     std::fs::copy(dir.join("srgb.png"), dir.join("png_named.exr")).unwrap();
+    // A Radiance HDR header claiming a 100000 x 2 map, without pixels.
+    std::fs::write(
+        dir.join("huge.hdr"),
+        "#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n-Y 2 +X 100000\n",
+    )
+    .unwrap();
     dir.to_owned()
 }
 
@@ -565,6 +571,82 @@ fn bad_inputs_are_refused_with_their_cause_and_leave_nothing_behind() {
                 2,
                 "--add-light-size <ADD_LIGHT_SIZE>",
             )
+        },
+        // Issue 15: environment light flags.
+        Case {
+            args: [cpu("cornell"), vec!["--sky=-1,0,0".into()]].concat(),
+            ..case("sky-negative", &[], 1, "--sky -1,0,0")
+        },
+        Case {
+            args: [cpu("cornell"), vec!["--sky".into(), "nan".into()]].concat(),
+            ..case("sky-nan", &[], 1, "must be finite")
+        },
+        Case {
+            args: [cpu("cornell"), vec!["--sky".into(), "1,2".into()]].concat(),
+            ..case("sky-two-values", &[], 1, "expected R,G,B or one number")
+        },
+        Case {
+            args: [
+                cpu("cornell"),
+                vec!["--env".into(), "/nonexistent/sky.hdr".into()],
+            ]
+            .concat(),
+            ..case("env-missing", &[], 1, "/nonexistent/sky.hdr")
+        },
+        Case {
+            args: [cpu("cornell"), vec!["--env".into(), g("srgb.png")]].concat(),
+            ..case("env-not-hdr", &[], 1, ".hdr or .exr")
+        },
+        Case {
+            args: [cpu("cornell"), vec!["--env".into(), g("nan.exr")]].concat(),
+            ..case("env-nan-pixel", &[], 1, "nan.exr: pixel (0, 0)")
+        },
+        Case {
+            args: [cpu("cornell"), vec!["--env".into(), g("negative.exr")]].concat(),
+            ..case("env-negative-pixel", &[], 1, "negative.exr: pixel (0, 0)")
+        },
+        Case {
+            args: [cpu("cornell"), vec!["--env".into(), g("png_named.exr")]].concat(),
+            ..case("env-undecodable", &[], 1, "cannot decode")
+        },
+        Case {
+            args: [cpu("cornell"), vec!["--env".into(), g("huge.hdr")]].concat(),
+            ..case("env-absurd-size", &[], 1, "100000x2 pixels is outside")
+        },
+        Case {
+            args: [
+                cpu("cornell"),
+                vec![
+                    "--env".into(),
+                    g("zeros.exr"),
+                    "--env-intensity".into(),
+                    "nan".into(),
+                ],
+            ]
+            .concat(),
+            ..case(
+                "env-intensity-nan",
+                &[],
+                1,
+                "--env-intensity: intensity NaN",
+            )
+        },
+        Case {
+            args: [cpu("cornell"), vec!["--env-intensity".into(), "2".into()]].concat(),
+            ..case(
+                "env-intensity-alone",
+                &[],
+                1,
+                "--env-intensity scales --env or --sky",
+            )
+        },
+        Case {
+            args: [
+                cpu("cornell"),
+                vec!["--sky".into(), "1".into(), "--env".into(), g("zeros.exr")],
+            ]
+            .concat(),
+            ..case("sky-and-env", &[], 2, "cannot be used with")
         },
         Case {
             args: [cpu("cornell"), vec!["--add-light-power".into(), "5".into()]].concat(),

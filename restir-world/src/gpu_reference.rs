@@ -101,7 +101,8 @@ impl Fnv64 {
     }
 }
 
-/// The cache key of a reference: a hash of the scene's triangles and materials, the camera,
+/// The cache key of a reference: a hash of the scene's triangles (with their normals and
+/// texture coordinates), materials, textures, environment and punctual lights, the camera,
 /// the settings, this crate's version and the renderer's composed WGSL (so a change of the
 /// estimator's code invalidates old references even within one version; the software
 /// tracer's composition: both tracers estimate the same image).
@@ -114,9 +115,56 @@ pub fn cache_key(scene: &Scene, camera: &Camera, settings: &ReferenceSettings) -
             h.f32s(&v.to_array());
         }
         h.bytes(&t.material.to_le_bytes());
+        // Shading normals and texture coordinates change the image: hashed where present (a
+        // scene without them keeps its former key).
+        if let Some(n) = t.n {
+            h.bytes(b"n");
+            for v in n {
+                h.f32s(&v.to_array());
+            }
+        }
+        if let Some(uv) = t.uv {
+            h.bytes(b"uv");
+            for v in uv {
+                h.f32s(&v.to_array());
+            }
+        }
     }
     for m in &scene.materials {
         h.f32s(&m.albedo).f32s(&m.emission);
+        if m.base_color_texture != 0 || m.emissive_texture != 0 {
+            h.bytes(&m.base_color_texture.to_le_bytes())
+                .bytes(&m.emissive_texture.to_le_bytes());
+        }
+    }
+    for t in &scene.textures {
+        h.bytes(b"texture")
+            .bytes(&t.width.to_le_bytes())
+            .bytes(&t.height.to_le_bytes());
+        for p in &t.texels {
+            h.bytes(p);
+        }
+    }
+    for r in &scene.texture_refs {
+        h.bytes(&r.texture.to_le_bytes())
+            .bytes(&[r.wrap[0] as u8, r.wrap[1] as u8])
+            .f32s(&r.row0)
+            .f32s(&r.row1);
+    }
+    if let Some(env) = &scene.environment {
+        h.bytes(b"environment")
+            .bytes(&env.width.to_le_bytes())
+            .bytes(&env.height.to_le_bytes());
+        for p in &env.pixels {
+            h.f32s(p);
+        }
+    }
+    for l in &scene.lights {
+        h.bytes(format!("{:?}", l.kind).as_bytes())
+            .f32s(&l.position.to_array())
+            .f32s(&l.direction.to_array())
+            .f32s(&l.color)
+            .f32s(&[l.intensity, l.range.unwrap_or(0.0)]);
     }
     h.f32s(&camera.eye.to_array())
         .f32s(&camera.target.to_array())

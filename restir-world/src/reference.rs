@@ -3,25 +3,31 @@
 //! (`std::thread::scope`), accumulated in f64.
 //!
 //! Per sample of pixel p (box filter: the sub-pixel position is uniform in the pixel):
-//! 1. Primary ray from the eye; a miss contributes 0 everywhere (black background).
+//! 1. Primary ray from the eye; a miss sees the environment (black without one) in **direct**
+//!    and contributes 0 to **indirect**.
 //! 2. At the primary hit x1 (geometric normal n1 flipped towards the eye, albedo a1, emission
 //!    Le1): **direct** = Le1 (emission seen) + one light estimate at x1 (reflected direct light).
 //! 3. One cosine-weighted GI ray from x1. At its hit x2: **indirect** = a1 x (one light
 //!    estimate at x2). The cosine pdf cancels a1 cos / pi. Emission seen at x2 is *not* added
-//!    (that light is the direct light at x1, already estimated by NEE).
+//!    (that light is the direct light at x1, already estimated by NEE), and neither is the
+//!    environment seen by a GI ray that escapes (the same light, also estimated by NEE at x1).
 //! 4. **combined** = direct + indirect.
 //!
 //! A "light estimate" at x (normal n, albedo a) is, for method `Nee`, one power-proportional
-//! light sample y (see [`crate::lights`]) with a shadow ray:
-//! a/pi Le(y) cos_x cos_y / |x-y|^2 / pdf_area(y) V(x, y); for method `Ris { candidates: K }`,
+//! light sample y (see [`crate::lights`]: a triangle point, an environment direction or a
+//! punctual light) with a shadow ray: f(y) / pdf(y) V(x, y), for a triangle
+//! a/pi Le(y) cos_x cos_y / |x-y|^2 / pdf_area(y); for method `Ris { candidates: K }`,
 //! K such samples resampled by RIS with target p̂ = luminance of the unshadowed reflected
 //! radiance, then one shadow ray for the chosen one: f(y) V W, W = w_sum / (K p̂(y)).
 //!
 //! In the furnace (closed box, albedo rho, emission Le everywhere) this gives:
 //! direct = Le + rho Le, indirect = rho^2 Le, exactly in expectation.
 //!
-//! Surfaces are two-sided (see [`crate::scene`]); shading uses the geometric normal (per-vertex
-//! normals are not used yet). Ray origins are offset along the normal by 1e-5 of the scene's
+//! Surfaces are two-sided (see [`crate::scene`]). Shading uses the interpolated vertex normals
+//! where a triangle has them (turned to the side of the geometric normal): the cosine of the
+//! BRDF and the GI ray's cosine distribution; the geometric normal keeps the ray offsets and
+//! which side a light must be on (a light behind the geometric surface contributes nothing; a
+//! GI direction below it ends the path). Ray origins are offset along the normal by 1e-5 of the scene's
 //! extent; shadow rays stop 1e-4 short of the light point (relative).
 
 use std::sync::atomic::{AtomicU32, Ordering};
@@ -31,7 +37,7 @@ use obvhs::{BvhBuildParams, cwbvh::CwBvh, ray::Ray, ray::RayHit};
 use reservoir::rng::Rng;
 
 use crate::image_io::Image;
-use crate::lights::Lights;
+use crate::lights::{self, LightSample, Lights};
 use crate::sampling::{self, CameraGpu, Estimator};
 use crate::scene::{Camera, Scene, SceneError, builtin::luminance};
 
@@ -85,6 +91,37 @@ fn u4(rng: &mut Rng) -> [f32; 4] {
 struct Hit {
     t: f32,
     triangle: usize,
+}
+
+/// Barycentric coordinates (of vertices 1 and 2) of the point x on the triangle v.
+fn barycentrics(v: [Vec3; 3], x: Vec3) -> Vec2 {
+    let (e1, e2, p) = (v[1] - v[0], v[2] - v[0], x - v[0]);
+    let (d00, d01, d11) = (e1.dot(e1), e1.dot(e2), e2.dot(e2));
+    let (d20, d21) = (p.dot(e1), p.dot(e2));
+    let denom = d00 * d11 - d01 * d01;
+    Vec2::new(d11 * d20 - d01 * d21, d00 * d21 - d01 * d20) / denom
+}
+
+/// A surface point: position, geometric normal facing the incoming ray (offsets, light
+/// sidedness), shading normal, albedo, emission.
+struct Surface {
+    x: Vec3,
+    n: Vec3,
+    ns: Vec3,
+    albedo: Vec3,
+    emission: Vec3,
+}
+
+/// Twin of `render_shading_normal`: the interpolated vertex normals at barycentrics b,
+/// normalized and turned to the side of the geometric normal n (n when they cancel out).
+fn shading_normal(vn: [Vec3; 3], b: Vec2, n: Vec3) -> Vec3 {
+    let raw = (1.0 - b.x - b.y) * vn[0] + b.x * vn[1] + b.y * vn[2];
+    let l2 = raw.length_squared();
+    if l2.is_nan() || l2 <= 1e-30 {
+        return n;
+    }
+    let ns = raw / l2.sqrt();
+    if ns.dot(n) < 0.0 { -ns } else { ns }
 }
 
 /// Most memory the CPU reference may use for its images (larger sizes are refused before any
@@ -172,62 +209,74 @@ impl ReferenceRenderer {
         })
     }
 
-    /// Unshadowed reflected radiance at x (normal n, albedo a) from light sample `u`, and the
-    /// sample: (f, position, pdf_area); None when the sample cannot contribute.
-    fn light_term(&self, x: Vec3, n: Vec3, a: Vec3, u: [f32; 4]) -> Option<(Vec3, Vec3, f32)> {
-        let s = self.lights.sample(u)?;
-        let to = s.position - x;
-        let d2 = to.length_squared();
-        if d2 <= 0.0 || s.pdf_area <= 0.0 {
+    /// Unshadowed reflected radiance at x (normal n, albedo a) from light sample `u` (and, for
+    /// an environment sample, two more uniforms from `rng`), and the sample; None when the
+    /// sample cannot contribute.
+    fn light_term(&self, v: &Surface, u: [f32; 4], rng: &mut Rng) -> Option<(Vec3, LightSample)> {
+        let mut s = self.lights.sample(u, rng)?;
+        if s.pdf_area <= 0.0 {
             return None;
         }
-        let d = d2.sqrt();
-        let cos_x = n.dot(to) / d;
-        let cos_l = s.normal.dot(to).abs() / d;
-        if cos_x <= 0.0 || cos_l <= 0.0 {
-            return None;
+        if s.kind == lights::KIND_TRIANGLE {
+            // A textured emitter's radiance at the sampled point (twin of render_light_sample).
+            let t = &self.scene.triangles[s.triangle as usize];
+            let m = self.scene.materials[t.material as usize];
+            if let (Some(uv), true) = (t.uv, m.emissive_texture != 0) {
+                let b = sampling::triangle_uniform(Vec2::new(u[2], u[3]));
+                s.emission *= self.texture(m.emissive_texture, uv, b);
+            }
         }
-        let f = a * std::f32::consts::FRAC_1_PI * s.emission * (cos_x * cos_l / d2);
-        Some((f, s.position, s.pdf_area))
+        let f = self.lights.contribution(v.x, v.n, v.ns, v.albedo, &s);
+        (f != Vec3::ZERO).then_some((f, s))
     }
 
-    fn visible(&self, x: Vec3, n: Vec3, y: Vec3) -> bool {
+    /// Whether sample `s` is unoccluded from x (normal n): the segment to its point, or the ray
+    /// along its direction for lights at infinity.
+    fn visible(&self, x: Vec3, n: Vec3, s: &LightSample) -> bool {
         let o = x + n * self.eps;
-        let to = y - o;
+        if lights::at_infinity(s.kind) {
+            return self.unoccluded(o, s.position, f32::INFINITY);
+        }
+        let to = s.position - o;
         let d = to.length();
         d > 0.0 && self.unoccluded(o, to / d, d * (1.0 - 1e-4))
     }
 
-    /// One light estimate of the reflected radiance at x.
-    fn estimate(&self, method: Estimator, x: Vec3, n: Vec3, a: Vec3, rng: &mut Rng) -> Vec3 {
+    /// One light estimate of the reflected radiance at surface point v.
+    fn estimate(&self, method: Estimator, v: &Surface, rng: &mut Rng) -> Vec3 {
+        let (x, n) = (v.x, v.n);
         if self.lights.is_empty() {
             return Vec3::ZERO;
         }
         match method {
-            Estimator::Nee => match self.light_term(x, n, a, u4(rng)) {
-                Some((f, y, pdf)) if self.visible(x, n, y) => f / pdf,
-                _ => Vec3::ZERO,
-            },
+            Estimator::Nee => {
+                let u = u4(rng);
+                match self.light_term(v, u, rng) {
+                    Some((f, s)) if self.visible(x, n, &s) => f / s.pdf_area,
+                    _ => Vec3::ZERO,
+                }
+            }
             Estimator::Ris { candidates } => {
                 let k = candidates.max(1);
                 let mut w_sum = 0.0f32;
-                let mut chosen: Option<(Vec3, Vec3, f32)> = None;
+                let mut chosen: Option<(Vec3, LightSample, f32)> = None;
                 for _ in 0..k {
                     let u = u4(rng);
+                    let term = self.light_term(v, u, rng);
                     let pick = rng.next_f32();
-                    if let Some((f, y, pdf)) = self.light_term(x, n, a, u) {
+                    if let Some((f, s)) = term {
                         let p_hat = luminance(f.to_array());
-                        let w = p_hat / pdf;
+                        let w = p_hat / s.pdf_area;
                         if w > 0.0 && w.is_finite() {
                             w_sum += w;
                             if pick * w_sum < w {
-                                chosen = Some((f, y, p_hat));
+                                chosen = Some((f, s, p_hat));
                             }
                         }
                     }
                 }
                 match chosen {
-                    Some((f, y, p_hat)) if self.visible(x, n, y) => {
+                    Some((f, s, p_hat)) if self.visible(x, n, &s) => {
                         f * (w_sum / (k as f32 * p_hat))
                     }
                     _ => Vec3::ZERO,
@@ -236,20 +285,43 @@ impl ReferenceRenderer {
         }
     }
 
-    /// Surface data at a hit: position, normal facing against `dir`, albedo, emission.
-    fn surface(&self, origin: Vec3, dir: Vec3, h: &Hit) -> (Vec3, Vec3, Vec3, Vec3) {
+    /// The surface at a hit of the ray (origin, dir).
+    fn surface(&self, origin: Vec3, dir: Vec3, h: &Hit) -> Surface {
         let t = &self.scene.triangles[h.triangle];
         let m = self.scene.materials[t.material as usize];
         let mut n = t.cross().normalize();
         if n.dot(dir) > 0.0 {
             n = -n;
         }
-        (
-            origin + dir * h.t,
+        let x = origin + dir * h.t;
+        let b = barycentrics(t.v, x);
+        let ns = match t.n {
+            Some(vn) => shading_normal(vn, b, n),
+            None => n,
+        };
+        let (mut albedo, mut emission) = (Vec3::from(m.albedo), Vec3::from(m.emission));
+        if let Some(uv) = t.uv {
+            if m.base_color_texture != 0 {
+                albedo *= self.texture(m.base_color_texture, uv, b);
+            }
+            if m.emissive_texture != 0 {
+                emission *= self.texture(m.emissive_texture, uv, b);
+            }
+        }
+        Surface {
+            x,
             n,
-            Vec3::from(m.albedo),
-            Vec3::from(m.emission),
-        )
+            ns,
+            albedo,
+            emission,
+        }
+    }
+
+    /// Texture ref `index - 1` at the texture coordinates of barycentrics b (of vertices 1, 2).
+    fn texture(&self, index: u32, uv: [Vec2; 3], b: Vec2) -> Vec3 {
+        let at = (1.0 - b.x - b.y) * uv[0] + b.x * uv[1] + b.y * uv[2];
+        let r = &self.scene.texture_refs[index as usize - 1];
+        Vec3::from(r.sample(&self.scene.textures, at))
     }
 
     /// (direct, indirect) of one sample.
@@ -264,16 +336,21 @@ impl ReferenceRenderer {
         let eye = Vec3::from(cam.eye);
         let dir = cam.ray_dir(px, jitter);
         let Some(h1) = self.closest(eye, dir) else {
-            return (Vec3::ZERO, Vec3::ZERO);
+            // The camera ray escaped: it sees the environment.
+            return (self.lights.env_radiance(dir), Vec3::ZERO);
         };
-        let (x1, n1, a1, le1) = self.surface(eye, dir, &h1);
-        let direct = le1 + self.estimate(method, x1, n1, a1, rng);
-        let wi = sampling::cosine_hemisphere(n1, Vec2::new(rng.next_f32(), rng.next_f32()));
-        let o1 = x1 + n1 * self.eps;
+        let v1 = self.surface(eye, dir, &h1);
+        let direct = v1.emission + self.estimate(method, &v1, rng);
+        let wi = sampling::cosine_hemisphere(v1.ns, Vec2::new(rng.next_f32(), rng.next_f32()));
+        if wi.dot(v1.n) <= 0.0 && v1.ns != v1.n {
+            // Cosine-distributed about the shading normal but below the surface: no path.
+            return (direct, Vec3::ZERO);
+        }
+        let o1 = v1.x + v1.n * self.eps;
         let indirect = match self.closest(o1, wi) {
             Some(h2) => {
-                let (x2, n2, a2, _) = self.surface(o1, wi, &h2);
-                a1 * self.estimate(method, x2, n2, a2, rng)
+                let v2 = self.surface(o1, wi, &h2);
+                v1.albedo * self.estimate(method, &v2, rng)
             }
             None => Vec3::ZERO,
         };

@@ -16,14 +16,14 @@ fn gpu_structs_match_naga_layouts() {
         LightTriangle,
         src,
         "LightTriangle",
-        [p0, area, e1, prob, e2, triangle, emission, _pad]
+        [p0, area, e1, prob, e2, triangle, emission, kind]
     );
     tests::assert_wgsl_layout!(AliasEntry, src, "AliasEntry", [prob, alias_index]);
     tests::assert_wgsl_layout!(
         LightsInfo,
         src,
         "LightsInfo",
-        [count, _pad0, total_power, _pad1]
+        [count, env_width, total_power, env_height]
     );
     tests::assert_wgsl_layout!(
         CameraGpu,
@@ -42,7 +42,7 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
     if i >= arrayLength(&out) / 6u { return; }
     var st = rng_seed(i, 7u, 3u);
     let u = vec4<f32>(rng_next_f32(&st), rng_next_f32(&st), rng_next_f32(&st), rng_next_f32(&st));
-    let s = lights_sample(u);
+    let s = lights_sample(u, &st);
     out[i * 6u] = vec4<f32>(s.position, s.pdf_area);
     out[i * 6u + 1u] = vec4<f32>(s.normal, bitcast<f32>(s.light));
     let n = normalize(vec3<f32>(u.x - 0.5, u.y - 0.5, u.z - 0.4));
@@ -70,7 +70,6 @@ fn run_kernel(l: &Lights, cam: &CameraGpu, n: u32) -> Vec<[f32; 4]> {
         }
     }
     modules.extend([
-        WgslModule::new("rng", &[], reservoir::rng::WGSL),
         WgslModule::new("workgroup", &[], restir_world::gpu::workgroup_size_wgsl()),
         WgslModule::new("kernel", &["rng", "lights", "workgroup"], KERNEL),
     ]);
@@ -115,7 +114,7 @@ fn gpu_sampling_matches_the_rust_twin() {
     for i in 0..n {
         let mut rng = reservoir::rng::Rng::seed(i, 7, 3);
         let u = [0; 4].map(|_| rng.next_f32());
-        let s = l.sample(u).unwrap();
+        let s = l.sample(u, &mut rng).unwrap();
         let k = i as usize * 6;
         // The picked light is exactly the twin's: same f32 product, same truncation.
         assert_eq!(out[k + 1][3].to_bits(), s.light, "invocation {i}");

@@ -243,7 +243,7 @@ fn render_structs_match_wgsl_layout() {
         src,
         "GVertex",
         [
-            position, prim, normal, _pad0, albedo, _pad1, emission, _pad2
+            position, prim, normal, _pad0, albedo, _pad1, emission, _pad2, shading, _pad3
         ]
     );
     tests::assert_wgsl_layout!(
@@ -257,7 +257,7 @@ fn render_structs_match_wgsl_layout() {
             method,
             candidates,
             ray_offset_floor,
-            _pad0,
+            attributes,
             _pad1,
             _pad2
         ]
@@ -267,7 +267,7 @@ fn render_structs_match_wgsl_layout() {
         restir_world::scene::Material,
         src,
         "Material",
-        [albedo, _pad0, emission, _pad1]
+        [albedo, base_color_texture, emission, emissive_texture]
     );
 }
 

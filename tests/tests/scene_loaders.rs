@@ -259,8 +259,13 @@ fn gltf_with_data_uri_reads_transforms_materials_and_camera() {
     let p = write(&d, "ext.gltf", gltf_json(Some("t.bin"), 42, true));
     let l = scene::load(&p).unwrap();
     check_triangle_scene(&l);
-    assert_eq!(l.warnings.len(), 1, "textures warn once: {:?}", l.warnings);
-    assert!(l.warnings[0].contains("textures"));
+    // The empty t.png cannot be decoded: one warning, the factor is kept.
+    assert_eq!(l.warnings.len(), 1, "{:?}", l.warnings);
+    assert!(
+        l.warnings[0].contains("cannot be decoded"),
+        "{:?}",
+        l.warnings
+    );
 }
 
 #[test]
@@ -488,9 +493,9 @@ fn gltf_punctual_lights_are_parsed_validated_and_said_unrendered() {
     );
     assert_eq!(lights[2].kind, scene::PunctualKind::Directional);
     assert_eq!(lights[2].color, [1.0; 3], "default colour");
-    assert_eq!(l.warnings.len(), 2, "{:?}", l.warnings);
+    // The lights are rendered (no "not rendered" warning); only the invalid one is reported.
+    assert_eq!(l.warnings.len(), 1, "{:?}", l.warnings);
     assert!(l.warnings[0].contains("\"Bad\" skipped") && l.warnings[0].contains("cone"));
-    assert!(l.warnings[1].contains("3 punctual lights") && l.warnings[1].contains("not rendered"));
 }
 
 #[test]
@@ -505,13 +510,35 @@ fn gltf_texture_with_only_a_dds_source_and_missing_images_load() {
     let l = scene::load(&p).unwrap();
     check_triangle_scene(&l);
     let joined = l.warnings.join("\n");
-    assert_eq!(l.warnings.len(), 3, "{joined}");
+    assert_eq!(l.warnings.len(), 2, "{joined}");
     assert!(joined.contains("MSFT_texture_dds"), "{joined}");
     assert!(joined.contains("1 image files are missing"), "{joined}");
+    assert!(l.scene.textures.is_empty());
+}
+
+#[test]
+fn gltf_undecodable_texture_keeps_the_factor_with_a_warning() {
+    let d = temp_dir("gltf-bad-png");
+    let p = write(&d, "bad.gltf", gltf_requiring(&[], true));
+    std::fs::write(d.join("t.png"), b"not a png at all").unwrap();
+    let l = scene::load(&p).unwrap();
+    let joined = l.warnings.join("\n");
+    assert!(joined.contains("cannot be decoded"), "{joined}");
+    assert!(joined.contains("bad.gltf"), "{joined}");
+    assert!(l.scene.textures.is_empty());
     assert!(
-        joined.contains("textures, which are not modelled"),
-        "{joined}"
+        l.scene
+            .materials
+            .iter()
+            .all(|m| m.base_color_texture == 0 && m.emissive_texture == 0)
     );
+    // A decodable one is read, its material refers to it.
+    image::RgbaImage::from_pixel(2, 2, image::Rgba([255, 128, 0, 255]))
+        .save(d.join("t.png"))
+        .unwrap();
+    let l = scene::load(&p).unwrap();
+    assert_eq!(l.scene.textures.len(), 1, "{:?}", l.warnings);
+    assert_eq!(l.scene.textures[0].texels[0], [255, 128, 0, 255]);
 }
 
 #[test]

@@ -54,6 +54,7 @@ fn soup(n: usize, seed: u64) -> Scene {
             Triangle {
                 v,
                 n: None,
+                uv: None,
                 material: 0,
             }
         })
@@ -129,6 +130,7 @@ fn push_box(tris: &mut Vec<Triangle>, lo: Vec3, hi: Vec3) {
             tris.push(Triangle {
                 v,
                 n: None,
+                uv: None,
                 material: 0,
             });
         }

@@ -54,7 +54,7 @@ fn layouts_match_wgsl() {
             light_normal,
             m,
             light_emission,
-            _pad0,
+            light_kind,
             vertex_normal,
             _pad1
         ]

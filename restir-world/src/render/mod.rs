@@ -14,11 +14,19 @@
 //! 6. `accumulate`: running sums of both frames; advances the GPU frame counter that seeds
 //!    every pass.
 //!
-//! NEE is one light sample (power-proportional alias table, uniform on the triangle) with one
-//! shadow ray; [`Estimator::Ris`] draws K candidates, resamples one by RIS (target: luminance
-//! of the unshadowed contribution) and traces one shadow ray. Outputs: `direct` = emission
-//! seen + reflected direct light, `indirect` = one-bounce indirect light, linear HDR. Emitters
-//! are two-sided; shading uses the geometric normal.
+//! NEE is one light sample (power-proportional alias table over emissive triangles, the
+//! environment and punctual lights: see [`crate::lights`]) with one shadow ray (to the light
+//! point, or to infinity for the environment and directional lights); [`Estimator::Ris`] draws
+//! K candidates, resamples one by RIS (target: luminance of the unshadowed contribution) and
+//! traces one shadow ray. Outputs: `direct` = emission seen (the environment where a camera ray
+//! escapes) + reflected direct light, `indirect` = one-bounce indirect light (a GI ray that
+//! escapes adds nothing: the environment it sees is direct light at the primary vertex,
+//! estimated by NEE there), linear HDR. Emitters are two-sided. Shading uses the interpolated
+//! vertex normals where a triangle has them ([`TriangleAttributes`], `GVertex::shading`): the
+//! BRDF's cosine and the GI ray's cosine distribution; the geometric normal keeps the ray
+//! offsets and the sidedness of lights (a light behind the geometric surface contributes
+//! nothing; a GI direction below it ends the path). Scenes without vertex normals (the
+//! built-in ones) take the flat path unchanged.
 //!
 //! A later pass composes [`library`] + its own kernel module and binds [`SharedGroups`]
 //! (render buffers at group 0, the tracer's at 1, lights at 2) before its own groups. Rays are
@@ -105,6 +113,112 @@ pub struct GVertex {
     pub _pad1: u32,
     pub emission: [f32; 3],
     pub _pad2: u32,
+    /// Unit shading normal (interpolated vertex normals, on the side of `normal`; equal to
+    /// `normal` for a triangle without them).
+    pub shading: [f32; 3],
+    pub _pad3: u32,
+}
+
+/// [`TriangleAttributes::flags`]: the vertex normals are set.
+pub const ATTR_NORMALS: u32 = 1;
+/// [`TriangleAttributes::flags`]: the texture coordinates are set.
+pub const ATTR_UV: u32 = 2;
+
+/// WGSL `TriangleAttributes`: per scene triangle (indexed by `Scene::triangles` order), its
+/// vertex normals and texture coordinates, each present when its flag is set.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct TriangleAttributes {
+    pub n0: [f32; 3],
+    pub flags: u32,
+    pub n1: [f32; 3],
+    /// The triangle's material's emissive texture (1 + texture ref, 0: none), for light
+    /// samples, which know their triangle but not its material.
+    pub emissive_texture: u32,
+    pub n2: [f32; 3],
+    pub _pad1: u32,
+    pub uv0: [f32; 2],
+    pub uv1: [f32; 2],
+    pub uv2: [f32; 2],
+    pub _pad2: [u32; 2],
+}
+
+/// The per-triangle attributes of `scene`, or `None` when no triangle has vertex normals or
+/// texture coordinates (the renderer then binds one dummy entry and shades flat).
+pub fn triangle_attributes(scene: &Scene) -> Option<Vec<TriangleAttributes>> {
+    if scene
+        .triangles
+        .iter()
+        .all(|t| t.n.is_none() && t.uv.is_none())
+    {
+        return None;
+    }
+    Some(
+        scene
+            .triangles
+            .iter()
+            .map(|t| {
+                let mut a: TriangleAttributes = bytemuck::Zeroable::zeroed();
+                if let Some(n) = t.n {
+                    a.flags |= ATTR_NORMALS;
+                    (a.n0, a.n1, a.n2) = (n[0].to_array(), n[1].to_array(), n[2].to_array());
+                }
+                a.emissive_texture = scene
+                    .materials
+                    .get(t.material as usize)
+                    .map_or(0, |m| m.emissive_texture);
+                if let Some(uv) = t.uv {
+                    a.flags |= ATTR_UV;
+                    (a.uv0, a.uv1, a.uv2) = (uv[0].to_array(), uv[1].to_array(), uv[2].to_array());
+                }
+                a
+            })
+            .collect(),
+    )
+}
+
+/// WGSL `TextureGpu`: one texture ref (a material's use of a texture): its affine map of the
+/// texture coordinates, its texels' offset in `render_texels`, size, and wrap modes
+/// (s | t << 8, [`crate::scene::Wrap`] values).
+#[repr(C)]
+#[derive(Debug, Clone, Copy, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct TextureGpu {
+    pub row0: [f32; 4],
+    pub row1: [f32; 4],
+    pub offset: u32,
+    pub width: u32,
+    pub height: u32,
+    pub wrap: u32,
+}
+
+/// The scene's texture refs and all texels (RGBA8 sRGB, one u32 each, textures one after the
+/// other); one dummy each when the scene has none.
+pub fn texture_tables(scene: &Scene) -> (Vec<TextureGpu>, Vec<u32>) {
+    let mut texels = Vec::new();
+    let mut offsets = Vec::new();
+    for t in &scene.textures {
+        offsets.push(texels.len() as u32);
+        texels.extend(t.texels.iter().map(|p| u32::from_le_bytes(*p)));
+    }
+    let refs: Vec<TextureGpu> = scene
+        .texture_refs
+        .iter()
+        .map(|r| {
+            let t = &scene.textures[r.texture as usize];
+            TextureGpu {
+                row0: [r.row0[0], r.row0[1], r.row0[2], 0.0],
+                row1: [r.row1[0], r.row1[1], r.row1[2], 0.0],
+                offset: offsets[r.texture as usize],
+                width: t.width,
+                height: t.height,
+                wrap: r.wrap[0] as u32 | (r.wrap[1] as u32) << 8,
+            }
+        })
+        .collect();
+    match (refs.is_empty(), texels.is_empty()) {
+        (false, false) => (refs, texels),
+        _ => (vec![bytemuck::Zeroable::zeroed()], vec![0]),
+    }
 }
 
 /// WGSL `RenderParams`.
@@ -118,7 +232,9 @@ pub struct RenderParams {
     pub candidates: u32,
     /// Smallest scale ray offsets are relative to: [`ray_offset_floor`] of the scene.
     pub ray_offset_floor: f32,
-    pub _pad0: u32,
+    /// 1 when `render_attributes` holds the scene's [`TriangleAttributes`], 0 when it is a
+    /// dummy (flat shading, no texture coordinates).
+    pub attributes: u32,
     pub _pad1: u32,
     pub _pad2: u32,
 }
@@ -172,6 +288,13 @@ pub fn bindings() -> BindingSet {
         .buffer("render_accum_direct", image, rw)
         .buffer("render_accum_indirect", image, rw)
         .buffer("render_materials", "array<Material>", Access::Read)
+        .buffer(
+            "render_attributes",
+            "array<TriangleAttributes>",
+            Access::Read,
+        )
+        .buffer("render_textures", "array<TextureGpu>", Access::Read)
+        .buffer("render_texels", "array<u32>", Access::Read)
 }
 
 /// The bind groups every pixel pass binds first: render buffers, the tracer's, lights.
@@ -186,7 +309,6 @@ pub fn library(tracer: Tracer) -> Vec<WgslModule> {
     let mut m = trace::modules(1, tracer);
     m.extend(lights::modules(2));
     m.extend([
-        WgslModule::new("rng", &[], reservoir::rng::WGSL),
         WgslModule::new("reservoir", &["rng"], reservoir::wgsl()),
         WgslModule::new("workgroup", &[], workgroup_size_wgsl()),
         WgslModule::new("render-constants", &[], constants_wgsl()),
@@ -247,10 +369,21 @@ pub(crate) struct RenderBuffers {
     pub accum_indirect: wgpu::Buffer,
     /// Per material.
     pub materials: wgpu::Buffer,
+    /// Per scene triangle (one dummy entry when `RenderParams::attributes` is 0).
+    pub attributes: wgpu::Buffer,
+    /// Per texture ref, and all texels.
+    pub textures: wgpu::Buffer,
+    pub texels: wgpu::Buffer,
 }
 
 impl RenderBuffers {
-    fn new(device: &wgpu::Device, params: &RenderParams, materials: &[Material]) -> Self {
+    fn new(
+        device: &wgpu::Device,
+        params: &RenderParams,
+        materials: &[Material],
+        attributes: &[TriangleAttributes],
+        textures: &(Vec<TextureGpu>, Vec<u32>),
+    ) -> Self {
         let px = u64::from(params.pixel_count);
         let vertices = px * size_of::<GVertex>() as u64;
         let zeroed = |label: &str, size: u64| buffers::storage_zeroed(device, label, size);
@@ -269,11 +402,14 @@ impl RenderBuffers {
             accum_direct: zeroed("render_accum_direct", px * 16),
             accum_indirect: zeroed("render_accum_indirect", px * 16),
             materials: buffers::storage_from(device, "render_materials", materials),
+            attributes: buffers::storage_from(device, "render_attributes", attributes),
+            textures: buffers::storage_from(device, "render_textures", &textures.0),
+            texels: buffers::storage_from(device, "render_texels", &textures.1),
         }
     }
 
     /// The buffers of [`bindings`], by name.
-    fn resources(&self) -> [(&'static str, Resource<'_>); 9] {
+    fn resources(&self) -> [(&'static str, Resource<'_>); 12] {
         [
             ("render_params", (&self.params).into()),
             ("render_state", (&self.state).into()),
@@ -284,6 +420,9 @@ impl RenderBuffers {
             ("render_accum_direct", (&self.accum_direct).into()),
             ("render_accum_indirect", (&self.accum_indirect).into()),
             ("render_materials", (&self.materials).into()),
+            ("render_attributes", (&self.attributes).into()),
+            ("render_textures", (&self.textures).into()),
+            ("render_texels", (&self.texels).into()),
         ]
     }
 }
@@ -386,6 +525,18 @@ impl Renderer {
         let bvh = Bvh::build(scene)?;
         let gpu_bvh = bvh.upload(ctx)?;
         let gpu_lights = GpuLights::new(&ctx.device, &Lights::build(scene))?;
+        let attributes = triangle_attributes(scene);
+        if let Some(a) = &attributes {
+            ctx.check_binding_size(
+                "the triangle attributes",
+                (a.len() * size_of::<TriangleAttributes>()) as u64,
+            )?;
+        }
+        let textures = texture_tables(scene);
+        ctx.check_binding_size(
+            "the scene's textures (resize them)",
+            (textures.1.len() * 4) as u64,
+        )?;
         let device = &ctx.device;
         let params = RenderParams {
             camera: CameraGpu::new(camera),
@@ -397,7 +548,7 @@ impl Renderer {
             },
             candidates,
             ray_offset_floor: ray_offset_floor(scene),
-            _pad0: 0,
+            attributes: u32::from(attributes.is_some()),
             _pad1: 0,
             _pad2: 0,
         };
@@ -406,7 +557,14 @@ impl Renderer {
             true => &no_material[..],
             false => &scene.materials,
         };
-        let buffers = RenderBuffers::new(device, &params, materials);
+        let dummy = [bytemuck::Zeroable::zeroed()];
+        let buffers = RenderBuffers::new(
+            device,
+            &params,
+            materials,
+            attributes.as_deref().unwrap_or(&dummy),
+            &textures,
+        );
         let layouts = sets.map(|s| s.layout(device));
         let groups = [
             layouts[0].bind(device, buffers.resources())?,

@@ -18,7 +18,8 @@ fn render_primary(id: Invocation) {
     render_gbuffer[i] = render_surface(ray.dir, trace_closest(ray));
 }
 
-// One cosine-weighted GI ray from each primary hit -> secondary vertex.
+// One GI ray from each primary hit, cosine-weighted about the shading normal -> secondary
+// vertex (none when the direction is below the geometric surface).
 @compute @workgroup_size(WORKGROUP_SIZE)
 fn render_gi(id: Invocation) {
     let i = item_index(id);
@@ -35,18 +36,26 @@ fn render_gi(id: Invocation) {
     var ray: Ray;
     ray.origin = render_offset(g.position, g.normal);
     ray.tmin = 0.0;
-    ray.dir = sampling_cosine_hemisphere(g.normal, u);
+    ray.dir = sampling_cosine_hemisphere(g.shading, u);
     ray.tmax = RENDER_T_MAX;
+    if render_params.attributes != 0u && dot(ray.dir, g.normal) <= 0.0 {
+        // Cosine-distributed about the shading normal but below the surface: no path.
+        var none: GVertex;
+        none.prim = BVH_NO_HIT;
+        render_secondary[i] = none;
+        return;
+    }
     render_secondary[i] = render_surface(ray.dir, trace_closest(ray));
 }
 
-// Direct light at the primary vertex: emission seen + NEE.
+// Direct light at the primary vertex: emission seen + NEE (a camera ray that missed sees the
+// environment, stored as the vertex's emission by render_surface).
 @compute @workgroup_size(WORKGROUP_SIZE)
 fn render_shade_direct(id: Invocation) {
     let i = item_index(id);
     if i >= render_params.pixel_count { return; }
     let g = render_gbuffer[i];
-    var c = vec3<f32>(0.0);
+    var c = g.emission;
     if g.prim != BVH_NO_HIT {
         var rng = render_rng(i, RENDER_PASS_DIRECT);
         c = g.emission + render_nee(g, &rng);

@@ -5,16 +5,30 @@
 // bindings header `render::bindings_wgsl` (render_params, render_materials, ...).
 // CPU reference with the same estimators: restir_world::reference.
 
-// Material, as restir_world::scene::Material.
+// Material, as restir_world::scene::Material. The textures are 1 + a texture ref index (0:
+// none); the texture multiplies the factor.
 struct Material {
     albedo: vec3<f32>,
-    _pad0: f32,
+    base_color_texture: u32,
     emission: vec3<f32>,
-    _pad1: f32,
+    emissive_texture: u32,
+}
+
+// A material's use of a texture (Rust: render::TextureGpu): (s, t) = (row0, row1) . (u, v, 1);
+// texels at render_texels[offset ..], wrap = s | t << 8 (0 repeat, 1 mirrored, 2 clamp).
+struct TextureGpu {
+    row0: vec4<f32>,
+    row1: vec4<f32>,
+    offset: u32,
+    width: u32,
+    height: u32,
+    wrap: u32,
 }
 
 // A surface vertex: `prim` is the BVH-order triangle (BVH_NO_HIT: the ray escaped), `normal`
-// the unit geometric normal turned towards the incoming ray.
+// the unit geometric normal turned towards the incoming ray (ray offsets, light sidedness),
+// `shading` the unit shading normal (interpolated vertex normals turned to the side of
+// `normal`; `normal` itself for a triangle without them).
 struct GVertex {
     position: vec3<f32>,
     prim: u32,
@@ -24,6 +38,23 @@ struct GVertex {
     _pad1: u32,
     emission: vec3<f32>,
     _pad2: u32,
+    shading: vec3<f32>,
+    _pad3: u32,
+}
+
+// Per scene triangle: vertex normals (flags & 1) and texture coordinates (flags & 2)
+// (Rust: render::TriangleAttributes).
+struct TriangleAttributes {
+    n0: vec3<f32>,
+    flags: u32,
+    n1: vec3<f32>,
+    emissive_texture: u32,
+    n2: vec3<f32>,
+    _pad1: u32,
+    uv0: vec2<f32>,
+    uv1: vec2<f32>,
+    uv2: vec2<f32>,
+    _pad2: vec2<u32>,
 }
 
 // Per-render constants. method: RENDER_METHOD_NEE or RENDER_METHOD_RIS.
@@ -34,7 +65,7 @@ struct RenderParams {
     method: u32,
     candidates: u32,
     ray_offset_floor: f32,
-    _pad0: u32,
+    attributes: u32,
     _pad1: u32,
     _pad2: u32,
 }
@@ -67,6 +98,8 @@ fn render_surface(dir: vec3<f32>, hit: Hit) -> GVertex {
     var v: GVertex;
     v.prim = hit.prim;
     if hit.prim == BVH_NO_HIT {
+        // The ray escaped: it sees the environment.
+        v.emission = lights_env_radiance(dir);
         return v;
     }
     let tri = bvh_triangles[hit.prim];
@@ -78,10 +111,109 @@ fn render_surface(dir: vec3<f32>, hit: Hit) -> GVertex {
         n = -n;
     }
     v.normal = n;
+    v.shading = n;
     let m = render_materials[tri.material];
     v.albedo = m.albedo;
     v.emission = m.emission;
+    if render_params.attributes != 0u {
+        let a = render_attributes[tri.index];
+        if (a.flags & 1u) != 0u {
+            v.shading = render_shading_normal(a, hit, n);
+        }
+        if (a.flags & 2u) != 0u {
+            let uv = render_uv(a, hit.b1, hit.b2);
+            if m.base_color_texture != 0u {
+                v.albedo *= render_texture(m.base_color_texture, uv);
+            }
+            if m.emissive_texture != 0u {
+                v.emission *= render_texture(m.emissive_texture, uv);
+            }
+        }
+    }
     return v;
+}
+
+// Texture coordinates at barycentrics (b1, b2) (of vertices 1 and 2).
+fn render_uv(a: TriangleAttributes, b1: f32, b2: f32) -> vec2<f32> {
+    return (1.0 - b1 - b2) * a.uv0 + b1 * a.uv1 + b2 * a.uv2;
+}
+
+// An integer texel coordinate wrapped into 0..n (twin: scene::texture::wrap).
+fn render_wrap(i: i32, n: i32, mode: u32) -> i32 {
+    if mode == 0u {
+        return ((i % n) + n) % n;
+    }
+    if mode == 2u {
+        return clamp(i, 0, n - 1);
+    }
+    let m = 2 * n;
+    let p = ((i % m) + m) % m;
+    return select(p, m - 1 - p, p >= n);
+}
+
+fn render_srgb_to_linear(c: u32) -> f32 {
+    let x = f32(c) / 255.0;
+    if x <= 0.04045 {
+        return x / 12.92;
+    }
+    return pow((x + 0.055) / 1.055, 2.4);
+}
+
+fn render_texel(t: TextureGpu, i: i32, j: i32) -> vec3<f32> {
+    let x = u32(render_wrap(i, i32(t.width), t.wrap & 255u));
+    let y = u32(render_wrap(j, i32(t.height), t.wrap >> 8u));
+    let p = render_texels[t.offset + y * t.width + x];
+    return vec3<f32>(render_srgb_to_linear(p & 255u), render_srgb_to_linear((p >> 8u) & 255u),
+                     render_srgb_to_linear((p >> 16u) & 255u));
+}
+
+// Bilinear linear-RGB sample of texture ref `index - 1` at vertex coordinates uv (twin:
+// scene::TextureRef::sample).
+fn render_texture(index: u32, uv: vec2<f32>) -> vec3<f32> {
+    let t = render_textures[index - 1u];
+    let st = clamp(vec2<f32>(t.row0.x * uv.x + t.row0.y * uv.y + t.row0.z,
+                             t.row1.x * uv.x + t.row1.y * uv.y + t.row1.z),
+                   vec2<f32>(-1e6), vec2<f32>(1e6));
+    let x = st.x * f32(t.width) - 0.5;
+    let y = st.y * f32(t.height) - 0.5;
+    let x0 = floor(x);
+    let y0 = floor(y);
+    let fx = x - x0;
+    let fy = y - y0;
+    let i = i32(x0);
+    let j = i32(y0);
+    let a = render_texel(t, i, j);
+    let b = render_texel(t, i + 1, j);
+    let c = render_texel(t, i, j + 1);
+    let d = render_texel(t, i + 1, j + 1);
+    let top = a + (b - a) * fx;
+    let bottom = c + (d - c) * fx;
+    return top + (bottom - top) * fy;
+}
+
+// lights_sample with the emission of a textured emissive triangle at the sampled point.
+fn render_light_sample(u: vec4<f32>, rng: ptr<function, u32>) -> LightSample {
+    var s = lights_sample(u, rng);
+    if render_params.attributes != 0u && s.kind == LIGHTS_KIND_TRIANGLE && s.pdf_area > 0.0 {
+        let a = render_attributes[s.triangle];
+        if a.emissive_texture != 0u && (a.flags & 2u) != 0u {
+            let b = sampling_triangle_uniform(u.zw);
+            s.emission *= render_texture(a.emissive_texture, render_uv(a, b.x, b.y));
+        }
+    }
+    return s;
+}
+
+// Interpolated vertex normals at the hit, normalized and turned to the side of the geometric
+// normal n (n when they cancel out). Twin: reference::shading_normal.
+fn render_shading_normal(a: TriangleAttributes, hit: Hit, n: vec3<f32>) -> vec3<f32> {
+    let raw = (1.0 - hit.b1 - hit.b2) * a.n0 + hit.b1 * a.n1 + hit.b2 * a.n2;
+    let l2 = dot(raw, raw);
+    if !(l2 > 1e-30) {
+        return n;
+    }
+    let ns = raw * inverseSqrt(l2);
+    return select(ns, -ns, dot(ns, n) < 0.0);
 }
 
 // Origin offset off a surface along its normal, scaled with the coordinates' magnitude.
@@ -90,20 +222,50 @@ fn render_offset(p: vec3<f32>, n: vec3<f32>) -> vec3<f32> {
     return p + n * (RENDER_RAY_EPS * scale);
 }
 
-// Unshadowed reflected radiance integrand in area measure (no pdf): BRDF * Le * G.
-fn render_light_contribution(p: vec3<f32>, n: vec3<f32>, albedo: vec3<f32>, s: LightSample) -> vec3<f32> {
+// Unshadowed reflected radiance integrand in the sample's measure (no pdf): BRDF * Le * G for
+// a triangle point (area), BRDF * I * falloff * cos / d^2 for a point or spot light (discrete),
+// BRDF * L (or E) * cos for a direction at infinity (solid angle, or discrete for a directional
+// light). Twin: lights::Lights::contribution.
+// n is the geometric normal (the light must be on its side), ns the shading normal (the
+// cosine).
+fn render_light_contribution(p: vec3<f32>, n: vec3<f32>, ns: vec3<f32>, albedo: vec3<f32>, s: LightSample) -> vec3<f32> {
+    if s.kind != LIGHTS_KIND_TRIANGLE {
+        return render_other_light_contribution(p, n, ns, albedo, s);
+    }
     let to_light = s.position - p;
     let d2 = dot(to_light, to_light);
     if d2 <= 0.0 {
         return vec3<f32>(0.0);
     }
     let wi = to_light * inverseSqrt(d2);
-    let cos_x = dot(n, wi);
+    let cos_x = dot(ns, wi);
     let cos_l = abs(dot(s.normal, wi));
-    if cos_x <= 0.0 {
+    if cos_x <= 0.0 || dot(n, wi) <= 0.0 {
         return vec3<f32>(0.0);
     }
     return albedo * SAMPLING_INV_PI * s.emission * (cos_x * cos_l / d2);
+}
+
+fn render_other_light_contribution(p: vec3<f32>, n: vec3<f32>, ns: vec3<f32>, albedo: vec3<f32>, s: LightSample) -> vec3<f32> {
+    if lights_at_infinity(s.kind) {
+        let cos_x = dot(ns, s.position);
+        if cos_x <= 0.0 || dot(n, s.position) <= 0.0 {
+            return vec3<f32>(0.0);
+        }
+        return albedo * SAMPLING_INV_PI * s.emission * cos_x;
+    }
+    let to_light = s.position - p;
+    let d2 = dot(to_light, to_light);
+    if d2 <= 0.0 {
+        return vec3<f32>(0.0);
+    }
+    let d = sqrt(d2);
+    let cos_x = dot(ns, to_light) / d;
+    if cos_x <= 0.0 || dot(n, to_light) <= 0.0 {
+        return vec3<f32>(0.0);
+    }
+    let falloff = lights_point_falloff(s.light, -to_light / d, d2);
+    return albedo * SAMPLING_INV_PI * s.emission * (cos_x * falloff / d2);
 }
 
 // What ray offsets at p are relative to: the point's largest coordinate (float precision
@@ -129,14 +291,28 @@ fn render_visible(p: vec3<f32>, n: vec3<f32>, q: vec3<f32>) -> bool {
     return !trace_any(ray);
 }
 
+// Whether light sample s is unoccluded from the surface point p (normal n): the segment to its
+// point, or a ray to infinity along its direction.
+fn render_visible_sample(p: vec3<f32>, n: vec3<f32>, s: LightSample) -> bool {
+    if !lights_at_infinity(s.kind) {
+        return render_visible(p, n, s.position);
+    }
+    var ray: Ray;
+    ray.origin = render_offset(p, n);
+    ray.tmin = 0.0;
+    ray.dir = s.position;
+    ray.tmax = RENDER_T_MAX;
+    return !trace_any(ray);
+}
+
 // Reflected direct light at (p, n, albedo) from one light sample with a shadow ray.
-fn render_nee_one(p: vec3<f32>, n: vec3<f32>, albedo: vec3<f32>, rng: ptr<function, u32>) -> vec3<f32> {
-    let s = lights_sample(render_rand4(rng));
+fn render_nee_one(p: vec3<f32>, n: vec3<f32>, ns: vec3<f32>, albedo: vec3<f32>, rng: ptr<function, u32>) -> vec3<f32> {
+    let s = render_light_sample(render_rand4(rng), rng);
     if s.pdf_area <= 0.0 {
         return vec3<f32>(0.0);
     }
-    let f = render_light_contribution(p, n, albedo, s);
-    if all(f == vec3<f32>(0.0)) || !render_visible(p, n, s.position) {
+    let f = render_light_contribution(p, n, ns, albedo, s);
+    if all(f == vec3<f32>(0.0)) || !render_visible_sample(p, n, s) {
         return vec3<f32>(0.0);
     }
     return f / s.pdf_area;
@@ -152,7 +328,7 @@ struct RisLightSample {
     p_hat: f32,
 }
 
-fn render_ris_lights(p: vec3<f32>, n: vec3<f32>, albedo: vec3<f32>, candidates: u32,
+fn render_ris_lights(p: vec3<f32>, n: vec3<f32>, ns: vec3<f32>, albedo: vec3<f32>, candidates: u32,
                      rng: ptr<function, u32>) -> RisLightSample {
     // A whole local reservoir (not a pointer into a struct field): naga's SPIR-V backend
     // rejects the latter as a function argument.
@@ -160,12 +336,12 @@ fn render_ris_lights(p: vec3<f32>, n: vec3<f32>, albedo: vec3<f32>, candidates: 
     var out: RisLightSample;
     out.p_hat = 0.0;
     for (var k = 0u; k < candidates; k++) {
-        let s = lights_sample(render_rand4(rng));
+        let s = render_light_sample(render_rand4(rng), rng);
         let u = rng_next_f32(rng);
         var w = 0.0;
         var p_hat = 0.0;
         if s.pdf_area > 0.0 {
-            p_hat = render_luminance(render_light_contribution(p, n, albedo, s));
+            p_hat = render_luminance(render_light_contribution(p, n, ns, albedo, s));
             w = p_hat / s.pdf_area;
         }
         if reservoir_update(&r, w, u) {
@@ -180,13 +356,13 @@ fn render_ris_lights(p: vec3<f32>, n: vec3<f32>, albedo: vec3<f32>, candidates: 
 
 // Reflected direct light by RIS over `candidates` light samples, then one shadow ray for the
 // selected sample.
-fn render_nee_ris(p: vec3<f32>, n: vec3<f32>, albedo: vec3<f32>, candidates: u32,
+fn render_nee_ris(p: vec3<f32>, n: vec3<f32>, ns: vec3<f32>, albedo: vec3<f32>, candidates: u32,
                   rng: ptr<function, u32>) -> vec3<f32> {
-    let ris = render_ris_lights(p, n, albedo, candidates, rng);
-    if ris.reservoir.ucw <= 0.0 || !render_visible(p, n, ris.light.position) {
+    let ris = render_ris_lights(p, n, ns, albedo, candidates, rng);
+    if ris.reservoir.ucw <= 0.0 || !render_visible_sample(p, n, ris.light) {
         return vec3<f32>(0.0);
     }
-    return render_light_contribution(p, n, albedo, ris.light) * ris.reservoir.ucw;
+    return render_light_contribution(p, n, ns, albedo, ris.light) * ris.reservoir.ucw;
 }
 
 // Reflected direct light at a surface vertex with the render's method.
@@ -195,7 +371,7 @@ fn render_nee(v: GVertex, rng: ptr<function, u32>) -> vec3<f32> {
         return vec3<f32>(0.0);
     }
     if render_params.method == RENDER_METHOD_RIS {
-        return render_nee_ris(v.position, v.normal, v.albedo, render_params.candidates, rng);
+        return render_nee_ris(v.position, v.normal, v.shading, v.albedo, render_params.candidates, rng);
     }
-    return render_nee_one(v.position, v.normal, v.albedo, rng);
+    return render_nee_one(v.position, v.normal, v.shading, v.albedo, rng);
 }

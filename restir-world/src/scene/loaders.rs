@@ -4,9 +4,11 @@
 //! transforms, the first perspective camera met, baseColorFactor as albedo, emissiveFactor x
 //! KHR_materials_emissive_strength as emission. Buffers: the GLB binary chunk, base64 data
 //! URIs and files relative to the .gltf. OBJ: Kd as albedo, Ke as emission, polygons
-//! triangulated. Textures are not modelled: their factors are used and [`Loaded::warnings`]
-//! says so once per file; a texture without a `source` (DDS only) or a missing image file is
-//! never an error. `extensionsRequired` follows [`extension_policy`]: supported extensions are
+//! triangulated. glTF base colour and emissive textures (PNG, JPEG) are read into
+//! `Scene::textures`/`texture_refs` with their sampler's wrap modes and `KHR_texture_transform`;
+//! a texture without a `source` (DDS only), a missing image file, an undecodable image, a data:
+//! uri or a `TEXCOORD_1` texture keeps its material's factor with a warning, never an error.
+//! Normal maps and alpha MASK/BLEND are not modelled (one warning each per file). `extensionsRequired` follows [`extension_policy`]: supported extensions are
 //! used, ones that change only what the renderer does not model warn once each, ones that
 //! change the geometry (Draco, meshopt, quantization, GPU instancing) are an error naming the
 //! extension and the file.
@@ -16,6 +18,7 @@ use std::path::{Component, Path, PathBuf};
 
 use glam::{Mat3, Mat4, Vec3};
 
+use super::texture::{self, TextureRef, Wrap};
 use super::{Camera, Material, SanitizeReport, Scene, SceneError, Triangle};
 
 /// Albedo of surfaces without a material.
@@ -58,6 +61,15 @@ pub fn load(path: &Path) -> Result<Loaded, SceneError> {
             });
         }
     };
+    let halvings = texture::fit(&mut scene.textures, texture::MAX_TEXEL_BYTES);
+    if halvings > 0 {
+        warnings.push(format!(
+            "{}: the textures need more than {} MiB (the renderers keep them in one storage \
+             binding): the largest were halved {halvings} times to fit",
+            path.display(),
+            texture::MAX_TEXEL_BYTES >> 20
+        ));
+    }
     let report = scene.sanitize(&path.display().to_string())?;
     Ok(Loaded {
         scene,
@@ -239,7 +251,7 @@ fn base64_decode(s: &str) -> Option<Vec<u8>> {
 /// What the glTF loader does with an extension a file lists in `extensionsRequired`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum ExtensionPolicy {
-    /// Read and used (or, for `KHR_texture_transform`, harmless: textures are not modelled).
+    /// Read and used.
     Supported,
     /// Changes only what the renderer does not model (the text says what): the file loads
     /// with one warning.
@@ -264,7 +276,9 @@ pub fn extension_policy(name: &str) -> ExtensionPolicy {
         "EXT_mesh_gpu_instancing" => Refused("GPU-instanced meshes"),
         "AMD_split_roughnessMetallic" => Ignored("split roughness/metallic textures"),
         "MSFT_texture_dds" | "KHR_texture_basisu" | "EXT_texture_webp" | "EXT_texture_avif" => {
-            Ignored("alternative texture image formats (textures are not modelled)")
+            Ignored(
+                "alternative texture image formats (only PNG and JPEG are read: the factors are used)",
+            )
         }
         "KHR_materials_variants" => Ignored("material variants (the default is used)"),
         "KHR_materials_unlit" => Ignored("unlit materials (shaded as diffuse)"),
@@ -326,6 +340,109 @@ fn parse_gltf(
     Ok(gltf::Gltf { document, blob })
 }
 
+/// What reading a material's texture needs.
+struct TextureContext<'a> {
+    path: &'a Path,
+    dir: &'a Path,
+    buffers: &'a [Vec<u8>],
+    scene: &'a mut Scene,
+    warnings: &'a mut Vec<String>,
+}
+
+/// The textures of a glTF file read so far: each image decoded once (or found unusable once).
+#[derive(Default)]
+struct GltfTextures {
+    /// glTF image index -> index in `Scene::textures` (None: unusable, warned).
+    images: std::collections::HashMap<usize, Option<u32>>,
+    normal_maps: usize,
+    alpha_cutouts: usize,
+}
+
+impl GltfTextures {
+    /// The texture ref (1 + index into `Scene::texture_refs`) of a material's texture, or 0
+    /// with a warning when it cannot be used (its factor is then used alone).
+    fn reference(&mut self, c: &mut TextureContext, info: &gltf::texture::Info) -> u32 {
+        let tex = info.texture();
+        let transform = info.texture_transform();
+        let set = transform
+            .as_ref()
+            .and_then(|t| t.tex_coord())
+            .unwrap_or(info.tex_coord());
+        if set != 0 {
+            c.warnings.push(format!(
+                "{}: texture {} uses TEXCOORD_{set}; only TEXCOORD_0 is read: its material keeps \
+                 the factor",
+                c.path.display(),
+                tex.index()
+            ));
+            return 0;
+        }
+        // A texture without a source (DDS only) is warned about with the extensions.
+        let Some(image) = tex.source() else { return 0 };
+        let index = *self
+            .images
+            .entry(image.index())
+            .or_insert_with(|| load_image(c, &image));
+        let Some(texture) = index else { return 0 };
+        let wrap = |m: gltf::texture::WrappingMode| match m {
+            gltf::texture::WrappingMode::Repeat => Wrap::Repeat,
+            gltf::texture::WrappingMode::MirroredRepeat => Wrap::MirroredRepeat,
+            gltf::texture::WrappingMode::ClampToEdge => Wrap::ClampToEdge,
+        };
+        let sampler = tex.sampler();
+        let mut r = TextureRef {
+            wrap: [wrap(sampler.wrap_s()), wrap(sampler.wrap_t())],
+            ..TextureRef::plain(texture)
+        };
+        if let Some(t) = transform {
+            r = r.with_transform(t.offset(), t.rotation(), t.scale());
+        }
+        c.scene.texture_refs.push(r);
+        c.scene.texture_refs.len() as u32
+    }
+}
+
+/// Decodes glTF image `image` (embedded in a buffer view or a file next to the scene) into
+/// `Scene::textures`; None with a warning when it is missing (already warned) or cannot be
+/// decoded.
+fn load_image(c: &mut TextureContext, image: &gltf::image::Image) -> Option<u32> {
+    let name = image
+        .name()
+        .map_or_else(|| format!("image {}", image.index()), str::to_owned);
+    let bytes: Vec<u8> = match image.source() {
+        gltf::image::Source::View { view, .. } => {
+            let b = c.buffers.get(view.buffer().index())?;
+            b.get(view.offset()..view.offset() + view.length())?
+                .to_vec()
+        }
+        gltf::image::Source::Uri { uri, .. } => {
+            if uri.starts_with("data:") {
+                c.warnings.push(format!(
+                    "{}: {name} is a data: uri, which is not read: its materials keep their \
+                     factors",
+                    c.path.display()
+                ));
+                return None;
+            }
+            let file = confined(c.path, c.dir, uri, false).ok()?;
+            std::fs::read(file).ok()?
+        }
+    };
+    match texture::decode(&name, &bytes) {
+        Ok(t) => {
+            c.scene.textures.push(t);
+            Some(c.scene.textures.len() as u32 - 1)
+        }
+        Err(e) => {
+            c.warnings.push(format!(
+                "{}: texture {name:?} cannot be decoded ({e}): its materials keep their factors",
+                c.path.display()
+            ));
+            None
+        }
+    }
+}
+
 /// Loads a glTF 2.0 file (.gltf or .glb) without sanitizing it.
 pub fn load_gltf(path: &Path, warnings: &mut Vec<String>) -> Result<Scene, SceneError> {
     let bytes = read(path)?;
@@ -370,8 +487,8 @@ pub fn load_gltf(path: &Path, warnings: &mut Vec<String>) -> Result<Scene, Scene
         if let gltf::image::Source::Uri { uri, .. } = img.source()
             && !uri.starts_with("data:")
         {
-            // Images are not read (textures are not modelled), but a scene naming files
-            // outside its directory is refused all the same.
+            // A scene naming image files outside its directory is refused (the base colour and
+            // emissive textures are read later, the others never).
             let file = confined(path, dir, uri, false)?;
             if !file.is_file() {
                 missing_images.push(uri);
@@ -380,8 +497,8 @@ pub fn load_gltf(path: &Path, warnings: &mut Vec<String>) -> Result<Scene, Scene
     }
     if let Some(first) = missing_images.first() {
         warnings.push(format!(
-            "{}: {} image files are missing (the first: {first:?}); textures are not modelled, \
-             so nothing changes",
+            "{}: {} image files are missing (the first: {first:?}); the materials using them \
+             keep their factors",
             path.display(),
             missing_images.len()
         ));
@@ -389,7 +506,7 @@ pub fn load_gltf(path: &Path, warnings: &mut Vec<String>) -> Result<Scene, Scene
 
     let mut scene = Scene::default();
     let mut material_of = std::collections::HashMap::new();
-    let mut textured = 0usize;
+    let mut textures = GltfTextures::default();
     let scene_def = gltf
         .default_scene()
         .or_else(|| gltf.scenes().next())
@@ -538,15 +655,16 @@ pub fn load_gltf(path: &Path, warnings: &mut Vec<String>) -> Result<Scene, Scene
                 ));
             }
             let normals = normals.filter(|n| n.len() == positions.len());
+            let uvs: Option<Vec<glam::Vec2>> = reader
+                .read_tex_coords(0)
+                .map(|tc| tc.into_f32().map(glam::Vec2::from).collect())
+                .filter(|uv: &Vec<glam::Vec2>| uv.len() == positions.len());
             let mat = prim.material();
             let key = mat.index();
             let material = match material_of.get(&key) {
                 Some(&id) => id,
                 None => {
                     let pbr = mat.pbr_metallic_roughness();
-                    if pbr.base_color_texture().is_some() || mat.emissive_texture().is_some() {
-                        textured += 1;
-                    }
                     let base = pbr.base_color_factor();
                     let strength = mat.emissive_strength().unwrap_or(1.0);
                     let e = mat.emissive_factor().map(|x| x * strength);
@@ -555,7 +673,24 @@ pub fn load_gltf(path: &Path, warnings: &mut Vec<String>) -> Result<Scene, Scene
                     } else {
                         [base[0], base[1], base[2]]
                     };
-                    let id = scene.add_material(Material::new(albedo, e));
+                    let mut material = Material::new(albedo, e);
+                    let mut ctx = TextureContext {
+                        path,
+                        dir,
+                        buffers: &buffers,
+                        scene: &mut scene,
+                        warnings,
+                    };
+                    if let Some(info) = pbr.base_color_texture() {
+                        material.base_color_texture = textures.reference(&mut ctx, &info);
+                    }
+                    if let Some(info) = mat.emissive_texture() {
+                        material.emissive_texture = textures.reference(&mut ctx, &info);
+                    }
+                    textures.normal_maps += usize::from(mat.normal_texture().is_some());
+                    textures.alpha_cutouts +=
+                        usize::from(mat.alpha_mode() != gltf::material::AlphaMode::Opaque);
+                    let id = scene.add_material(material);
                     material_of.insert(key, id);
                     id
                 }
@@ -565,26 +700,29 @@ pub fn load_gltf(path: &Path, warnings: &mut Vec<String>) -> Result<Scene, Scene
                 scene.triangles.push(Triangle {
                     v: idx.map(|i| positions[i]),
                     n: normals.as_ref().map(|n| idx.map(|i| n[i])),
+                    uv: uvs.as_ref().map(|uv| idx.map(|i| uv[i])),
                     material,
                 });
             }
         }
     }
-    if textured > 0 {
+    if textures.normal_maps > 0 {
         warnings.push(format!(
-            "{}: {textured} materials have textures, which are not modelled: their factors are used",
-            path.display()
+            "{}: {} materials have normal maps, which are not modelled: the interpolated vertex \
+             normals shade",
+            path.display(),
+            textures.normal_maps
+        ));
+    }
+    if textures.alpha_cutouts > 0 {
+        warnings.push(format!(
+            "{}: {} materials use alpha MASK or BLEND, which is not modelled yet: they render \
+             opaque",
+            path.display(),
+            textures.alpha_cutouts
         ));
     }
     scene.camera = scene.cameras.first().map(|c| c.camera);
-    if !scene.lights.is_empty() {
-        warnings.push(format!(
-            "{}: {} punctual lights (KHR_lights_punctual) parsed but not rendered: the \
-             renderers sample emissive triangles only",
-            path.display(),
-            scene.lights.len()
-        ));
-    }
     Ok(scene)
 }
 
@@ -824,6 +962,7 @@ pub fn load_obj(path: &Path, warnings: &mut Vec<String>) -> Result<Scene, SceneE
             scene.triangles.push(Triangle {
                 v: [a, b, c],
                 n,
+                uv: None,
                 material,
             });
         }

@@ -13,18 +13,22 @@
 
 mod add_lights;
 pub mod builtin;
+pub mod environment;
 mod framing;
 mod loaders;
+pub mod texture;
 
 pub use add_lights::{AddLights, AddedLights, MAX_ADDED_LIGHTS, add_lights};
 pub use builtin::{
     BUILTIN_NAMES, BuiltinOptions, builtin, colonnade, cornell, furnace, furnace_sphere,
     many_lights,
 };
+pub use environment::Environment;
 pub use framing::DEFAULT_VFOV_DEG;
 pub use loaders::{
     DEFAULT_ALBEDO, ExtensionPolicy, Loaded, extension_policy, load, load_gltf, load_obj,
 };
+pub use texture::{Texture, TextureRef, Wrap};
 
 use std::path::PathBuf;
 
@@ -68,25 +72,29 @@ pub enum SceneError {
 /// was 33% low.
 pub const SCENE_EXTENT_RANGE: (f32, f32) = (5e-11, 5e9);
 
-/// A diffuse material: reflectance and emitted radiance, linear RGB.
+/// A diffuse material: reflectance and emitted radiance, linear RGB, each optionally multiplied
+/// by a texture (`Scene::texture_refs[index - 1]`; 0: none).
 #[repr(C)]
 #[derive(Debug, Clone, Copy, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
 pub struct Material {
-    /// Diffuse albedo in [0, 1] per channel.
+    /// Diffuse albedo in [0, 1] per channel (the base colour factor with a texture).
     pub albedo: [f32; 3],
-    pub _pad0: f32,
-    /// Emitted radiance (W sr^-1 m^-2 per channel); zero for non-emitters. Two-sided.
+    /// Base colour texture: 1 + its index in `Scene::texture_refs`, 0 for none.
+    pub base_color_texture: u32,
+    /// Emitted radiance (W sr^-1 m^-2 per channel); zero for non-emitters. Two-sided. The
+    /// emissive factor (x strength) with a texture.
     pub emission: [f32; 3],
-    pub _pad1: f32,
+    /// Emissive texture: 1 + its index in `Scene::texture_refs`, 0 for none.
+    pub emissive_texture: u32,
 }
 
 impl Material {
     pub const fn new(albedo: [f32; 3], emission: [f32; 3]) -> Self {
         Self {
             albedo,
-            _pad0: 0.0,
+            base_color_texture: 0,
             emission,
-            _pad1: 0.0,
+            emissive_texture: 0,
         }
     }
 
@@ -96,11 +104,16 @@ impl Material {
     }
 }
 
-/// One triangle: positions, optional per-vertex shading normals, and its material index.
+/// One triangle: positions, optional per-vertex shading normals and texture coordinates, and
+/// its material index.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Triangle {
     pub v: [Vec3; 3],
+    /// Per-vertex normals (any length but 0; the renderers interpolate and normalize them for
+    /// shading).
     pub n: Option<[Vec3; 3]>,
+    /// Per-vertex texture coordinates (glTF `TEXCOORD_0`).
+    pub uv: Option<[glam::Vec2; 3]>,
     pub material: u32,
 }
 
@@ -110,6 +123,7 @@ impl Triangle {
         Self {
             v,
             n: None,
+            uv: None,
             material,
         }
     }
@@ -243,8 +257,8 @@ pub enum PunctualKind {
     Directional,
 }
 
-/// A punctual light from a scene file (glTF `KHR_lights_punctual`), in world space. Parsed and
-/// validated; the renderers do not sample it yet (they sample emissive triangles).
+/// A punctual light from a scene file (glTF `KHR_lights_punctual`), in world space, parsed and
+/// validated; every renderer samples it (`lights`: one entry of the power-proportional table).
 #[derive(Debug, Clone, PartialEq)]
 pub struct PunctualLight {
     /// The node's name, else the light's, else `light N`.
@@ -313,8 +327,16 @@ pub struct Scene {
     /// All cameras of a scene file, in file order (depth-first over the default scene's
     /// nodes); empty for the built-in scenes.
     pub cameras: Vec<NamedCamera>,
-    /// Punctual lights of a scene file (parsed, not rendered yet: see [`PunctualLight`]).
+    /// Punctual lights of a scene file, sampled by every renderer with the emissive triangles
+    /// (see `lights`).
     pub lights: Vec<PunctualLight>,
+    /// Light from infinity seen by rays that miss the scene (`None`: black).
+    pub environment: Option<Environment>,
+    /// Texture images (8-bit sRGB) of the materials.
+    pub textures: Vec<Texture>,
+    /// The materials' uses of the textures (`Material::base_color_texture` and
+    /// `emissive_texture` index them from 1).
+    pub texture_refs: Vec<TextureRef>,
 }
 
 /// What [`Scene::sanitize`] dropped or repaired. All counts are zero for a clean scene.
@@ -390,7 +412,30 @@ impl Scene {
                 changed |= c != *e || e.is_nan();
                 *e = c;
             }
+            let refs = self.texture_refs.len() as u32;
+            for tex in [&mut m.base_color_texture, &mut m.emissive_texture] {
+                if *tex > refs {
+                    *tex = 0;
+                    changed = true;
+                }
+            }
             report.clamped_materials += usize::from(changed);
+        }
+        let textures = self.textures.len() as u32;
+        let valid = |t: &texture::Texture| {
+            t.width > 0 && t.texels.len() as u64 == u64::from(t.width) * u64::from(t.height)
+        };
+        if self.texture_refs.iter().any(|r| {
+            r.texture >= textures
+                || !valid(&self.textures[r.texture as usize])
+                || !(r.row0.iter().chain(&r.row1).all(|x| x.is_finite()))
+        }) {
+            // A broken table (only a hand-built scene can have one): drop the textures.
+            self.texture_refs.clear();
+            for m in &mut self.materials {
+                m.base_color_texture = 0;
+                m.emissive_texture = 0;
+            }
         }
         let n_materials = self.materials.len();
         self.triangles.retain_mut(|t| {
@@ -410,6 +455,12 @@ impl Scene {
                 && !n.iter().all(|n| n.is_finite() && n.length_squared() > 0.0)
             {
                 t.n = None;
+                report.bad_normals += 1;
+            }
+            if let Some(uv) = &t.uv
+                && !uv.iter().all(|uv| uv.is_finite())
+            {
+                t.uv = None;
                 report.bad_normals += 1;
             }
             true

@@ -11,9 +11,9 @@ fn wr_generate(id: Invocation) {
         return;
     }
     let v = render_secondary[i];
-    out.vertex_normal = v.normal;
+    out.vertex_normal = v.shading;
     var rng = wr_rng(i, WR_PASS_GENERATE, 0u);
-    let ris = render_ris_lights(v.position, v.normal, v.albedo, wr_params.candidates, &rng);
+    let ris = render_ris_lights(v.position, v.normal, v.shading, v.albedo, wr_params.candidates, &rng);
     let chosen = ris.light;
     let packed = reservoir_pack(ris.reservoir);
     out.ucw = packed.ucw;
@@ -21,5 +21,6 @@ fn wr_generate(id: Invocation) {
     out.light_position = chosen.position;
     out.light_normal = chosen.normal;
     out.light_emission = chosen.emission;
+    out.light_kind = chosen.kind | (chosen.light << 2u);
     wr_out[i] = out;
 }

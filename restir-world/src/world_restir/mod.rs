@@ -351,7 +351,8 @@ pub struct WrReservoir {
     pub light_normal: [f32; 3],
     pub m: u32,
     pub light_emission: [f32; 3],
-    pub _pad0: u32,
+    /// The sample's `lights::KIND_*` in the low 2 bits, its light table index above.
+    pub light_kind: u32,
     pub vertex_normal: [f32; 3],
     pub _pad1: u32,
 }

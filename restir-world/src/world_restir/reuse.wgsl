@@ -76,7 +76,7 @@ fn wr_visited(s: WrVisit, k: u32) -> u32 {
 // receiver itself in a spatial pass, or a normal too different).
 fn wr_merged_m(i: u32, j: u32, v: GVertex, temporal: bool, cap: u32) -> u32 {
     let n = wr_src[j];
-    if (!temporal && j == i) || n.m == 0u || dot(n.vertex_normal, v.normal) < wr_params.normal_threshold {
+    if (!temporal && j == i) || n.m == 0u || dot(n.vertex_normal, v.shading) < wr_params.normal_threshold {
         return 0u;
     }
     return select(n.m, min(n.m, cap), temporal);
@@ -183,6 +183,6 @@ fn wr_reuse(id: Invocation) {
     let packed = reservoir_pack(r);
     out.ucw = packed.ucw;
     out.m = m_total;
-    out.vertex_normal = v.normal;
+    out.vertex_normal = v.shading;
     wr_out[i] = out;
 }

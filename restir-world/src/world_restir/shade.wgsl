@@ -11,8 +11,9 @@ fn wr_shade(id: Invocation) {
         let res = wr_final[i];
         if res.m > 0u && res.ucw > 0.0 {
             let v = render_secondary[i];
-            let f = wr_contribution(v, wr_light_sample(res));
-            if any(f > vec3<f32>(0.0)) && render_visible(v.position, v.normal, res.light_position) {
+            let y = wr_light_sample(res);
+            let f = wr_contribution(v, y);
+            if any(f > vec3<f32>(0.0)) && render_visible_sample(v.position, v.normal, y) {
                 c = render_gbuffer[i].albedo * f * res.ucw;
             }
         }

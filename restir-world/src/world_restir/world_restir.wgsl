@@ -4,7 +4,11 @@
 // constants header world_restir::constants_wgsl().
 
 // One vertex's reservoir as stored between passes (Rust twin: world_restir::WrReservoir).
-// The selected light sample is the payload; (ucw, m) is reservoir's PackedReservoir;
+// The selected light sample is the payload, one representation for every light kind:
+// light_position is the point on the light or, for the kinds at infinity (environment,
+// directional), the unit direction towards it; light_kind = the sample's LIGHTS_KIND_* in the
+// low 2 bits and its index in the light table above (point/spot lights read their cone and
+// range there). (ucw, m) is reservoir's PackedReservoir;
 // vertex_normal is the normal of the vertex that generated the reservoir (the paper's
 // bias-reduction test compares it with the receiver's normal).
 struct WrReservoir {
@@ -13,7 +17,7 @@ struct WrReservoir {
     light_normal: vec3<f32>,
     m: u32,
     light_emission: vec3<f32>,
-    _pad0: u32,
+    light_kind: u32,
     vertex_normal: vec3<f32>,
     _pad1: u32,
 }
@@ -65,13 +69,15 @@ fn wr_light_sample(r: WrReservoir) -> LightSample {
     s.position = r.light_position;
     s.normal = r.light_normal;
     s.emission = r.light_emission;
+    s.kind = r.light_kind & 3u;
+    s.light = r.light_kind >> 2u;
     s.pdf_area = 1.0;
     return s;
 }
 
 // Unshadowed reflected radiance of the light sample at vertex v (the target's integrand).
 fn wr_contribution(v: GVertex, s: LightSample) -> vec3<f32> {
-    return render_light_contribution(v.position, v.normal, v.albedo, s);
+    return render_light_contribution(v.position, v.normal, v.shading, v.albedo, s);
 }
 
 // Target function p_hat: luminance of the unshadowed reflected radiance.
