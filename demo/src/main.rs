@@ -17,6 +17,7 @@ use restir_world::{GpuContext, GpuTimer, gpu::buffers, image_io, reference, rend
 mod camera;
 mod render_cmd;
 mod scenes;
+mod view;
 
 #[derive(Parser, Debug)]
 #[command(name = "restir-demo", version, about)]
@@ -53,6 +54,9 @@ enum Command {
     /// GPU time and the error against a converged reference, compare at equal time, and write
     /// report.md, report.json, error_vs_time.svg and strip.png into --out.
     Compare(Box<CompareArgs>),
+    /// An interactive window onto a method, live: fly camera, method and knob switches,
+    /// per-stage GPU times, debug views, screenshots (needs a display; `render` does not).
+    View(Box<view::ViewArgs>),
 }
 
 #[derive(clap::Args, Debug)]
@@ -224,6 +228,7 @@ fn main() -> ExitCode {
         Command::Render(args) => render(&args),
         Command::Smoke { out, size } => smoke(&out, size),
         Command::Compare(args) => compare_cmd(*args),
+        Command::View(args) => view::view(*args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
