@@ -296,7 +296,7 @@ impl ApplicationHandler for App {
         };
         let response = v.egui_state.on_window_event(&v.window, &event);
         match event {
-            WindowEvent::CloseRequested => event_loop.exit(),
+            WindowEvent::CloseRequested | WindowEvent::Destroyed => event_loop.exit(),
             WindowEvent::Resized(size) => v.resize(size.width, size.height),
             WindowEvent::RedrawRequested => match v.redraw() {
                 Ok(true) => {}

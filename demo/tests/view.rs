@@ -304,3 +304,119 @@ fn without_a_display_it_says_so_and_suggests_render() {
         assert!(!err.contains("panicked"), "{bad:?}: {err}");
     }
 }
+
+/// Closing the window (the window manager's WM_DELETE_WINDOW, sent here by hand to a bare Xvfb
+/// server of the test's own) ends `view` with exit code 0 and writes --screenshot.
+#[cfg(target_os = "linux")]
+#[test]
+fn closing_the_window_exits_0() {
+    use std::io::{BufRead, BufReader};
+    use std::process::Stdio;
+    use std::time::{Duration, Instant};
+    use x11rb::connection::Connection;
+    use x11rb::protocol::xproto::{AtomEnum, ClientMessageEvent, ConnectionExt, EventMask};
+
+    if display().is_none() {
+        return;
+    }
+    if !on_path("Xvfb") {
+        assert!(
+            std::env::var_os(REQUIRED_ENV).is_none(),
+            "Xvfb is not on PATH although `cargo xtask test` should have installed it"
+        );
+        eprintln!("skipped: no Xvfb (cargo xtask test installs it)");
+        return;
+    }
+    let _one = XVFB.lock().unwrap_or_else(|e| e.into_inner());
+    let dir = out_dir("close");
+    // -displayfd 1: the server picks a free display and prints its number once it is ready.
+    let mut server = Command::new("Xvfb")
+        .args([
+            "-displayfd",
+            "1",
+            "-screen",
+            "0",
+            "1024x768x24",
+            "-nolisten",
+            "tcp",
+        ])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::null())
+        .spawn()
+        .unwrap();
+    let mut line = String::new();
+    BufReader::new(server.stdout.take().unwrap())
+        .read_line(&mut line)
+        .unwrap();
+    let display = format!(":{}", line.trim());
+    let runtime = dir.join("xdg");
+    std::fs::create_dir_all(&runtime).unwrap();
+    let shot = dir.join("closed.png");
+    let mut child = Command::new(BIN)
+        .args([
+            "view", "--scene", "cornell", "--method", "nee", "--size", "16x16",
+        ])
+        .arg("--screenshot")
+        .arg(&shot)
+        .env("DISPLAY", &display)
+        .env_remove("WAYLAND_DISPLAY")
+        .env("XDG_RUNTIME_DIR", &runtime)
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let (conn, screen) = x11rb::connect(Some(&display)).unwrap();
+    let root = conn.setup().roots[screen].root;
+    let atom = |name: &[u8]| conn.intern_atom(false, name).unwrap().reply().unwrap().atom;
+    let (protocols, delete) = (atom(b"WM_PROTOCOLS"), atom(b"WM_DELETE_WINDOW"));
+    let start = Instant::now();
+    let window = loop {
+        let children = conn.query_tree(root).unwrap().reply().unwrap().children;
+        let found = children.into_iter().find(|&w| {
+            conn.get_property(false, w, AtomEnum::WM_NAME, AtomEnum::ANY, 0, 256)
+                .ok()
+                .and_then(|c| c.reply().ok())
+                .is_some_and(|p| p.value.starts_with(b"restir-demo view"))
+        });
+        if let Some(w) = found {
+            break w;
+        }
+        assert!(
+            child.try_wait().unwrap().is_none(),
+            "view exited before its window appeared: {:?}",
+            child.wait_with_output().unwrap()
+        );
+        assert!(start.elapsed() < Duration::from_secs(120), "no window");
+        std::thread::sleep(Duration::from_millis(100));
+    };
+    // Let it render a few frames, then close it as a window manager would.
+    std::thread::sleep(Duration::from_secs(3));
+    // Negative control: without a --exit-after-frames it runs until closed.
+    assert!(child.try_wait().unwrap().is_none(), "view exited unclosed");
+    let event = ClientMessageEvent::new(32, window, protocols, [delete, 0, 0, 0, 0]);
+    conn.send_event(false, window, EventMask::NO_EVENT, event)
+        .unwrap();
+    conn.flush().unwrap();
+    let deadline = Instant::now() + Duration::from_secs(60);
+    while child.try_wait().unwrap().is_none() {
+        if Instant::now() > deadline {
+            let _ = child.kill();
+            let _ = server.kill();
+            panic!("view did not exit after its window was closed");
+        }
+        std::thread::sleep(Duration::from_millis(50));
+    }
+    let out = child.wait_with_output().unwrap();
+    let _ = server.kill();
+    let _ = server.wait();
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert_eq!(
+        out.status.code(),
+        Some(0),
+        "{stdout}\n{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(stdout.contains("view: wrote"), "{stdout}");
+    assert_eq!(read_exr(&dir.join("closed.exr")).unwrap().width, 16);
+    std::fs::remove_dir_all(&dir).unwrap();
+}
