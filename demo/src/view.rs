@@ -355,9 +355,12 @@ struct Stats {
     /// GPU spans since the method was (re)built.
     since_build: PassTimes,
     /// The last frames' spans and wall-clock milliseconds, for the overlay.
-    recent: VecDeque<(PassTimes, f64)>,
+    recent: VecDeque<FrameTimes>,
     /// Wall-clock frame milliseconds since the build (its first two frames left out).
     wall_sum: f64,
+    /// Milliseconds from recording a frame until the GPU finished it (and its timestamps were
+    /// read), over the same frames.
+    done_sum: f64,
     wall_frames: u32,
     /// Of those frames' wall clock, milliseconds spent in: the frame (recording, submission,
     /// waiting for the GPU, timestamps and grid readback), the image's readback and tone
@@ -372,6 +375,29 @@ struct Stats {
 }
 
 const RECENT: usize = 30;
+
+/// One frame's times.
+#[derive(Debug, Default)]
+struct FrameTimes {
+    /// The timestamp spans.
+    spans: PassTimes,
+    /// Wall-clock milliseconds since the previous frame.
+    wall: f64,
+    /// Milliseconds from recording the frame until the GPU finished it.
+    done: f64,
+}
+
+/// Whether timestamp spans summing to `spans` ms cannot be right for a frame that took `done`
+/// ms from recording to completion: they cover less than half of it. llvmpipe does this once
+/// the process has drawn anything (this window): its timestamps then land at the following
+/// flush, and each span measures the gap between two stages instead of the stage.
+fn spans_disagree(spans: f64, done: f64) -> bool {
+    done > 2.0 && spans < 0.5 * done
+}
+
+const SPANS_DISAGREE: &str = "the timestamp spans cover less than half of the time the frame \
+     took (llvmpipe's timestamps go wrong once a process draws, as this window does): trust the \
+     wall clock here, and `render` or `compare` for per-stage times";
 
 struct Viewer {
     window: Arc<Window>,
@@ -628,9 +654,11 @@ impl Viewer {
             timed: true,
             batch: 1,
         };
+        let start = Instant::now();
         let times = run_frames(&self.ctx, self.method.as_mut(), &l, |_, _| {
             Ok::<(), MethodError>(())
         })?;
+        let done = start.elapsed().as_secs_f64() * 1e3;
         self.stats.overflows = self.method.grid_overflows(&self.ctx)?;
         let now = Instant::now();
         let s = &mut self.stats;
@@ -642,13 +670,18 @@ impl Viewer {
         s.frames_since_build += 1;
         if s.frames_since_build > 2 {
             s.wall_sum += wall;
+            s.done_sum += done;
             s.wall_frames += 1;
         }
         let times = times.unwrap_or_default();
         s.since_build
             .add(&restir_world::gpu::SpanTimes(times.passes.clone()));
         s.since_build.frames += 1;
-        s.recent.push_back((times, wall));
+        s.recent.push_back(FrameTimes {
+            spans: times,
+            wall,
+            done,
+        });
         if s.recent.len() > RECENT {
             s.recent.pop_front();
         }
@@ -856,13 +889,19 @@ impl Viewer {
             let n = f64::from(s.wall_frames);
             println!(
                 "view: frame {:.2} ms (wall clock, mean of {} frames: frame and wait {:.2}, \
-                 readback and tone map {:.2}, overlay and present {:.2})",
+                 readback and tone map {:.2}, overlay and present {:.2}); recorded until done \
+                 {:.2} ms",
                 s.wall_sum / n,
                 s.wall_frames,
                 s.parts[0] / n,
                 s.parts[1] / n,
-                s.parts[2] / n
+                s.parts[2] / n,
+                s.done_sum / n
             );
+            let spans = s.since_build.ms_per_frame();
+            if !s.since_build.passes.is_empty() && spans_disagree(spans, s.done_sum / n) {
+                println!("view: warning: {SPANS_DISAGREE}");
+            }
         }
         let c = &self.camera;
         println!(
@@ -1029,16 +1068,24 @@ fn controls_ui(ui: &mut egui::Ui, info: &Info, c: &mut Controls, s: &Stats, a: &
     }
     ui.separator();
     let mut recent = PassTimes::default();
-    let mut wall = 0.0;
-    for (t, w) in &s.recent {
-        recent.add(&restir_world::gpu::SpanTimes(t.passes.clone()));
+    let (mut wall, mut done) = (0.0, 0.0);
+    for t in &s.recent {
+        recent.add(&restir_world::gpu::SpanTimes(t.spans.passes.clone()));
         recent.frames += 1;
-        wall += w;
+        wall += t.wall;
+        done += t.done;
     }
     let n = s.recent.len().max(1) as f64;
-    ui.label(format!("frame {:.1} ms (wall clock)", wall / n));
+    ui.label(format!(
+        "frame {:.1} ms (wall clock); recorded until done {:.1} ms",
+        wall / n,
+        done / n
+    ));
     if info.timestamps {
-        ui.label(format!("GPU {:.2} ms/frame:", recent.ms_per_frame()));
+        ui.label(format!("GPU spans {:.2} ms/frame:", recent.ms_per_frame()));
+        if spans_disagree(recent.ms_per_frame(), done / n) {
+            ui.colored_label(egui::Color32::YELLOW, SPANS_DISAGREE);
+        }
         egui::Grid::new("spans").striped(true).show(ui, |ui| {
             for (name, ms) in recent.per_frame() {
                 ui.label(name);
