@@ -421,6 +421,7 @@ struct Viewer {
     stats: Stats,
     shots_taken: u32,
     last_ui: Instant,
+    restart_pending: bool,
 }
 
 impl Viewer {
@@ -531,6 +532,7 @@ impl Viewer {
             stats: Stats::default(),
             shots_taken: 0,
             last_ui: Instant::now(),
+            restart_pending: false,
         })
     }
 
@@ -546,9 +548,12 @@ impl Viewer {
     /// One frame: apply the overlay's actions, render and read back, draw. `Ok(false)`: done.
     fn redraw(&mut self) -> Result<bool> {
         let t0 = Instant::now();
+        // A change while paused restarts the accumulation at the next rendered frame.
         let restart = self.apply_actions()?;
+        self.restart_pending |= restart;
         let rendered = !self.controls.paused;
         if rendered {
+            let restart = std::mem::take(&mut self.restart_pending);
             self.render_frame(restart)?;
         }
         let t1 = Instant::now();
