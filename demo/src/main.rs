@@ -18,6 +18,7 @@ use restir_world::{GpuContext, GpuTimer, image_io, reference, render};
 mod camera;
 mod render_cmd;
 mod scenes;
+mod view;
 
 #[derive(Parser, Debug)]
 #[command(name = "restir-demo", version, about)]
@@ -47,9 +48,14 @@ static TRACER: std::sync::OnceLock<Option<Tracer>> = std::sync::OnceLock::new();
 /// The GPU context every command uses: the chosen adapter, tracing with `--tracer`.
 pub(crate) fn gpu_context() -> Result<GpuContext> {
     let mut ctx = GpuContext::new()?;
-    ctx.set_tracer(TRACER.get().copied().flatten())
-        .context("--tracer")?;
+    apply_tracer(&mut ctx)?;
     Ok(ctx)
+}
+
+/// Sets `--tracer` on a context.
+pub(crate) fn apply_tracer(ctx: &mut GpuContext) -> Result<()> {
+    ctx.set_tracer(TRACER.get().copied().flatten())
+        .context("--tracer")
 }
 
 #[derive(Subcommand, Debug)]
@@ -80,6 +86,9 @@ enum Command {
     /// GPU time and the error against a converged reference, compare at equal time, and write
     /// report.md, report.json, error_vs_time.svg and strip.png into --out.
     Compare(Box<CompareArgs>),
+    /// An interactive window onto a method, live: fly camera, method and knob switches,
+    /// per-stage GPU times, debug views, screenshots (needs a display; `render` does not).
+    View(Box<view::ViewArgs>),
 }
 
 #[derive(clap::Args, Debug)]
@@ -252,6 +261,7 @@ fn main() -> ExitCode {
         Command::Render(args) => render(&args),
         Command::Smoke { out, size } => smoke(&out, size),
         Command::Compare(args) => compare_cmd(*args),
+        Command::View(args) => view::view(*args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -534,6 +534,27 @@ mod tests {
         }
     }
 
+    /// `get` gives back what `set` takes, for every knob of every variant, and a variant's
+    /// `knobs_spec` rebuilds it (the viewer edits knobs through them).
+    #[test]
+    fn knobs_read_back_and_rebuild() {
+        for (v, _, _) in WORLD_RESTIR_VARIANTS {
+            let c = world_restir_config(Some(v)).unwrap();
+            for k in WorldRestirConfig::KNOBS {
+                let mut d = c;
+                d.set(k, &c.get(k).unwrap()).unwrap();
+                assert_eq!(d, c, "{v}: {k}");
+            }
+            let spec = c.knobs_spec();
+            let rebuilt = world_restir_config((!spec.is_empty()).then_some(spec.as_str())).unwrap();
+            assert_eq!(rebuilt, c, "{v}: {spec:?}");
+        }
+        assert_eq!(WorldRestirConfig::default().knobs_spec(), "");
+        let biased = world_restir_config(Some("biased+spatial-passes=3")).unwrap();
+        assert_eq!(biased.knobs_spec(), "spatial-passes=3+combine=biased");
+        assert!(WorldRestirConfig::default().get("nosuch").is_err());
+    }
+
     #[test]
     fn world_restir_variants_parse() {
         for (v, _, _) in WORLD_RESTIR_VARIANTS {

@@ -2,12 +2,36 @@
 //!
 //! Both first make sure a Vulkan driver is present. On a machine without one (a fresh headless
 //! Debian box, CI) they install Mesa's CPU driver, lavapipe, when running as root with apt-get;
-//! otherwise they print the exact command to run and exit non-zero.
+//! otherwise they print the exact command to run and exit non-zero. `test` also makes sure a
+//! virtual X server (`xvfb-run`) exists for the viewer's window tests, installed the same way.
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, ExitCode};
 
 const LAVAPIPE_PACKAGES: [&str; 2] = ["mesa-vulkan-drivers", "libvulkan1"];
+
+/// A virtual X server for the viewer's window tests (`xvfb-run`) and the X11 client libraries
+/// winit loads at run time.
+const XVFB_PACKAGES: [&str; 6] = [
+    "xvfb",
+    "xauth",
+    "libxkbcommon-x11-0",
+    "libx11-xcb1",
+    "libxcursor1",
+    "libxi6",
+];
+
+/// The shared libraries of [`XVFB_PACKAGES`] that winit opens on X11.
+const X11_LIBRARIES: [&str; 4] = [
+    "libxkbcommon-x11.so.0",
+    "libX11-xcb.so.1",
+    "libXcursor.so.1",
+    "libXi.so.6",
+];
+
+/// Set for the tests by `cargo xtask test`: a virtual X server is there, so the window tests
+/// fail instead of skipping when they find none.
+const VIEW_TESTS_ENV: &str = "RESTIR_VIEW_TESTS_REQUIRE_DISPLAY";
 
 fn main() -> ExitCode {
     let mut args = std::env::args().skip(1);
@@ -20,7 +44,8 @@ fn main() -> ExitCode {
         _ => {
             eprintln!(
                 "usage: cargo xtask <test|demo> [args...]\n  test  run every test of the \
-                 workspace on the available adapter (args go to `cargo test`)\n  demo  build \
+                 workspace on the available adapter, the viewer's under Xvfb (args go to \
+                 `cargo test`)\n  demo  build \
                  in release, render cornell and many-lights into out/ and run the \
                  speed-against-error comparison on both (with args: run `restir-demo` with them \
                  instead)\n  results  regenerate docs/results.md (the reference configuration's \
@@ -41,18 +66,23 @@ fn main() -> ExitCode {
 fn test(args: &[String]) -> Result<(), String> {
     ensure_vulkan()?;
     ensure_ray_query_mesa()?;
+    let display = ensure_xvfb()?;
     // Print the adapter up front, so every log names the device the tests ran on.
     cargo(&["run", "--quiet", "--package", "demo", "--", "info"])?;
     let mut test_args = vec!["test", "--workspace"];
     test_args.extend(args.iter().map(String::as_str));
+    let mut envs: Vec<(&str, &str)> = Vec::new();
+    if display {
+        envs.push((VIEW_TESTS_ENV, "1"));
+    }
     let gpu_present =
         Path::new("/dev/dri").exists() || std::env::var_os("WGPU_ADAPTER_NAME").is_some();
     if !gpu_present && mesa_major().is_some_and(|m| m >= RAY_QUERY_MESA_MAJOR) {
         // lavapipe is the adapter and has ray queries: their tests must run, not skip.
         eprintln!("xtask: Mesa with ray queries: RESTIR_REQUIRE_RAY_QUERY=1");
-        return cargo_with_env(&test_args, Some(("RESTIR_REQUIRE_RAY_QUERY", "1")));
+        envs.push(("RESTIR_REQUIRE_RAY_QUERY", "1"));
     }
-    cargo(&test_args)
+    cargo_with_env(&test_args, &envs)
 }
 
 /// The default demo: a compare of nee, ris and world-restir on many-lights and cornell at
@@ -158,14 +188,14 @@ fn results(args: &[String]) -> Result<(), String> {
 }
 
 fn cargo(args: &[&str]) -> Result<(), String> {
-    cargo_with_env(args, None)
+    cargo_with_env(args, &[])
 }
 
-fn cargo_with_env(args: &[&str], env: Option<(&str, &str)>) -> Result<(), String> {
+fn cargo_with_env(args: &[&str], envs: &[(&str, &str)]) -> Result<(), String> {
     let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
     let status = Command::new(&cargo)
         .args(args)
-        .envs(env)
+        .envs(envs.iter().copied())
         .current_dir(workspace_root())
         .status()
         .map_err(|e| format!("could not run {cargo}: {e}"))?;
@@ -309,6 +339,53 @@ fn debian_mirror() -> Option<String> {
             _ => None,
         }
     })
+}
+
+/// Makes sure the viewer's window tests can open a window: `xvfb-run` and winit's X11
+/// libraries, installed when running as root with apt-get. Returns whether they are there
+/// (then the tests require them). Elsewhere than Linux the tests use the desktop's display.
+fn ensure_xvfb() -> Result<bool, String> {
+    if !cfg!(target_os = "linux") {
+        return Ok(false);
+    }
+    if xvfb_present() {
+        return Ok(true);
+    }
+    let install = format!("apt-get install -y {}", XVFB_PACKAGES.join(" "));
+    if !is_root() || !on_path("apt-get") {
+        if std::env::var_os("DISPLAY").is_some_and(|d| !d.is_empty()) {
+            eprintln!(
+                "xtask: no xvfb-run; the viewer's window tests open their windows on this \
+                 DISPLAY (for a virtual X server instead: sudo {install})"
+            );
+            return Ok(false);
+        }
+        return Err(format!(
+            "the viewer's window tests need a virtual X server (xvfb-run) and the X11 client \
+             libraries; install them:\n    sudo apt-get update && sudo {install}\nthen run this \
+             command again."
+        ));
+    }
+    eprintln!("xtask: no xvfb-run or X11 libraries found; installing: apt-get update && {install}");
+    run_apt(&["update", "-qq"])?;
+    let mut install_args = vec!["install", "-y", "-qq", "--no-install-recommends"];
+    install_args.extend(XVFB_PACKAGES);
+    run_apt(&install_args)?;
+    if xvfb_present() {
+        eprintln!("xtask: xvfb installed");
+        Ok(true)
+    } else {
+        Err("installed xvfb but still found no xvfb-run or X11 libraries".into())
+    }
+}
+
+fn xvfb_present() -> bool {
+    let libs = Command::new("ldconfig")
+        .arg("-p")
+        .output()
+        .map(|o| String::from_utf8_lossy(&o.stdout).into_owned())
+        .unwrap_or_default();
+    on_path("xvfb-run") && X11_LIBRARIES.iter().all(|l| libs.contains(l))
 }
 
 fn run_apt(args: &[&str]) -> Result<(), String> {

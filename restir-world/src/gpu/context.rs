@@ -10,6 +10,12 @@ pub enum GpuError {
          `cargo xtask test`, which installs it when run as root)"
     )]
     NoAdapter { backends: String },
+    /// Adapters exist, but none can present to the window's surface.
+    #[error(
+        "none of the adapters can present to this window's surface (adapters: {adapters}); the \
+         windowing system or the driver has no presentation support for them"
+    )]
+    NoPresentableAdapter { adapters: String },
     /// `WGPU_BACKEND` names no backend wgpu knows.
     #[error(
         "WGPU_BACKEND={value:?} names no known backend (expected a comma-separated list of \
@@ -154,21 +160,65 @@ impl GpuContext {
 
     /// Async form of [`GpuContext::new`].
     pub async fn new_async() -> Result<Self, GpuError> {
+        let backends = Self::backends_from_env()?;
+        let mut desc = wgpu::InstanceDescriptor::new_without_display_handle_from_env();
+        desc.backends = backends;
+        let instance = wgpu::Instance::new(desc);
+        let adapters = instance.enumerate_adapters(backends).await;
+        if adapters.is_empty() {
+            return Err(GpuError::NoAdapter {
+                backends: format!("{backends:?}"),
+            });
+        }
+        Self::pick_adapter(adapters).await
+    }
+
+    /// The backends `WGPU_BACKEND` allows (all by default), as [`GpuContext::new`] reads them.
+    pub fn backends_from_env() -> Result<wgpu::Backends, GpuError> {
         let backends = wgpu::Backends::from_env().unwrap_or_default();
         if backends.is_empty() {
             return Err(GpuError::BadBackendEnv {
                 value: std::env::var("WGPU_BACKEND").unwrap_or_default(),
             });
         }
-        let mut desc = wgpu::InstanceDescriptor::new_without_display_handle_from_env();
-        desc.backends = backends;
-        let instance = wgpu::Instance::new(desc);
-        let mut adapters = instance.enumerate_adapters(backends).await;
-        if adapters.is_empty() {
+        Ok(backends)
+    }
+
+    /// Like [`GpuContext::new`], on the caller's `instance` and among the adapters that can
+    /// present to `surface` only (a window's, created from `instance`): the device that
+    /// computes is then the one that presents. Same preferences and `WGPU_ADAPTER_NAME`.
+    pub async fn for_surface(
+        instance: &wgpu::Instance,
+        surface: &wgpu::Surface<'_>,
+    ) -> Result<Self, GpuError> {
+        let backends = Self::backends_from_env()?;
+        let all = instance.enumerate_adapters(backends).await;
+        if all.is_empty() {
             return Err(GpuError::NoAdapter {
                 backends: format!("{backends:?}"),
             });
         }
+        let names = all
+            .iter()
+            .map(|a| {
+                let i = a.get_info();
+                format!("{:?} ({:?})", i.name, i.backend)
+            })
+            .collect::<Vec<_>>()
+            .join(", ");
+        let adapters: Vec<wgpu::Adapter> = all
+            .into_iter()
+            .filter(|a| a.is_surface_supported(surface))
+            .collect();
+        if adapters.is_empty() {
+            return Err(GpuError::NoPresentableAdapter { adapters: names });
+        }
+        Self::pick_adapter(adapters).await
+    }
+
+    /// Picks among `adapters` (not empty) by `WGPU_ADAPTER_NAME`, else by device type, and
+    /// creates the device.
+    async fn pick_adapter(mut adapters: Vec<wgpu::Adapter>) -> Result<Self, GpuError> {
         adapters.sort_by_key(|a| type_rank(a.get_info().device_type));
         let adapter = match std::env::var("WGPU_ADAPTER_NAME") {
             Ok(wanted) if !wanted.is_empty() => {

@@ -279,6 +279,49 @@ impl WorldRestirConfig {
         Ok(())
     }
 
+    /// The value of one knob as [`WorldRestirConfig::set`] takes it back (`set(key, get(key))`
+    /// changes nothing): tools that edit knobs live list [`WorldRestirConfig::KNOBS`] with it.
+    pub fn get(&self, key: &str) -> Result<String, WorldRestirError> {
+        let switch = |on: bool| if on { "on" } else { "off" }.to_owned();
+        Ok(match key.replace('-', "_").as_str() {
+            "buckets" => self.buckets.map_or("auto".into(), |b| b.to_string()),
+            "slots" => self.slots.to_string(),
+            "candidates" => self.candidates.to_string(),
+            "max_count" => self.max_count.to_string(),
+            "spatial_passes" => self.spatial_passes.to_string(),
+            "temporal" => switch(self.temporal),
+            "temporal_m_cap" => self.temporal_m_cap.to_string(),
+            "min_cell_size" => self.min_cell_size.to_string(),
+            "projected_size" => self.projected_size.to_string(),
+            "jitter" => switch(self.jitter),
+            "adaptive_cell_size" => switch(self.adaptive_cell_size),
+            "normal_threshold" => self.normal_threshold.to_string(),
+            "gi_stride" => self.gi_stride.to_string(),
+            "combine" => self.combine.name().to_owned(),
+            "sort_cells" => switch(self.sort_cells),
+            _ => {
+                return Err(WorldRestirError::Config(format!(
+                    "unknown knob {key:?}; known: {}",
+                    Self::KNOBS.join(", ")
+                )));
+            }
+        })
+    }
+
+    /// The knobs where `self` differs from the default, as `key=value` joined by `+` (a
+    /// `world-restir:` variant that rebuilds `self`; empty for the default).
+    pub fn knobs_spec(&self) -> String {
+        let default = Self::default();
+        Self::KNOBS
+            .iter()
+            .filter_map(|k| {
+                let v = self.get(k).ok()?;
+                (default.get(k).ok()? != v).then(|| format!("{k}={v}"))
+            })
+            .collect::<Vec<_>>()
+            .join("+")
+    }
+
     /// The knob names [`WorldRestirConfig::set`] takes.
     pub const KNOBS: [&'static str; 15] = [
         "buckets",

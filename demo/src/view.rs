@@ -1,0 +1,1217 @@
+//! `restir-demo view`: a window onto a method of the registry, live.
+//!
+//! A thin layer over the renderer API the CLI uses: the method is built from its spec
+//! (`MethodSettings::build`), each frame is one call of the one frame loop (`run_frames`, timed,
+//! the spans `compare` reports), the shown image is read back as `render` reads it
+//! (`FrameMethod::read` / `debug_image`), tone-mapped by `image_io::tone_map` and drawn by egui
+//! into a surface of the device that computes. Screenshots are written by `image_io`.
+
+use std::collections::VecDeque;
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+use std::time::Instant;
+
+use anyhow::{Context as _, Result};
+use glam::{Quat, Vec3};
+use restir_world::GpuContext;
+use restir_world::gpu::PassTimes;
+use restir_world::image_io::{self, Image};
+use restir_world::methods::{
+    self, FrameLoop, FrameMethod, MethodError, MethodSettings, Readback, WORLD_RESTIR_VARIANTS,
+    run_frames,
+};
+use restir_world::sampling::Estimator;
+use restir_world::scene::{Camera, CameraPath, Scene};
+use restir_world::world_restir::{DebugView, WorldRestirConfig};
+use winit::application::ApplicationHandler;
+use winit::event::WindowEvent;
+use winit::event_loop::{ActiveEventLoop, EventLoop};
+use winit::window::{Window, WindowId};
+
+use crate::camera::Motion;
+use crate::scenes;
+
+/// `restir-demo view` flags.
+#[derive(clap::Args, Debug)]
+pub struct ViewArgs {
+    /// A built-in scene (cornell, many-lights, colonnade, furnace, furnace-sphere) or a
+    /// .gltf/.glb/.obj file.
+    #[arg(long, default_value = "cornell")]
+    scene: String,
+    #[command(flatten)]
+    scene_opts: scenes::SceneArgs,
+    /// A method of the registry as `name` or `name:variant` (as `render --method`); the window
+    /// switches methods and edits world-restir's knobs live.
+    #[arg(long, default_value = "world-restir")]
+    method: String,
+    /// Render size at scale 1, WxH (default: the scene camera's, or 256x256).
+    #[arg(long, value_parser = crate::parse_size)]
+    size: Option<(u32, u32)>,
+    /// Render-resolution scale (the window's slider): the frame is --size times this.
+    #[arg(long, default_value_t = 1.0)]
+    scale: f32,
+    #[arg(long, default_value_t = 0)]
+    seed: u32,
+    /// Exposure multiplier of the shown image and of screenshot PNGs (EXRs stay linear).
+    #[arg(long, default_value_t = 1.0)]
+    exposure: f32,
+    /// The image shown.
+    #[arg(long, value_enum, default_value_t = Shown::Combined)]
+    show: Shown,
+    /// Exit after rendering N frames (for tests and measurements).
+    #[arg(long)]
+    exit_after_frames: Option<u32>,
+    /// Write the shown image at exit: FILE.png (tone-mapped, as shown) and FILE.exr (linear).
+    #[arg(long)]
+    screenshot: Option<PathBuf>,
+    /// Scripted camera motion (static, orbit, dolly), compare's pace: 1 degree or 1% of the
+    /// eye-target distance per frame, for the first --camera-path-frames frames; then still.
+    #[arg(long, value_enum, default_value_t = Motion::Static)]
+    camera_path: Motion,
+    #[arg(long, default_value_t = 10)]
+    camera_path_frames: u32,
+    /// Directory of the screenshots taken in the window (P key or the button).
+    #[arg(long, default_value = "out/view")]
+    shots: PathBuf,
+}
+
+/// What the window shows.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum Shown {
+    Combined,
+    Direct,
+    Indirect,
+    /// Debug view: a colour per hash-grid cell (world-restir).
+    Cells,
+    /// Debug view: heat map of the reservoirs' M (world-restir).
+    M,
+    /// Debug view: vertices that found their bucket full (world-restir).
+    Overflow,
+}
+
+impl Shown {
+    const ALL: [(Shown, &'static str); 6] = [
+        (Shown::Combined, "combined"),
+        (Shown::Direct, "direct"),
+        (Shown::Indirect, "indirect"),
+        (Shown::Cells, "debug: cells"),
+        (Shown::M, "debug: M heat map"),
+        (Shown::Overflow, "debug: overflow"),
+    ];
+
+    fn debug(self) -> Option<DebugView> {
+        match self {
+            Shown::Cells => Some(DebugView::Cells),
+            Shown::M => Some(DebugView::M),
+            Shown::Overflow => Some(DebugView::Overflow),
+            _ => None,
+        }
+    }
+
+    fn label(self) -> &'static str {
+        Shown::ALL
+            .iter()
+            .find(|(s, _)| *s == self)
+            .map_or("", |s| s.1)
+    }
+}
+
+/// Width of the overlay's panel, pixels.
+const PANEL_WIDTH: f32 = 320.0;
+
+/// Render-resolution scales offered in the window.
+const SCALES: [f32; 6] = [0.25, 0.5, 0.75, 1.0, 1.5, 2.0];
+
+/// Everything checked before a window opens.
+struct Setup {
+    scene: Scene,
+    scene_name: String,
+    camera: Camera,
+    base_size: (u32, u32),
+    settings: MethodSettings,
+    spec: String,
+    args: ViewArgs,
+    /// (PNG, EXR) of --screenshot.
+    screenshot: Option<(PathBuf, PathBuf)>,
+    /// World units per second of the fly camera at speed 1.
+    speed: f32,
+}
+
+/// `restir-demo view`.
+pub fn view(args: ViewArgs) -> Result<()> {
+    let setup = check(args)?;
+    check_display()?;
+    let event_loop = EventLoop::new().map_err(|e| {
+        anyhow::anyhow!(
+            "cannot open the display ({}): {e}. {}",
+            display_name(),
+            SUGGEST_RENDER
+        )
+    })?;
+    let mut app = App {
+        setup: Some(setup),
+        viewer: None,
+        result: Ok(()),
+        display: Box::new(event_loop.owned_display_handle()),
+    };
+    event_loop
+        .run_app(&mut app)
+        .context("the window's event loop failed")?;
+    app.result?;
+    match app.viewer {
+        Some(v) => v.finish(),
+        None => Ok(()),
+    }
+}
+
+const SUGGEST_RENDER: &str = "Run `view` on a desktop or under a virtual X server \
+     (xvfb-run -a -s \"-screen 0 1280x1024x24\" restir-demo view ...), or render offline \
+     without a window: restir-demo render --scene ... --method ...";
+
+fn display_name() -> String {
+    let get = |v: &str| std::env::var(v).ok().filter(|s| !s.is_empty());
+    match (get("WAYLAND_DISPLAY"), get("DISPLAY")) {
+        (Some(w), _) => format!("WAYLAND_DISPLAY={w}"),
+        (None, Some(d)) => format!("DISPLAY={d}"),
+        (None, None) => "no DISPLAY or WAYLAND_DISPLAY".into(),
+    }
+}
+
+/// On Linux and the BSDs a window needs an X11 or Wayland display: say so before winit does.
+fn check_display() -> Result<()> {
+    if cfg!(all(
+        unix,
+        not(target_os = "macos"),
+        not(target_os = "android")
+    )) {
+        let set = |v: &str| std::env::var_os(v).is_some_and(|s| !s.is_empty());
+        if !set("DISPLAY") && !set("WAYLAND_DISPLAY") {
+            anyhow::bail!(
+                "no display: `view` opens a window, but neither DISPLAY nor WAYLAND_DISPLAY is \
+                 set (a headless machine or an SSH session without X forwarding). \
+                 {SUGGEST_RENDER}"
+            );
+        }
+    }
+    Ok(())
+}
+
+fn check(args: ViewArgs) -> Result<Setup> {
+    if !(args.exposure.is_finite() && args.exposure > 0.0) {
+        anyhow::bail!("--exposure must be a positive number");
+    }
+    if !SCALES.contains(&args.scale) {
+        anyhow::bail!("--scale must be one of {SCALES:?}, got {}", args.scale);
+    }
+    if args.exit_after_frames == Some(0) {
+        anyhow::bail!("--exit-after-frames must be at least 1");
+    }
+    if args.camera_path != Motion::Static && args.camera_path_frames < 2 {
+        anyhow::bail!("--camera-path-frames must be at least 2 (frame 0 is the start)");
+    }
+    let settings = methods::parse_spec(&args.method)?;
+    let screenshot = args
+        .screenshot
+        .as_deref()
+        .map(screenshot_paths)
+        .transpose()?;
+    let scene = scenes::load(&args.scene, &args.scene_opts, args.size)?;
+    let base_size = args
+        .size
+        .or(scene.camera.map(|c| (c.width, c.height)))
+        .unwrap_or((256, 256));
+    let camera = scene.camera_or_default(base_size.0, base_size.1);
+    camera.validate()?;
+    let camera = Camera {
+        width: scaled(base_size.0, args.scale),
+        height: scaled(base_size.1, args.scale),
+        ..camera
+    };
+    let speed = scene
+        .bounds()
+        .map_or(1.0, |(lo, hi)| 0.25 * (hi - lo).length())
+        .max(1e-3);
+    Ok(Setup {
+        scene,
+        scene_name: args.scene.clone(),
+        camera,
+        base_size,
+        settings,
+        spec: args.method.clone(),
+        args,
+        screenshot,
+        speed,
+    })
+}
+
+fn scaled(n: u32, scale: f32) -> u32 {
+    ((n as f32 * scale).round() as u32).max(1)
+}
+
+/// FILE.png and FILE.exr of `--screenshot FILE[.png|.exr]`; the directory must be creatable.
+fn screenshot_paths(file: &Path) -> Result<(PathBuf, PathBuf)> {
+    let stem = match file.extension().and_then(|e| e.to_str()) {
+        Some("png" | "exr") => file.with_extension(""),
+        _ => file.to_path_buf(),
+    };
+    if stem.file_name().is_none() {
+        anyhow::bail!("--screenshot {}: not a file name", file.display());
+    }
+    if let Some(dir) = stem.parent().filter(|d| !d.as_os_str().is_empty()) {
+        crate::prepare_out_dir(dir).with_context(|| format!("--screenshot {}", file.display()))?;
+    }
+    let with = |ext: &str| {
+        let mut p = stem.clone().into_os_string();
+        p.push(".");
+        p.push(ext);
+        PathBuf::from(p)
+    };
+    Ok((with("png"), with("exr")))
+}
+
+struct App {
+    setup: Option<Setup>,
+    viewer: Option<Viewer>,
+    result: Result<()>,
+    display: Box<winit::event_loop::OwnedDisplayHandle>,
+}
+
+impl ApplicationHandler for App {
+    fn resumed(&mut self, event_loop: &ActiveEventLoop) {
+        let Some(setup) = self.setup.take() else {
+            return;
+        };
+        match Viewer::new(event_loop, setup, &self.display) {
+            Ok(v) => self.viewer = Some(v),
+            Err(e) => {
+                self.result = Err(e);
+                event_loop.exit();
+            }
+        }
+    }
+
+    fn window_event(&mut self, event_loop: &ActiveEventLoop, _: WindowId, event: WindowEvent) {
+        let Some(v) = self.viewer.as_mut() else {
+            return;
+        };
+        let response = v.egui_state.on_window_event(&v.window, &event);
+        match event {
+            WindowEvent::CloseRequested | WindowEvent::Destroyed => event_loop.exit(),
+            WindowEvent::Resized(size) => v.resize(size.width, size.height),
+            WindowEvent::RedrawRequested => match v.redraw() {
+                Ok(true) => {}
+                Ok(false) => event_loop.exit(),
+                Err(e) => {
+                    self.result = Err(e);
+                    event_loop.exit();
+                }
+            },
+            _ if response.repaint => v.window.request_redraw(),
+            _ => {}
+        }
+    }
+
+    fn about_to_wait(&mut self, _: &ActiveEventLoop) {
+        if let Some(v) = self.viewer.as_ref().filter(|v| !v.controls.paused) {
+            v.window.request_redraw();
+        }
+    }
+}
+
+/// What the user set in the window.
+#[derive(Debug, Clone)]
+struct Controls {
+    exposure: f32,
+    scale: f32,
+    shown: Shown,
+    accumulate: bool,
+    paused: bool,
+    /// Multiplier of the fly speed.
+    speed: f32,
+    /// The method spec being typed.
+    spec_text: String,
+    /// Knob values being typed (KNOBS order).
+    knob_text: Vec<String>,
+}
+
+/// What the last overlay pass asked for.
+#[derive(Debug, Default)]
+struct Actions {
+    /// Camera moves: translation in (right, up, forward) world units and look deltas (yaw,
+    /// pitch) in radians.
+    translate: Vec3,
+    look: (f32, f32),
+    settings: Option<MethodSettings>,
+    rebuild: bool,
+    restart: bool,
+    screenshot: bool,
+}
+
+/// Timings, counts and the last image.
+#[derive(Debug, Default)]
+struct Stats {
+    /// Frames rendered since the window opened.
+    frames: u32,
+    /// GPU spans since the method was (re)built.
+    since_build: PassTimes,
+    /// The last frames' spans and wall-clock milliseconds, for the overlay.
+    recent: VecDeque<FrameTimes>,
+    /// Wall-clock frame milliseconds since the build (its first two frames left out).
+    wall_sum: f64,
+    /// Milliseconds from recording a frame until the GPU finished it (and its timestamps were
+    /// read), over the same frames.
+    done_sum: f64,
+    wall_frames: u32,
+    /// Of those frames' wall clock, milliseconds spent in: the frame (recording, submission,
+    /// waiting for the GPU, timestamps and grid readback), the image's readback and tone
+    /// mapping, the overlay and presentation.
+    parts: [f64; 3],
+    frames_since_build: u32,
+    last_frame_end: Option<Instant>,
+    overflows: Option<u32>,
+    /// The shown image, linear, and the exposure it is shown with.
+    image: Option<(Image, f32)>,
+    message: Option<String>,
+}
+
+const RECENT: usize = 30;
+
+/// One frame's times.
+#[derive(Debug, Default)]
+struct FrameTimes {
+    /// The timestamp spans.
+    spans: PassTimes,
+    /// Wall-clock milliseconds since the previous frame.
+    wall: f64,
+    /// Milliseconds from recording the frame until the GPU finished it.
+    done: f64,
+}
+
+/// Whether timestamp spans summing to `spans` ms cannot be right for a frame that took `done`
+/// ms from recording until its timestamps were read: they cover less than half of it, or more
+/// than all of it. Mesa 22.3.6's llvmpipe does so in a process that also draws (this window):
+/// world-restir at 256x256 gave spans of 24 ms/frame where frames took 400 ms (and 402 ms of
+/// spans with the drawing left out). Mesa 25.0.7's agree with the wall clock.
+fn spans_disagree(spans: f64, done: f64) -> bool {
+    done > 2.0 && (spans < 0.5 * done || spans > 1.1 * done + 0.5)
+}
+
+const SPANS_DISAGREE: &str = "the timestamp spans disagree with the time the frame took \
+     (older llvmpipe's timestamps go wrong in a process that also draws, as this window does): \
+     trust the wall clock here, and `render` or `compare` for per-stage times";
+
+struct Viewer {
+    window: Arc<Window>,
+    surface: wgpu::Surface<'static>,
+    surface_config: wgpu::SurfaceConfiguration,
+    ctx: GpuContext,
+    egui_ctx: egui::Context,
+    egui_state: egui_winit::State,
+    egui_renderer: egui_wgpu::Renderer,
+    texture: Option<egui::TextureHandle>,
+    setup: Setup,
+    method: Box<dyn FrameMethod>,
+    settings: MethodSettings,
+    /// The render-resolution scale the method was built at.
+    scale: f32,
+    camera: Camera,
+    start_camera: Camera,
+    controls: Controls,
+    actions: Actions,
+    stats: Stats,
+    shots_taken: u32,
+    last_ui: Instant,
+    restart_pending: bool,
+}
+
+impl Viewer {
+    fn new(
+        event_loop: &ActiveEventLoop,
+        setup: Setup,
+        display: &winit::event_loop::OwnedDisplayHandle,
+    ) -> Result<Self> {
+        let (w, h) = (setup.camera.width, setup.camera.height);
+        // The image at an integer zoom of about 512 pixels, the overlay's panel beside it.
+        let zoom = (512 / w.max(h)).clamp(1, 8);
+        let attrs = Window::default_attributes()
+            .with_title(format!("restir-demo view: {}", setup.scene_name))
+            .with_inner_size(winit::dpi::PhysicalSize::new(
+                (w * zoom).clamp(320, 1600) + PANEL_WIDTH as u32,
+                (h * zoom).clamp(600, 1200),
+            ));
+        let window = Arc::new(
+            event_loop
+                .create_window(attrs)
+                .map_err(|e| anyhow::anyhow!("cannot create a window: {e}. {SUGGEST_RENDER}"))?,
+        );
+        let backends = GpuContext::backends_from_env()?;
+        let mut desc =
+            wgpu::InstanceDescriptor::new_with_display_handle_from_env(Box::new(display.clone()));
+        desc.backends = backends;
+        let instance = wgpu::Instance::new(desc);
+        let surface = instance.create_surface(window.clone()).map_err(|e| {
+            anyhow::anyhow!(
+                "no surface support: cannot create a wgpu surface for the window: {e}. \
+                 {SUGGEST_RENDER}"
+            )
+        })?;
+        let mut ctx = pollster::block_on(GpuContext::for_surface(&instance, &surface))
+            .map_err(|e| anyhow::anyhow!("{e}. {SUGGEST_RENDER}"))?;
+        crate::apply_tracer(&mut ctx)?;
+        eprintln!("{}", ctx.describe());
+        let caps = surface.get_capabilities(&ctx.adapter);
+        // egui draws into a gamma-space target preferably.
+        let format = caps
+            .formats
+            .iter()
+            .copied()
+            .find(|f| !f.is_srgb())
+            .or(caps.formats.first().copied())
+            .with_context(|| {
+                format!(
+                    "the adapter {:?} cannot present to this window (no surface format). {}",
+                    ctx.info.name, SUGGEST_RENDER
+                )
+            })?;
+        let size = window.inner_size();
+        let surface_config = wgpu::SurfaceConfiguration {
+            usage: wgpu::TextureUsages::RENDER_ATTACHMENT,
+            format,
+            width: size.width.max(1),
+            height: size.height.max(1),
+            present_mode: wgpu::PresentMode::AutoVsync,
+            desired_maximum_frame_latency: 2,
+            alpha_mode: caps
+                .alpha_modes
+                .first()
+                .copied()
+                .unwrap_or(wgpu::CompositeAlphaMode::Auto),
+            view_formats: vec![],
+            color_space: wgpu::SurfaceColorSpace::Auto,
+        };
+        surface.configure(&ctx.device, &surface_config);
+        let egui_ctx = egui::Context::default();
+        let egui_state = egui_winit::State::new(
+            egui_ctx.clone(),
+            egui::ViewportId::ROOT,
+            &window,
+            Some(window.scale_factor() as f32),
+            None,
+            Some(ctx.limits().max_texture_dimension_2d as usize),
+        );
+        let egui_renderer = egui_wgpu::Renderer::new(&ctx.device, format, Default::default());
+        let method = setup
+            .settings
+            .build(&ctx, &setup.scene, &setup.camera, setup.args.seed)?;
+        let controls = Controls {
+            exposure: setup.args.exposure,
+            scale: setup.args.scale,
+            shown: setup.args.show,
+            accumulate: true,
+            paused: false,
+            speed: 1.0,
+            spec_text: setup.spec.clone(),
+            knob_text: knob_texts(&setup.settings),
+        };
+        Ok(Self {
+            window,
+            surface,
+            surface_config,
+            egui_ctx,
+            egui_state,
+            egui_renderer,
+            texture: None,
+            settings: setup.settings,
+            scale: setup.args.scale,
+            camera: setup.camera,
+            start_camera: setup.camera,
+            method,
+            ctx,
+            setup,
+            controls,
+            actions: Actions::default(),
+            stats: Stats::default(),
+            shots_taken: 0,
+            last_ui: Instant::now(),
+            restart_pending: false,
+        })
+    }
+
+    fn resize(&mut self, width: u32, height: u32) {
+        if width > 0 && height > 0 {
+            self.surface_config.width = width;
+            self.surface_config.height = height;
+            self.surface
+                .configure(&self.ctx.device, &self.surface_config);
+        }
+    }
+
+    /// One frame: apply the overlay's actions, render and read back, draw. `Ok(false)`: done.
+    fn redraw(&mut self) -> Result<bool> {
+        let t0 = Instant::now();
+        // A change while paused restarts the accumulation at the next rendered frame.
+        let restart = self.apply_actions()?;
+        self.restart_pending |= restart;
+        let rendered = !self.controls.paused;
+        if rendered {
+            let restart = std::mem::take(&mut self.restart_pending);
+            self.render_frame(restart)?;
+        }
+        let t1 = Instant::now();
+        self.show_image()?;
+        let t2 = Instant::now();
+        self.draw_ui()?;
+        let t3 = Instant::now();
+        if rendered && self.stats.frames_since_build > 2 {
+            let ms = |a: Instant, b: Instant| b.duration_since(a).as_secs_f64() * 1e3;
+            let parts = [ms(t0, t1), ms(t1, t2), ms(t2, t3)];
+            for (sum, part) in self.stats.parts.iter_mut().zip(parts) {
+                *sum += part;
+            }
+        }
+        if self.actions.screenshot {
+            self.actions.screenshot = false;
+            self.take_shot()?;
+        }
+        Ok(self
+            .setup
+            .args
+            .exit_after_frames
+            .is_none_or(|n| self.stats.frames < n))
+    }
+
+    /// Applies the camera script and the overlay's actions; returns whether accumulation
+    /// restarts.
+    fn apply_actions(&mut self) -> Result<bool> {
+        let a = std::mem::take(&mut self.actions);
+        let mut camera = self.camera;
+        let args = &self.setup.args;
+        let frame = self.stats.frames;
+        if args.camera_path != Motion::Static && frame < args.camera_path_frames {
+            let path: CameraPath = args.camera_path.per_frame(args.camera_path_frames);
+            let c = path.camera(&self.start_camera, frame);
+            camera.eye = c.eye;
+            camera.target = c.target;
+        }
+        fly(&mut camera, a.translate, a.look);
+        if let Some(s) = a.settings {
+            self.rebuild(s, camera)?;
+        } else if a.rebuild || (camera.width, camera.height) != self.size_for_scale() {
+            self.rebuild(self.settings, camera)?;
+        } else if camera != self.camera {
+            if camera.validate().is_ok() {
+                self.method.set_camera(&camera)?;
+                self.camera = camera;
+                return Ok(true);
+            }
+        } else if a.restart {
+            return Ok(true);
+        }
+        Ok(false)
+    }
+
+    fn size_for_scale(&self) -> (u32, u32) {
+        let (w, h) = self.setup.base_size;
+        (
+            scaled(w, self.controls.scale),
+            scaled(h, self.controls.scale),
+        )
+    }
+
+    /// Builds `settings` at the current scale; on failure keeps the method it had and says
+    /// why in the overlay.
+    fn rebuild(&mut self, settings: MethodSettings, camera: Camera) -> Result<()> {
+        let (width, height) = self.size_for_scale();
+        let camera = Camera {
+            width,
+            height,
+            ..camera
+        };
+        match settings.build(&self.ctx, &self.setup.scene, &camera, self.setup.args.seed) {
+            Ok(m) => {
+                self.method = m;
+                self.settings = settings;
+                self.scale = self.controls.scale;
+                self.camera = camera;
+                self.controls.knob_text = knob_texts(&settings);
+                self.controls.spec_text = spec_of(&settings);
+                let frames = self.stats.frames;
+                self.stats = Stats {
+                    frames,
+                    message: None,
+                    ..Stats::default()
+                };
+            }
+            Err(e) => {
+                self.controls.knob_text = knob_texts(&self.settings);
+                self.controls.scale = self.scale;
+                self.stats.message = Some(format!("not applied: {e}"));
+            }
+        }
+        Ok(())
+    }
+
+    /// One frame of the method through the one frame loop, timed.
+    fn render_frame(&mut self, restart: bool) -> Result<()> {
+        let l = FrameLoop {
+            records: 1,
+            samples: 1,
+            path: CameraPath::Static,
+            restart: restart || !self.controls.accumulate,
+            timed: true,
+            batch: 1,
+        };
+        let start = Instant::now();
+        let times = run_frames(&self.ctx, self.method.as_mut(), &l, |_, _| {
+            Ok::<(), MethodError>(())
+        })?;
+        let done = start.elapsed().as_secs_f64() * 1e3;
+        self.stats.overflows = self.method.grid_overflows(&self.ctx)?;
+        let now = Instant::now();
+        let s = &mut self.stats;
+        let wall = s
+            .last_frame_end
+            .map_or(0.0, |t| now.duration_since(t).as_secs_f64() * 1e3);
+        s.last_frame_end = Some(now);
+        s.frames += 1;
+        s.frames_since_build += 1;
+        if s.frames_since_build > 2 {
+            s.wall_sum += wall;
+            s.done_sum += done;
+            s.wall_frames += 1;
+        }
+        let times = times.unwrap_or_default();
+        s.since_build
+            .add(&restir_world::gpu::SpanTimes(times.passes.clone()));
+        s.since_build.frames += 1;
+        s.recent.push_back(FrameTimes {
+            spans: times,
+            wall,
+            done,
+        });
+        if s.recent.len() > RECENT {
+            s.recent.pop_front();
+        }
+        Ok(())
+    }
+
+    /// Reads the shown image back and hands it to egui.
+    fn show_image(&mut self) -> Result<()> {
+        let (w, h) = (self.camera.width, self.camera.height);
+        let debug = match self.controls.shown.debug() {
+            Some(view) => self.method.debug_image(&self.ctx, view)?,
+            None => None,
+        };
+        let (pixels, exposure) = match debug {
+            Some(px) => (px, 1.0),
+            None => {
+                let images = self.method.read(&self.ctx, Readback::Accumulated)?;
+                let px = match self.controls.shown {
+                    Shown::Direct => images.direct,
+                    Shown::Indirect => images.indirect,
+                    _ => images.combined(),
+                };
+                (px, self.controls.exposure)
+            }
+        };
+        let image = Image::from_pixels(w, h, pixels).map_err(|e| anyhow::anyhow!("{e}"))?;
+        let rgb: Vec<u8> = image
+            .pixels
+            .iter()
+            .flat_map(|&p| image_io::tone_map(p, exposure))
+            .collect();
+        let color = egui::ColorImage::from_rgb([w as usize, h as usize], &rgb);
+        let options = egui::TextureOptions::NEAREST;
+        match self.texture.as_mut() {
+            Some(t) => t.set(color, options),
+            None => {
+                self.texture = Some(self.egui_ctx.load_texture("frame", color, options));
+            }
+        }
+        self.stats.image = Some((image, exposure));
+        Ok(())
+    }
+
+    fn draw_ui(&mut self) -> Result<()> {
+        let raw = self.egui_state.take_egui_input(&self.window);
+        let now = Instant::now();
+        let dt = now.duration_since(self.last_ui).as_secs_f32().min(0.1);
+        self.last_ui = now;
+        let info = Info {
+            adapter: format!("{} ({:?})", self.ctx.info.name, self.ctx.info.backend),
+            timestamps: self.ctx.features.timestamps,
+            size: (self.camera.width, self.camera.height),
+            accumulated: self.method.renderer().accumulated(),
+            settings: self.settings,
+            speed: self.setup.speed,
+            dt,
+            has_debug: matches!(self.settings, MethodSettings::WorldRestir(_)),
+            render_cmd: self.render_command(),
+        };
+        let texture = self.texture.as_ref().map(|t| t.id());
+        let (controls, stats, actions) = (&mut self.controls, &self.stats, &mut self.actions);
+        let out = self.egui_ctx.clone().run_ui(raw, |ui| {
+            overlay(ui, &info, controls, stats, actions, texture);
+        });
+        self.egui_state
+            .handle_platform_output(&self.window, out.platform_output);
+        let prims = self.egui_ctx.tessellate(out.shapes, out.pixels_per_point);
+        let (device, queue) = (&self.ctx.device, &self.ctx.queue);
+        let mut textures = out.textures_delta;
+        for (id, deltas) in textures.set.drain() {
+            for delta in &deltas {
+                self.egui_renderer.update_texture(device, queue, id, delta);
+            }
+        }
+        let free: Vec<egui::TextureId> = textures.free.drain().collect();
+        let painted = self.paint(&prims, out.pixels_per_point);
+        for id in &free {
+            self.egui_renderer.free_texture(id);
+        }
+        painted
+    }
+
+    /// Draws the overlay's primitives into the surface and presents.
+    fn paint(&mut self, prims: &[egui::ClippedPrimitive], pixels_per_point: f32) -> Result<()> {
+        let (device, queue) = (&self.ctx.device, &self.ctx.queue);
+        let frame = match self.surface.get_current_texture() {
+            wgpu::CurrentSurfaceTexture::Success(t)
+            | wgpu::CurrentSurfaceTexture::Suboptimal(t) => t,
+            wgpu::CurrentSurfaceTexture::Outdated | wgpu::CurrentSurfaceTexture::Lost => {
+                self.surface.configure(device, &self.surface_config);
+                return Ok(());
+            }
+            wgpu::CurrentSurfaceTexture::Timeout | wgpu::CurrentSurfaceTexture::Occluded => {
+                return Ok(());
+            }
+            other => anyhow::bail!(
+                "the window's surface failed ({other:?}): the adapter cannot present to it. \
+                 {SUGGEST_RENDER}"
+            ),
+        };
+        let target = frame.texture.create_view(&Default::default());
+        let screen = egui_wgpu::ScreenDescriptor {
+            size_in_pixels: [self.surface_config.width, self.surface_config.height],
+            pixels_per_point,
+        };
+        let mut encoder = device.create_command_encoder(&Default::default());
+        let mut commands =
+            self.egui_renderer
+                .update_buffers(device, queue, &mut encoder, prims, &screen);
+        {
+            let mut pass = encoder
+                .begin_render_pass(&wgpu::RenderPassDescriptor {
+                    label: Some("view overlay"),
+                    color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+                        view: &target,
+                        depth_slice: None,
+                        resolve_target: None,
+                        ops: wgpu::Operations {
+                            load: wgpu::LoadOp::Clear(wgpu::Color::BLACK),
+                            store: wgpu::StoreOp::Store,
+                        },
+                    })],
+                    ..Default::default()
+                })
+                .forget_lifetime();
+            self.egui_renderer.render(&mut pass, prims, &screen);
+        }
+        commands.push(encoder.finish());
+        queue.submit(commands);
+        self.window.pre_present_notify();
+        queue.present(frame);
+        Ok(())
+    }
+
+    /// The `render` command that renders what the window shows (at its frame count).
+    fn render_command(&self) -> String {
+        let c = &self.camera;
+        let v = |v: Vec3| format!("{},{},{}", v.x, v.y, v.z);
+        format!(
+            "restir-demo render --scene {} --method {} --size {}x{} --seed {} --frames {} \
+             --eye {} --target {} --up {} --fov {}",
+            self.setup.scene_name,
+            spec_of(&self.settings),
+            c.width,
+            c.height,
+            self.setup.args.seed,
+            self.method.renderer().accumulated().max(1),
+            v(c.eye),
+            v(c.target),
+            v(c.up),
+            c.vfov_deg
+        )
+    }
+
+    /// Writes the shown image as PNG (as shown) + EXR (linear) into --shots.
+    fn take_shot(&mut self) -> Result<()> {
+        let dir = self.setup.args.shots.clone();
+        if let Err(e) = std::fs::create_dir_all(&dir) {
+            self.stats.message = Some(format!("cannot create {}: {e}", dir.display()));
+            return Ok(());
+        }
+        self.shots_taken += 1;
+        let stem = dir.join(format!(
+            "view-{}-{}-{:03}",
+            std::process::id(),
+            self.stats.frames,
+            self.shots_taken
+        ));
+        let paths = (stem.with_extension("png"), stem.with_extension("exr"));
+        self.stats.message = Some(match self.write_shot(&paths) {
+            Ok(()) => format!("wrote {}", paths.0.display()),
+            Err(e) => format!("screenshot failed: {e:#}"),
+        });
+        Ok(())
+    }
+
+    fn write_shot(&self, (png, exr): &(PathBuf, PathBuf)) -> Result<()> {
+        let (image, exposure) = self.stats.image.as_ref().context("no image rendered yet")?;
+        image_io::write_png(png, image, *exposure)?;
+        image_io::write_exr(exr, image)?;
+        Ok(())
+    }
+
+    /// At exit: --screenshot and the summary.
+    fn finish(self) -> Result<()> {
+        let s = &self.stats;
+        let spec = spec_of(&self.settings);
+        println!(
+            "view: {} frames of {spec} at {}x{} on {:?}, accumulated {}",
+            s.frames,
+            self.camera.width,
+            self.camera.height,
+            self.ctx.info.name,
+            self.method.renderer().accumulated()
+        );
+        if s.since_build.frames > 0 && !s.since_build.passes.is_empty() {
+            println!(
+                "view: GPU {:.3} ms/frame ({}) over {} frames",
+                s.since_build.ms_per_frame(),
+                s.since_build.line(),
+                s.since_build.frames
+            );
+        }
+        if s.wall_frames > 0 {
+            let n = f64::from(s.wall_frames);
+            println!(
+                "view: frame {:.2} ms (wall clock, mean of {} frames: frame and wait {:.2}, \
+                 readback and tone map {:.2}, overlay and present {:.2}); recorded until done \
+                 {:.2} ms",
+                s.wall_sum / n,
+                s.wall_frames,
+                s.parts[0] / n,
+                s.parts[1] / n,
+                s.parts[2] / n,
+                s.done_sum / n
+            );
+            let spans = s.since_build.ms_per_frame();
+            if !s.since_build.passes.is_empty() && spans_disagree(spans, s.done_sum / n) {
+                println!("view: warning: {SPANS_DISAGREE}");
+            }
+        }
+        let c = &self.camera;
+        println!(
+            "view: camera eye {},{},{} target {},{},{}",
+            c.eye.x, c.eye.y, c.eye.z, c.target.x, c.target.y, c.target.z
+        );
+        if let Some(o) = s.overflows {
+            println!("view: grid overflows (last frame) {o}");
+        }
+        if let Some(paths) = &self.setup.screenshot {
+            self.write_shot(paths)?;
+            println!(
+                "view: wrote {} and {}",
+                paths.0.display(),
+                paths.1.display()
+            );
+        }
+        Ok(())
+    }
+}
+
+/// Moves `camera` by `translate` (right, up, forward) and turns it by `look` (yaw, pitch),
+/// keeping the eye-target distance; never lets the view direction reach the up axis.
+fn fly(camera: &mut Camera, translate: Vec3, (yaw, pitch): (f32, f32)) {
+    let up = camera.up.normalize_or(Vec3::Y);
+    let mut forward = (camera.target - camera.eye).normalize_or(Vec3::NEG_Z);
+    let dist = (camera.target - camera.eye).length().max(1e-3);
+    if yaw != 0.0 || pitch != 0.0 {
+        forward = Quat::from_axis_angle(up, yaw) * forward;
+        let right = forward.cross(up).normalize_or(Vec3::X);
+        let turned = Quat::from_axis_angle(right, pitch) * forward;
+        if turned.dot(up).abs() < 0.99 {
+            forward = turned;
+        }
+        camera.target = camera.eye + forward * dist;
+    }
+    if translate != Vec3::ZERO {
+        let right = forward.cross(up).normalize_or(Vec3::X);
+        let d = right * translate.x + up * translate.y + forward * translate.z;
+        camera.eye += d;
+        camera.target += d;
+    }
+}
+
+/// The spec that rebuilds `settings`.
+fn spec_of(settings: &MethodSettings) -> String {
+    match settings {
+        MethodSettings::Baseline(Estimator::Nee) => "nee".into(),
+        MethodSettings::Baseline(Estimator::Ris { candidates }) => format!("ris:{candidates}"),
+        MethodSettings::WorldRestir(c) => match c.knobs_spec() {
+            k if k.is_empty() => "world-restir".into(),
+            k => format!("world-restir:{k}"),
+        },
+    }
+}
+
+fn knob_texts(settings: &MethodSettings) -> Vec<String> {
+    let c = match settings {
+        MethodSettings::WorldRestir(c) => *c,
+        MethodSettings::Baseline(_) => WorldRestirConfig::default(),
+    };
+    WorldRestirConfig::KNOBS
+        .iter()
+        .map(|k| c.get(k).unwrap_or_default())
+        .collect()
+}
+
+/// What the overlay shows without changing.
+struct Info {
+    adapter: String,
+    timestamps: bool,
+    size: (u32, u32),
+    accumulated: u32,
+    settings: MethodSettings,
+    speed: f32,
+    dt: f32,
+    has_debug: bool,
+    render_cmd: String,
+}
+
+/// The specs the method list offers: every registry entry, then world-restir's variants.
+fn method_specs() -> Vec<String> {
+    let mut v: Vec<String> = methods::registry()
+        .iter()
+        .map(|e| e.name.to_owned())
+        .collect();
+    v.extend(
+        WORLD_RESTIR_VARIANTS
+            .iter()
+            .filter(|(n, _, _)| *n != "both")
+            .map(|(n, _, _)| format!("world-restir:{n}")),
+    );
+    v
+}
+
+fn overlay(
+    ui: &mut egui::Ui,
+    info: &Info,
+    c: &mut Controls,
+    s: &Stats,
+    a: &mut Actions,
+    texture: Option<egui::TextureId>,
+) {
+    egui::Panel::right("controls")
+        .default_size(PANEL_WIDTH - 20.0)
+        .show(ui, |ui| {
+            egui::ScrollArea::vertical().show(ui, |ui| controls_ui(ui, info, c, s, a));
+        });
+    egui::CentralPanel::no_frame().show(ui, |ui| {
+        let rect = ui.available_rect_before_wrap();
+        let Some(tex) = texture else {
+            return;
+        };
+        let (w, h) = (info.size.0 as f32, info.size.1 as f32);
+        let zoom = (rect.width() / w).min(rect.height() / h);
+        let shown = egui::Rect::from_center_size(rect.center(), egui::vec2(w * zoom, h * zoom));
+        let response = ui.allocate_rect(rect, egui::Sense::drag());
+        ui.painter().image(
+            tex,
+            shown,
+            egui::Rect::from_min_max(egui::pos2(0.0, 0.0), egui::pos2(1.0, 1.0)),
+            egui::Color32::WHITE,
+        );
+        if response.dragged() {
+            let d = response.drag_delta();
+            a.look = (-d.x * 0.004, -d.y * 0.004);
+        }
+    });
+    // Fly keys, unless a text field has the keyboard.
+    if !ui.ctx().egui_wants_keyboard_input() {
+        ui.input(|i| {
+            let key = |k: egui::Key| if i.key_down(k) { 1.0 } else { 0.0 };
+            let dir = Vec3::new(
+                key(egui::Key::D) - key(egui::Key::A),
+                key(egui::Key::E) - key(egui::Key::Q),
+                key(egui::Key::W) - key(egui::Key::S),
+            );
+            let boost = if i.modifiers.shift { 4.0 } else { 1.0 };
+            a.translate = dir * info.speed * c.speed * boost * info.dt;
+            let turn = 1.5 * info.dt;
+            a.look.0 += (key(egui::Key::ArrowLeft) - key(egui::Key::ArrowRight)) * turn;
+            a.look.1 += (key(egui::Key::ArrowUp) - key(egui::Key::ArrowDown)) * turn;
+            a.screenshot |= i.key_pressed(egui::Key::P);
+            a.restart |= i.key_pressed(egui::Key::R);
+            if i.key_pressed(egui::Key::Space) {
+                c.paused = !c.paused;
+            }
+        });
+    }
+}
+
+fn controls_ui(ui: &mut egui::Ui, info: &Info, c: &mut Controls, s: &Stats, a: &mut Actions) {
+    ui.heading("restir-demo view");
+    ui.label(format!("adapter: {}", info.adapter));
+    ui.label(format!(
+        "{}x{}, {} frames accumulated ({} rendered)",
+        info.size.0, info.size.1, info.accumulated, s.frames
+    ));
+    if let Some(o) = s.overflows {
+        ui.label(format!("grid overflows (last frame): {o}"));
+    }
+    if let Some(m) = &s.message {
+        ui.colored_label(egui::Color32::YELLOW, m);
+    }
+    ui.separator();
+    let mut recent = PassTimes::default();
+    let (mut wall, mut done) = (0.0, 0.0);
+    for t in &s.recent {
+        recent.add(&restir_world::gpu::SpanTimes(t.spans.passes.clone()));
+        recent.frames += 1;
+        wall += t.wall;
+        done += t.done;
+    }
+    let n = s.recent.len().max(1) as f64;
+    ui.label(format!(
+        "frame {:.1} ms (wall clock); recorded until done {:.1} ms",
+        wall / n,
+        done / n
+    ));
+    if info.timestamps {
+        ui.label(format!("GPU spans {:.2} ms/frame:", recent.ms_per_frame()));
+        if spans_disagree(recent.ms_per_frame(), done / n) {
+            ui.colored_label(egui::Color32::YELLOW, SPANS_DISAGREE);
+        }
+        egui::Grid::new("spans").striped(true).show(ui, |ui| {
+            for (name, ms) in recent.per_frame() {
+                ui.label(name);
+                ui.label(format!("{ms:.3} ms"));
+                ui.end_row();
+            }
+        });
+    } else {
+        ui.label("GPU timings: no timestamp queries on this adapter");
+    }
+    ui.separator();
+    ui.label("method");
+    egui::ComboBox::from_id_salt("method")
+        .selected_text(spec_of(&info.settings))
+        .width(260.0)
+        .show_ui(ui, |ui| {
+            for spec in method_specs() {
+                if ui.selectable_label(false, &spec).clicked() {
+                    match methods::parse_spec(&spec) {
+                        Ok(set) => a.settings = Some(set),
+                        Err(e) => c.spec_text = format!("{spec}: {e}"),
+                    }
+                }
+            }
+        });
+    ui.horizontal(|ui| {
+        let r = ui.text_edit_singleline(&mut c.spec_text);
+        if r.lost_focus() && ui.input(|i| i.key_pressed(egui::Key::Enter)) {
+            match methods::parse_spec(c.spec_text.trim()) {
+                Ok(set) => a.settings = Some(set),
+                Err(e) => c.spec_text = format!("{}: {e}", c.spec_text.trim()),
+            }
+        }
+    });
+    if let MethodSettings::WorldRestir(config) = info.settings {
+        egui::CollapsingHeader::new("world-restir knobs")
+            .default_open(true)
+            .show(ui, |ui| knobs_ui(ui, config, c, a));
+    }
+    ui.separator();
+    egui::ComboBox::from_label("shown")
+        .selected_text(c.shown.label())
+        .show_ui(ui, |ui| {
+            for (shown, label) in Shown::ALL {
+                if shown.debug().is_some() && !info.has_debug {
+                    continue;
+                }
+                ui.selectable_value(&mut c.shown, shown, label);
+            }
+        });
+    if c.shown.debug().is_some() && !info.has_debug {
+        c.shown = Shown::Combined;
+    }
+    ui.add(
+        egui::Slider::new(&mut c.exposure, 0.05..=20.0)
+            .logarithmic(true)
+            .text("exposure"),
+    );
+    let before = c.scale;
+    egui::ComboBox::from_label("resolution scale")
+        .selected_text(format!("{}", c.scale))
+        .show_ui(ui, |ui| {
+            for s in SCALES {
+                ui.selectable_value(&mut c.scale, s, format!("{s}"));
+            }
+        });
+    if c.scale != before {
+        a.rebuild = true;
+    }
+    let acc = c.accumulate;
+    ui.checkbox(&mut c.accumulate, "accumulate while still");
+    a.restart |= acc != c.accumulate;
+    ui.checkbox(&mut c.paused, "paused (space)");
+    ui.add(
+        egui::Slider::new(&mut c.speed, 0.05..=10.0)
+            .logarithmic(true)
+            .text("fly speed"),
+    );
+    ui.horizontal(|ui| {
+        a.screenshot |= ui.button("screenshot (P)").clicked();
+        a.restart |= ui.button("restart (R)").clicked();
+    });
+    ui.separator();
+    ui.label("WASD move, Q/E down/up, shift faster; drag the image or arrows to look");
+    ui.collapsing("the same image offline", |ui| {
+        ui.add(egui::Label::new(egui::RichText::new(&info.render_cmd).monospace()).wrap());
+    });
+}
+
+/// One row per knob of [`WorldRestirConfig::KNOBS`]: switches as checkboxes, the rest as text
+/// that [`WorldRestirConfig::set`] parses when Enter is pressed.
+fn knobs_ui(ui: &mut egui::Ui, config: WorldRestirConfig, c: &mut Controls, a: &mut Actions) {
+    egui::Grid::new("knobs").show(ui, |ui| {
+        for (i, key) in WorldRestirConfig::KNOBS.iter().enumerate() {
+            let Some(text) = c.knob_text.get_mut(i) else {
+                continue;
+            };
+            ui.label(*key);
+            let current = config.get(key).unwrap_or_default();
+            let mut apply = None;
+            if current == "on" || current == "off" {
+                let mut on = current == "on";
+                if ui.checkbox(&mut on, "").changed() {
+                    apply = Some(if on { "on" } else { "off" }.to_owned());
+                }
+            } else {
+                let r = ui.add(egui::TextEdit::singleline(text).desired_width(90.0));
+                if r.lost_focus() && ui.input(|i| i.key_pressed(egui::Key::Enter)) {
+                    apply = Some(text.trim().to_owned());
+                }
+            }
+            ui.end_row();
+            if let Some(value) = apply {
+                let mut next = config;
+                match next.set(key, &value).and_then(|()| next.validate()) {
+                    Ok(()) => a.settings = Some(MethodSettings::WorldRestir(next)),
+                    Err(e) => *text = format!("{value} ({e})"),
+                }
+            }
+        }
+    });
+}
