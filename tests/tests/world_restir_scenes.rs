@@ -5,8 +5,6 @@
 //! planted darkening that must fail the same bound). Sponza is skipped with a printed reason
 //! when the public scenes are absent.
 
-use std::path::PathBuf;
-
 use restir_world::render::Renderer;
 use restir_world::sampling::Estimator;
 use restir_world::scene::{self, BuiltinOptions, Camera, Environment, Scene};
@@ -88,20 +86,7 @@ fn colonnade_bias_at_the_defaults() {
     check("colonnade", relative_bias(&s, &cam, 4, 100..104, 256), 0.03);
 }
 
-fn scenes_dir() -> Option<PathBuf> {
-    let dir = std::env::var_os("RESTIR_SCENES_DIR")
-        .map(PathBuf::from)
-        .unwrap_or_else(|| tests::wgsl::workspace_root().join("../shared/scenes"));
-    if dir.is_dir() {
-        Some(dir)
-    } else {
-        eprintln!(
-            "skipping: the public scenes are not at {} (set RESTIR_SCENES_DIR)",
-            dir.display()
-        );
-        None
-    }
-}
+use tests::scenes_dir;
 
 /// Sponza (no emitters of its own, shading normals) under a constant sky of radiance
 /// (2, 2.2, 2.5) only, 64x64, 3 seeds x 256 frames against one ris reference of 512 frames:
