@@ -13,45 +13,9 @@ use tests::gpu;
 
 /// A unit geodesic sphere (icosahedron subdivided `level` times), albedo `rho`, no emission.
 fn sphere(rho: f32, level: u32) -> Scene {
-    let t = (1.0 + 5f32.sqrt()) / 2.0;
-    let mut v: Vec<Vec3> = [
-        [-1.0, t, 0.0],
-        [1.0, t, 0.0],
-        [-1.0, -t, 0.0],
-        [1.0, -t, 0.0],
-        [0.0, -1.0, t],
-        [0.0, 1.0, t],
-        [0.0, -1.0, -t],
-        [0.0, 1.0, -t],
-        [t, 0.0, -1.0],
-        [t, 0.0, 1.0],
-        [-t, 0.0, -1.0],
-        [-t, 0.0, 1.0],
-    ]
-    .map(|p| Vec3::from(p).normalize())
-    .to_vec();
-    let mut faces: Vec<[usize; 3]> = vec![
-        [0, 11, 5],
-        [0, 5, 1],
-        [0, 1, 7],
-        [0, 7, 10],
-        [0, 10, 11],
-        [1, 5, 9],
-        [5, 11, 4],
-        [11, 10, 2],
-        [10, 7, 6],
-        [7, 1, 8],
-        [3, 9, 4],
-        [3, 4, 2],
-        [3, 2, 6],
-        [3, 6, 8],
-        [3, 8, 9],
-        [4, 9, 5],
-        [2, 4, 11],
-        [6, 2, 10],
-        [8, 6, 7],
-        [9, 8, 1],
-    ];
+    let (v, f) = restir_world::scene::builtin::icosahedron();
+    let mut v: Vec<Vec3> = v.to_vec();
+    let mut faces: Vec<[usize; 3]> = f.to_vec();
     for _ in 0..level {
         let mut next = Vec::new();
         let mut mid = std::collections::HashMap::new();

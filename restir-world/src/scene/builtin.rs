@@ -523,16 +523,9 @@ pub fn furnace(rho: f32, le: f32, width: u32, height: u32) -> Result<Scene, Scen
 /// Radius of the `furnace-sphere`, metres.
 pub const FURNACE_SPHERE_RADIUS: f32 = 1.0;
 
-/// The white furnace as a closed icosphere (icosahedron subdivided 3 times: 1280 triangles,
-/// watertight) of radius 1 m, seen from its centre. Same analytic values as [`furnace`] (any
-/// closed enclosure gives irradiance pi Le everywhere), but a far better-behaved estimator:
-/// on a sphere cos_x cos_y / d^2 = 1 / (4 R^2) for any two points, so area light sampling has
-/// almost no variance, whereas in the box that term is unbounded near the edges (the NEE
-/// estimator's variance diverges there and fixed-seed means scatter by a few percent).
-/// Use this one for tight furnace tests.
-pub fn furnace_sphere(rho: f32, le: f32, width: u32, height: u32) -> Result<Scene, SceneError> {
-    let mut s = furnace(rho, le, width, height)?;
-    s.triangles.clear();
+/// The unit icosahedron: 12 vertices on the unit sphere and its 20 faces (outward winding),
+/// the start of every icosphere here and in the tests.
+pub fn icosahedron() -> ([Vec3; 12], [[usize; 3]; 20]) {
     let t = (1.0 + 5f32.sqrt()) / 2.0;
     let v = [
         [-1.0, t, 0.0],
@@ -549,7 +542,7 @@ pub fn furnace_sphere(rho: f32, le: f32, width: u32, height: u32) -> Result<Scen
         [-t, 0.0, 1.0],
     ]
     .map(|p| Vec3::from(p).normalize());
-    let faces: [[usize; 3]; 20] = [
+    let faces = [
         [0, 11, 5],
         [0, 5, 1],
         [0, 1, 7],
@@ -571,6 +564,20 @@ pub fn furnace_sphere(rho: f32, le: f32, width: u32, height: u32) -> Result<Scen
         [8, 6, 7],
         [9, 8, 1],
     ];
+    (v, faces)
+}
+
+/// The white furnace as a closed icosphere (icosahedron subdivided 3 times: 1280 triangles,
+/// watertight) of radius 1 m, seen from its centre. Same analytic values as [`furnace`] (any
+/// closed enclosure gives irradiance pi Le everywhere), but a far better-behaved estimator:
+/// on a sphere cos_x cos_y / d^2 = 1 / (4 R^2) for any two points, so area light sampling has
+/// almost no variance, whereas in the box that term is unbounded near the edges (the NEE
+/// estimator's variance diverges there and fixed-seed means scatter by a few percent).
+/// Use this one for tight furnace tests.
+pub fn furnace_sphere(rho: f32, le: f32, width: u32, height: u32) -> Result<Scene, SceneError> {
+    let mut s = furnace(rho, le, width, height)?;
+    s.triangles.clear();
+    let (v, faces) = icosahedron();
     let mut tris: Vec<[Vec3; 3]> = faces.iter().map(|f| f.map(|i| v[i])).collect();
     // Midpoints are computed symmetrically ((a + b) * 0.5 is commutative), so neighbours share
     // bit-identical vertices and the mesh stays watertight.
