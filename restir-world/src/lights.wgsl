@@ -56,7 +56,9 @@ struct LightsInfo {
 // kinds at infinity (environment, directional). pdf_area = density of having sampled it in its
 // measure (0 when there are no lights: treat as no contribution). normal = the triangle's unit
 // geometric normal (either side emits), the spot axis, or the direction. emission = radiance,
-// intensity or illuminance.
+// intensity or illuminance. (light, coords) determine the rest (lights_sample_at): coords are a
+// triangle point's barycentrics (b1, b2), or an environment direction in octahedral
+// coordinates (sampling_oct_encode); punctual lights do not use them.
 struct LightSample {
     position: vec3<f32>,
     pdf_area: f32,
@@ -64,6 +66,7 @@ struct LightSample {
     light: u32,
     emission: vec3<f32>,
     triangle: u32,
+    coords: vec2<f32>,
     kind: u32,
 }
 
@@ -153,6 +156,7 @@ fn lights_sample(u: vec4<f32>, rng: ptr<function, u32>) -> LightSample {
     s.kind = t.kind;
     if t.kind == LIGHTS_KIND_TRIANGLE {
         let b = sampling_triangle_uniform(u.zw);
+        s.coords = b;
         s.position = t.p0 + b.x * t.e1 + b.y * t.e2;
         s.pdf_area = t.prob / t.area;
         s.normal = normalize(cross(t.e1, t.e2));
@@ -181,8 +185,41 @@ fn lights_sample(u: vec4<f32>, rng: ptr<function, u32>) -> LightSample {
         let px = lights_env[k];
         s.position = vec3<f32>(sin_theta * sin(phi), cos_theta, -sin_theta * cos(phi));
         s.normal = s.position;
+        s.coords = sampling_oct_encode(s.position);
         s.pdf_area = t.prob * px.pdf;
         s.emission = px.radiance;
+    }
+    return s;
+}
+
+// The sample of light `light` (a lights_triangles index) at `coords` (see LightSample): the
+// inverse of a sample's (light, coords), for storing a sample compactly. pdf_area is the
+// sample's density, except for the environment, where it is left 0 (the pixel's density is
+// not needed by the reuse passes that decode samples).
+fn lights_sample_at(light: u32, coords: vec2<f32>) -> LightSample {
+    let t = lights_triangles[light];
+    var s: LightSample;
+    s.light = light;
+    s.emission = t.emission;
+    s.triangle = t.triangle;
+    s.kind = t.kind;
+    s.coords = coords;
+    if t.kind == LIGHTS_KIND_TRIANGLE {
+        s.position = t.p0 + coords.x * t.e1 + coords.y * t.e2;
+        s.pdf_area = t.prob / t.area;
+        s.normal = normalize(cross(t.e1, t.e2));
+        return s;
+    }
+    s.position = t.p0;
+    s.pdf_area = t.prob;
+    s.normal = t.e1;
+    if t.kind == LIGHTS_KIND_DIRECTIONAL {
+        s.normal = t.p0;
+    } else if t.kind == LIGHTS_KIND_ENV {
+        s.position = sampling_oct_decode(coords);
+        s.normal = s.position;
+        s.pdf_area = 0.0;
+        s.emission = lights_env_radiance(s.position);
     }
     return s;
 }

@@ -37,6 +37,25 @@ fn sampling_triangle_uniform(u: vec2<f32>) -> vec2<f32> {
     return vec2<f32>(su * (1.0 - u.y), su * u.y);
 }
 
+// Octahedral coordinates in [-1, 1]^2 of the unit vector d (Cigolle et al. 2014), and back.
+fn sampling_oct_encode(d: vec3<f32>) -> vec2<f32> {
+    let p = d.xy / (abs(d.x) + abs(d.y) + abs(d.z));
+    if d.z >= 0.0 {
+        return p;
+    }
+    let s = select(vec2<f32>(-1.0), vec2<f32>(1.0), p >= vec2<f32>(0.0));
+    return (vec2<f32>(1.0) - abs(p.yx)) * s;
+}
+
+fn sampling_oct_decode(e: vec2<f32>) -> vec3<f32> {
+    var d = vec3<f32>(e, 1.0 - abs(e.x) - abs(e.y));
+    if d.z < 0.0 {
+        let s = select(vec2<f32>(-1.0), vec2<f32>(1.0), d.xy >= vec2<f32>(0.0));
+        d = vec3<f32>((vec2<f32>(1.0) - abs(d.yx)) * s, d.z);
+    }
+    return normalize(d);
+}
+
 // A pinhole camera as the GPU sees it. `right` and `up` are pre-scaled so that the image plane
 // at distance 1 along `forward` spans [-1, 1] in both: |up| = tan(vfov / 2), |right| = |up| *
 // width / height. Rust: restir_world::sampling::CameraGpu::new.

@@ -257,15 +257,16 @@ fn world_restir_reuses_sky_samples_without_bias() {
             got[c] += m[c] / 2.0;
         }
         let res = wr.reservoirs(ctx).unwrap();
-        let env = res
+        let directions: std::collections::HashSet<u32> = res
             .iter()
             .filter(|r| r.m > 0 && r.light_kind & 3 == KIND_ENV)
-            .count();
-        assert!(env > 0, "no reservoir holds a sky direction");
+            .map(|r| r.coords)
+            .collect();
+        // Sky samples are directions spread over the sky, not one stored value.
         assert!(
-            res.iter()
-                .filter(|r| r.m > 0 && r.light_kind & 3 == KIND_ENV)
-                .all(|r| (Vec3::from(r.light_position).length() - 1.0).abs() < 1e-4)
+            directions.len() > 100,
+            "{} distinct sky directions in the reservoirs",
+            directions.len()
         );
     }
     let err = rel_err(got, want);

@@ -48,16 +48,7 @@ fn layouts_match_wgsl() {
         WrReservoir,
         src,
         "WrReservoir",
-        [
-            light_position,
-            ucw,
-            light_normal,
-            m,
-            light_emission,
-            light_kind,
-            vertex_normal,
-            _pad1
-        ]
+        [light_kind, coords, ucw, m]
     );
     tests::assert_wgsl_layout!(
         WrParams,

@@ -191,17 +191,26 @@ fn render_texture(index: u32, uv: vec2<f32>) -> vec3<f32> {
     return top + (bottom - top) * fy;
 }
 
-// lights_sample with the emission of a textured emissive triangle at the sampled point.
-fn render_light_sample(u: vec4<f32>, rng: ptr<function, u32>) -> LightSample {
-    var s = lights_sample(u, rng);
+// The light sample s with the emission of a textured emissive triangle at its point.
+fn render_textured_emission(sample: LightSample) -> LightSample {
+    var s = sample;
     if render_params.attributes != 0u && s.kind == LIGHTS_KIND_TRIANGLE && s.pdf_area > 0.0 {
         let a = render_attributes[s.triangle];
         if a.emissive_texture != 0u && (a.flags & 2u) != 0u {
-            let b = sampling_triangle_uniform(u.zw);
-            s.emission *= render_texture(a.emissive_texture, render_uv(a, b.x, b.y));
+            s.emission *= render_texture(a.emissive_texture, render_uv(a, s.coords.x, s.coords.y));
         }
     }
     return s;
+}
+
+// lights_sample with the emission of a textured emissive triangle at the sampled point.
+fn render_light_sample(u: vec4<f32>, rng: ptr<function, u32>) -> LightSample {
+    return render_textured_emission(lights_sample(u, rng));
+}
+
+// lights_sample_at with the emission of a textured emissive triangle at the point.
+fn render_light_sample_at(light: u32, coords: vec2<f32>) -> LightSample {
+    return render_textured_emission(lights_sample_at(light, coords));
 }
 
 // Interpolated vertex normals at the hit, normalized and turned to the side of the geometric

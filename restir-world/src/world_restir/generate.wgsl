@@ -5,22 +5,12 @@
 fn wr_generate(id: Invocation) {
     let i = item_index(id);
     if i >= render_params.pixel_count { return; }
-    var out = wr_empty_stored();
     if !wr_has_vertex(i) || !wr_is_active(i, wr_params.gi_stride) || lights_info.count == 0u {
-        wr_out[i] = out;
+        wr_out[i] = wr_empty_stored();
         return;
     }
     let v = render_secondary[i];
-    out.vertex_normal = v.shading;
     var rng = wr_rng(i, WR_PASS_GENERATE, 0u);
     let ris = render_ris_lights(v.position, v.normal, v.shading, v.albedo, wr_params.candidates, &rng);
-    let chosen = ris.light;
-    let packed = reservoir_pack(ris.reservoir);
-    out.ucw = packed.ucw;
-    out.m = packed.m;
-    out.light_position = chosen.position;
-    out.light_normal = chosen.normal;
-    out.light_emission = chosen.emission;
-    out.light_kind = chosen.kind | (chosen.light << 2u);
-    wr_out[i] = out;
+    wr_out[i] = wr_store(ris.light, reservoir_pack(ris.reservoir));
 }

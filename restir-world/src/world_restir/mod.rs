@@ -384,20 +384,18 @@ pub fn auto_buckets(vertices: u32, slots_per_bucket: u32) -> u32 {
     buckets.clamp(64, u64::from(u32::MAX)) as u32
 }
 
-/// A vertex's stored reservoir (WGSL `WrReservoir`): the selected light sample, reservoir's
-/// packed (W, M) and the normal of the vertex that generated it.
+/// A vertex's stored reservoir (WGSL `WrReservoir`, 16 bytes): the selected light sample as
+/// its light and the packed coordinates on it, and reservoir's packed (W, M).
 #[repr(C)]
 #[derive(Debug, Clone, Copy, Default, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
 pub struct WrReservoir {
-    pub light_position: [f32; 3],
-    pub ucw: f32,
-    pub light_normal: [f32; 3],
-    pub m: u32,
-    pub light_emission: [f32; 3],
     /// The sample's `lights::KIND_*` in the low 2 bits, its light table index above.
     pub light_kind: u32,
-    pub vertex_normal: [f32; 3],
-    pub _pad1: u32,
+    /// Barycentrics of a triangle point (two unorm16), or an environment direction's
+    /// octahedral coordinates (two snorm16); 0 for punctual lights.
+    pub coords: u32,
+    pub ucw: f32,
+    pub m: u32,
 }
 
 /// WGSL `WrParams` (the knobs the kernels read).

@@ -75,11 +75,12 @@ fn wr_visited(s: WrVisit, k: u32) -> u32 {
 // M of source reservoir j as merged at receiver i, 0 when it is not merged (no vertex, the
 // receiver itself in a spatial pass, or a normal too different).
 fn wr_merged_m(i: u32, j: u32, v: GVertex, temporal: bool, cap: u32) -> u32 {
-    let n = wr_src[j];
-    if (!temporal && j == i) || n.m == 0u || dot(n.vertex_normal, v.shading) < wr_params.normal_threshold {
+    let m = wr_src[j].m;
+    if (!temporal && j == i) || m == 0u
+        || dot(wr_source_vertex(j, temporal).shading, v.shading) < wr_params.normal_threshold {
         return 0u;
     }
-    return select(n.m, min(n.m, cap), temporal);
+    return select(m, min(m, cap), temporal);
 }
 
 @compute @workgroup_size(WORKGROUP_SIZE)
@@ -180,9 +181,7 @@ fn wr_reuse(id: Invocation) {
     }
     reservoir_finalize(&r, chosen_p_hat);
     var out = chosen;
-    let packed = reservoir_pack(r);
-    out.ucw = packed.ucw;
+    out.ucw = reservoir_pack(r).ucw;
     out.m = m_total;
-    out.vertex_normal = v.shading;
     wr_out[i] = out;
 }
