@@ -142,7 +142,12 @@ fn compare_end_to_end() {
     assert_eq!(nee["per_frame"].as_array().unwrap().len(), 4);
     for m in [nee, ris, biased] {
         assert!(f(&m["ms_per_frame"]) > 0.0 || json["timestamps"] == false);
-        for key in ["frame_indirect", "frame_combined", "accumulated_indirect"] {
+        for key in [
+            "frame_indirect",
+            "frame_combined",
+            "frame_direct",
+            "accumulated_indirect",
+        ] {
             assert!(f(&m[key]["rel_mse"]) > 0.0, "{key}");
         }
         assert!(f(&m["frame_flip_combined"]) > 0.0);
@@ -159,6 +164,13 @@ fn compare_end_to_end() {
         let (r, p) = (f(&ris["bias_indirect"][c]), f(&biased["bias_indirect"][c]));
         assert!((p / r - 1.5).abs() < 1e-3, "bias column: {p} vs 1.5 x {r}");
         assert!(r > 0.5 && r < 1.5, "ris bias {r}");
+        // The planted bias is on the indirect image only: the direct column is unchanged.
+        let (rd, pd) = (f(&ris["bias_direct"][c]), f(&biased["bias_direct"][c]));
+        assert!(
+            (pd / rd - 1.0).abs() < 1e-6,
+            "direct bias column: {pd} vs {rd}"
+        );
+        assert!(rd > 0.5 && rd < 1.5, "ris direct bias {rd}");
     }
     // Times leave out the warm-up frames; the grid is reported for world-restir only.
     assert_eq!(f(&ris["timed_frames"]), 2.0);

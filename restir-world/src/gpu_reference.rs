@@ -59,6 +59,21 @@ pub struct GpuReference {
     pub from_cache: bool,
 }
 
+impl GpuReference {
+    /// The direct image: combined minus indirect (clamped at 0 against rounding); `None`
+    /// without an indirect image.
+    pub fn direct(&self) -> Option<Vec<[f32; 3]>> {
+        let indirect = self.indirect.as_ref()?;
+        Some(
+            self.combined
+                .iter()
+                .zip(indirect)
+                .map(|(c, i)| [0, 1, 2].map(|k| (c[k] - i[k]).max(0.0)))
+                .collect(),
+        )
+    }
+}
+
 /// What can go wrong making a reference.
 #[derive(Debug, thiserror::Error)]
 pub enum ReferenceError {

@@ -293,7 +293,7 @@ pub fn render_frames(
 
 /// The named variants of `world-restir`, each isolating what one part buys: (name, the knobs
 /// it sets, what it is).
-pub const WORLD_RESTIR_VARIANTS: [(&str, &str, &str); 9] = [
+pub const WORLD_RESTIR_VARIANTS: [(&str, &str, &str); 10] = [
     ("both", "", "temporal + spatial reuse (the default)"),
     (
         "no-reuse",
@@ -322,6 +322,11 @@ pub const WORLD_RESTIR_VARIANTS: [(&str, &str, &str); 9] = [
         "paper-grid",
         "buckets=100000",
         "the paper's fixed 100,000 x 32 table",
+    ),
+    (
+        "unified",
+        "unified=on",
+        "one cache for all light: primary vertices in the grid too, direct light from it",
     ),
 ];
 

@@ -62,7 +62,11 @@ fn layouts_match_wgsl() {
             jitter,
             combine,
             gi_stride,
-            debug_view
+            debug_view,
+            items,
+            _pad0,
+            _pad1,
+            _pad2
         ]
     );
     tests::assert_wgsl_layout!(WrPass, src, "WrPass", [pass_index, temporal, _pad0, _pad1]);

@@ -88,6 +88,8 @@ pub struct FrameRecord {
     /// between evaluation frames, or no indirect reference).
     pub indirect: Option<Err2>,
     pub combined: Option<Err2>,
+    /// Error of the direct image (the reference's combined minus its indirect).
+    pub direct: Option<Err2>,
     /// relMSE of the running average of frames 0..=frame (static camera only).
     pub accumulated_rel_mse_indirect: Option<f64>,
     pub accumulated_rel_mse_combined: Option<f64>,
@@ -121,12 +123,14 @@ pub struct MethodRun {
     /// evaluated frames (1 = no bias in the mean).
     pub bias_indirect: Option<[f64; 3]>,
     pub bias_combined: Option<[f64; 3]>,
+    pub bias_direct: Option<[f64; 3]>,
     /// Most vertices left out of a frame's hash grid (methods with a grid).
     pub max_grid_overflows: Option<u32>,
     /// Mean per-frame error over the evaluated frames of the second half of the run
     /// (after warm-up for methods with temporal reuse).
     pub frame_indirect: Option<Err2>,
     pub frame_combined: Option<Err2>,
+    pub frame_direct: Option<Err2>,
     /// FLIP (mean) of the last evaluated frame, tone-mapped.
     pub frame_flip_combined: Option<f64>,
     pub frame_flip_indirect: Option<f64>,
@@ -145,11 +149,15 @@ pub struct EqualTimeEntry {
     pub ms_per_frame: Option<f64>,
     pub frame_indirect: Option<Err2>,
     pub frame_combined: Option<Err2>,
+    pub frame_direct: Option<Err2>,
     /// relMSE of this method at equal time divided by the target's (>1: the target is better).
     pub rel_mse_ratio_indirect: Option<f64>,
     pub rel_mse_ratio_combined: Option<f64>,
+    pub rel_mse_ratio_direct: Option<f64>,
     /// The same ratio of the trimmed relMSE (robust to fireflies).
     pub rel_mse_trimmed_ratio_indirect: Option<f64>,
+    pub rel_mse_trimmed_ratio_combined: Option<f64>,
+    pub rel_mse_trimmed_ratio_direct: Option<f64>,
     /// GPU time this method needs to reach the target's per-frame relMSE (1/N variance law
     /// from its equal-time error) divided by the target's time per frame.
     pub equal_error_speedup_indirect: Option<f64>,
@@ -164,6 +172,7 @@ pub struct EqualTime {
     pub target_ms_per_frame: f64,
     pub target_frame_indirect: Option<Err2>,
     pub target_frame_combined: Option<Err2>,
+    pub target_frame_direct: Option<Err2>,
     pub entries: Vec<EqualTimeEntry>,
 }
 
@@ -282,6 +291,7 @@ fn run_method(
     // Per channel: sums of the method's and the reference's pixels over the evaluated frames.
     let mut sums_indirect: Option<[[f64; 3]; 2]> = None;
     let mut sums_combined: Option<[[f64; 3]; 2]> = None;
+    let mut sums_direct: Option<[[f64; 3]; 2]> = None;
     // The spans of the record in progress (spp frames, one submission each).
     let mut stages = PassTimes::default();
     let l = FrameLoop {
@@ -328,6 +338,7 @@ fn run_method(
                 .collect(),
             indirect: None,
             combined: None,
+            direct: None,
             accumulated_rel_mse_indirect: None,
             accumulated_rel_mse_combined: None,
             grid_overflows: m.grid_overflows(ctx)?,
@@ -340,6 +351,9 @@ fn run_method(
             rec.combined = Some(metrics::errors(&combined, &r.combined)?.into());
             if let Some(ri) = &r.indirect {
                 rec.indirect = Some(metrics::errors(&indirect, ri)?.into());
+                let rd = r.direct().context("reference direct image")?;
+                add_channel_sums(&mut sums_direct, &direct, &rd);
+                rec.direct = Some(metrics::errors(&direct, &rd)?.into());
             }
             if static_camera {
                 let n = f64::from(f + 1);
@@ -388,6 +402,7 @@ fn run_method(
     };
     let frame_indirect = mean_err(|r| r.indirect);
     let frame_combined = mean_err(|r| r.combined);
+    let frame_direct = mean_err(|r| r.direct);
     let timed = &records[TIMING_WARMUP_FRAMES.min(frames.saturating_sub(1)) as usize..];
     let times = TimeSummary::of(timed, ctx.features.timestamps);
     let mut run = MethodRun {
@@ -403,9 +418,11 @@ fn run_method(
         ms_per_frame_by_stage_median: times.stage_medians,
         bias_indirect: sums_indirect.map(channel_ratio),
         bias_combined: sums_combined.map(channel_ratio),
+        bias_direct: sums_direct.map(channel_ratio),
         max_grid_overflows: records.iter().filter_map(|r| r.grid_overflows).max(),
         frame_indirect,
         frame_combined,
+        frame_direct,
         frame_flip_combined: None,
         frame_flip_indirect: None,
         accumulated_indirect: None,
@@ -746,13 +763,21 @@ fn compare_scene(
                 ms_per_frame: eq.ms_per_frame_median,
                 frame_indirect: eq.frame_indirect,
                 frame_combined: eq.frame_combined,
+                frame_direct: eq.frame_direct,
                 rel_mse_ratio_indirect: ratio(eq.frame_indirect, target.frame_indirect, rel),
                 rel_mse_ratio_combined: ratio(eq.frame_combined, target.frame_combined, rel),
+                rel_mse_ratio_direct: ratio(eq.frame_direct, target.frame_direct, rel),
                 rel_mse_trimmed_ratio_indirect: ratio(
                     eq.frame_indirect,
                     target.frame_indirect,
                     trim,
                 ),
+                rel_mse_trimmed_ratio_combined: ratio(
+                    eq.frame_combined,
+                    target.frame_combined,
+                    trim,
+                ),
+                rel_mse_trimmed_ratio_direct: ratio(eq.frame_direct, target.frame_direct, trim),
                 equal_error_speedup_indirect: speedup(
                     eq.frame_indirect,
                     target.frame_indirect,
@@ -775,6 +800,7 @@ fn compare_scene(
             target_ms_per_frame: t_ms,
             target_frame_indirect: target.frame_indirect,
             target_frame_combined: target.frame_combined,
+            target_frame_direct: target.frame_direct,
             entries,
         });
     }

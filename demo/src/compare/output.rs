@@ -198,14 +198,15 @@ fn markdown(r: &Report, strip: &[StripRow]) -> String {
         let _ = writeln!(
             s,
             "| method | spp/frame | ms/frame median (mean) | median ms by stage | frame relMSE \
-             indirect | frame relMSE indirect, 0.1% trimmed | frame relMSE combined | frame MSE \
-             indirect | frame MSE combined | frame FLIP combined | accum. relMSE indirect | \
-             accum. relMSE combined | accum. FLIP combined | bias indirect (mean / reference, \
-             RGB) | bias combined | grid overflows (most in a frame) |"
+             indirect | frame relMSE indirect, 0.1% trimmed | frame relMSE direct (trimmed) | \
+             frame relMSE combined (trimmed) | frame MSE indirect | frame MSE combined | frame \
+             FLIP combined | accum. relMSE indirect | accum. relMSE combined | accum. FLIP \
+             combined | bias indirect (mean / reference, RGB) | bias direct | bias combined | \
+             grid overflows (most in a frame) |"
         );
         let _ = writeln!(
             s,
-            "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"
+            "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"
         );
         for m in &sc.methods {
             let stages: Vec<String> = m
@@ -215,7 +216,7 @@ fn markdown(r: &Report, strip: &[StripRow]) -> String {
                 .collect();
             let _ = writeln!(
                 s,
-                "| {}{} | {} | {} ({}) | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} |",
+                "| {}{} | {} | {} ({}) | {} | {} | {} | {} ({}) | {} ({}) | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} |",
                 m.method,
                 m.planted_bias
                     .map(|b| format!(" (planted bias x{b})"))
@@ -226,7 +227,10 @@ fn markdown(r: &Report, strip: &[StripRow]) -> String {
                 stages.join(", "),
                 sci(rel(m.frame_indirect)),
                 sci(trim(m.frame_indirect)),
+                sci(rel(m.frame_direct)),
+                sci(trim(m.frame_direct)),
                 sci(rel(m.frame_combined)),
+                sci(trim(m.frame_combined)),
                 sci(mse(m.frame_indirect)),
                 sci(mse(m.frame_combined)),
                 sci(m.frame_flip_combined),
@@ -234,6 +238,7 @@ fn markdown(r: &Report, strip: &[StripRow]) -> String {
                 sci(rel(m.accumulated_combined)),
                 sci(m.accumulated_flip_combined),
                 rgb(m.bias_indirect),
+                rgb(m.bias_direct),
                 rgb(m.bias_combined),
                 m.max_grid_overflows
                     .map_or_else(|| "-".to_owned(), |o| o.to_string()),
@@ -244,26 +249,33 @@ fn markdown(r: &Report, strip: &[StripRow]) -> String {
             let _ = writeln!(
                 s,
                 "### Equal time against `{}` ({} ms/frame; frame relMSE indirect {} (trimmed {}), \
-                 combined {})\n",
+                 direct {} (trimmed {}), combined {} (trimmed {}))\n",
                 eq.target,
                 sci(Some(eq.target_ms_per_frame)),
                 sci(rel(eq.target_frame_indirect)),
                 sci(trim(eq.target_frame_indirect)),
+                sci(rel(eq.target_frame_direct)),
+                sci(trim(eq.target_frame_direct)),
                 sci(rel(eq.target_frame_combined)),
+                sci(trim(eq.target_frame_combined)),
             );
             let _ = writeln!(
                 s,
                 "| method | spp/frame in the same time | ms/frame | frame relMSE indirect | \
                  frame relMSE indirect, trimmed | frame relMSE combined | relMSE ratio indirect \
-                 (method/{t}) | same, trimmed | relMSE ratio combined | equal-error speed-up of \
-                 {t}, indirect | same, trimmed | equal-error speed-up, combined |",
+                 (method/{t}) | same, trimmed | relMSE ratio direct | same, trimmed | relMSE \
+                 ratio combined | same, trimmed | equal-error speed-up of {t}, indirect | same, \
+                 trimmed | equal-error speed-up, combined |",
                 t = eq.target
             );
-            let _ = writeln!(s, "|---|---|---|---|---|---|---|---|---|---|---|---|");
+            let _ = writeln!(
+                s,
+                "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"
+            );
             for e in &eq.entries {
                 let _ = writeln!(
                     s,
-                    "| {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} |",
+                    "| {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} |",
                     e.method,
                     e.spp_per_frame,
                     sci(e.ms_per_frame),
@@ -272,7 +284,10 @@ fn markdown(r: &Report, strip: &[StripRow]) -> String {
                     sci(rel(e.frame_combined)),
                     sci(e.rel_mse_ratio_indirect),
                     sci(e.rel_mse_trimmed_ratio_indirect),
+                    sci(e.rel_mse_ratio_direct),
+                    sci(e.rel_mse_trimmed_ratio_direct),
                     sci(e.rel_mse_ratio_combined),
+                    sci(e.rel_mse_trimmed_ratio_combined),
                     sci(e.equal_error_speedup_indirect),
                     sci(e.equal_error_speedup_indirect_trimmed),
                     sci(e.equal_error_speedup_combined),

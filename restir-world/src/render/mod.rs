@@ -462,9 +462,21 @@ impl SharedGroups {
         entry: &str,
         own: Option<&wgpu::BindGroup>,
     ) -> Pass {
+        self.pass_over(device, kernel, entry, own, self.pixels)
+    }
+
+    /// A pass of `entry` over `items` invocations with the shared groups (+ `own`).
+    pub fn pass_over(
+        &self,
+        device: &wgpu::Device,
+        kernel: &Kernel,
+        entry: &str,
+        own: Option<&wgpu::BindGroup>,
+        items: u32,
+    ) -> Pass {
         let mut groups: Vec<&wgpu::BindGroup> = self.groups.iter().collect();
         groups.extend(own);
-        kernel.pass(device, entry, &groups, self.pixels)
+        kernel.pass(device, entry, &groups, items)
     }
 }
 

@@ -6,10 +6,10 @@
 @compute @workgroup_size(WORKGROUP_SIZE)
 fn wr_insert(id: Invocation) {
     let i = item_index(id);
-    if i >= render_params.pixel_count { return; }
+    if i >= wr_params.items { return; }
     var entry = vec2<u32>(WR_NO_SLOT, 0u);
     if wr_has_vertex(i) && wr_is_active(i, wr_params.gi_stride) {
-        let v = render_secondary[i];
+        let v = wr_vertex(i);
         var pos = v.position;
         if wr_params.jitter != 0u {
             var rng = wr_rng(i, WR_PASS_BUILD, 0u);

@@ -164,6 +164,11 @@ pub struct WorldRestirConfig {
     /// Order each cell's vertex list by index after the scatter, so images do not depend on
     /// the order atomics ran in (default on; not in the paper, which accepts the race).
     pub sort_cells: bool,
+    /// One reservoir cache for all light (the paper's future work; default off): primary
+    /// vertices enter the same grid as the secondary ones with reservoirs of their own, go
+    /// through the same temporal and spatial reuse, and their final reservoirs light the
+    /// direct image (one shadow ray each) instead of the renderer's RIS.
+    pub unified: bool,
 }
 
 impl Default for WorldRestirConfig {
@@ -184,6 +189,7 @@ impl Default for WorldRestirConfig {
             gi_stride: 1,
             combine: Combine::Pairwise,
             sort_cells: true,
+            unified: false,
         }
     }
 }
@@ -199,9 +205,17 @@ impl WorldRestirConfig {
     }
 
     /// Most vertices that enter the grid in one frame at `width` x `height`: one per pixel of
-    /// each `gi_stride` x `gi_stride` block.
+    /// each `gi_stride` x `gi_stride` block, plus every pixel's primary vertex when unified.
     pub fn max_vertices(&self, width: u32, height: u32) -> u32 {
-        width.div_ceil(self.gi_stride.max(1)) * height.div_ceil(self.gi_stride.max(1))
+        let secondary =
+            width.div_ceil(self.gi_stride.max(1)) * height.div_ceil(self.gi_stride.max(1));
+        secondary.saturating_add(if self.unified { width * height } else { 0 })
+    }
+
+    /// Grid items (vertices with a reservoir slot) of a frame of `pixels`: the secondary
+    /// vertices, then the primary ones when unified.
+    pub fn items(&self, pixels: u32) -> u32 {
+        pixels.saturating_mul(if self.unified { 2 } else { 1 })
     }
 
     /// The hash table's dimensions for frames of `width` x `height`.
@@ -269,6 +283,7 @@ impl WorldRestirConfig {
                 self.combine = value.parse().map_err(WorldRestirError::Config)?;
             }
             "sort_cells" => self.sort_cells = switch(key, value)?,
+            "unified" => self.unified = switch(key, value)?,
             _ => {
                 return Err(WorldRestirError::Config(format!(
                     "unknown knob {key:?}; known: {}",
@@ -299,6 +314,7 @@ impl WorldRestirConfig {
             "gi_stride" => self.gi_stride.to_string(),
             "combine" => self.combine.name().to_owned(),
             "sort_cells" => switch(self.sort_cells),
+            "unified" => switch(self.unified),
             _ => {
                 return Err(WorldRestirError::Config(format!(
                     "unknown knob {key:?}; known: {}",
@@ -323,7 +339,7 @@ impl WorldRestirConfig {
     }
 
     /// The knob names [`WorldRestirConfig::set`] takes.
-    pub const KNOBS: [&'static str; 15] = [
+    pub const KNOBS: [&'static str; 16] = [
         "buckets",
         "slots",
         "candidates",
@@ -339,6 +355,7 @@ impl WorldRestirConfig {
         "gi-stride",
         "combine",
         "sort-cells",
+        "unified",
     ];
 
     /// Checks every knob.
@@ -412,6 +429,11 @@ pub struct WrParams {
     pub combine: u32,
     pub gi_stride: u32,
     pub debug_view: u32,
+    /// Grid items: [`WorldRestirConfig::items`].
+    pub items: u32,
+    pub _pad0: u32,
+    pub _pad1: u32,
+    pub _pad2: u32,
 }
 
 /// WGSL `WrPass`.
@@ -496,6 +518,7 @@ const SCATTER: KernelDef = KernelDef {
     entries: &["wr_scatter", "wr_sort_cells"],
     source: SCATTER_WGSL,
     own: &[
+        PARAMS,
         ("wr_vertex_slot", "array<vec2<u32>>", Access::Read),
         ("wr_offsets", "array<u32>", Access::Read),
         ("wr_counters", "array<u32>", Access::Read),
@@ -521,7 +544,7 @@ const REUSE: KernelDef = KernelDef {
 };
 const SHADE: KernelDef = KernelDef {
     name: "shade",
-    entries: &["wr_shade"],
+    entries: &["wr_shade", "wr_shade_direct"],
     source: SHADE_WGSL,
     own: &[PARAMS, ("wr_final", RES, Access::Read)],
     hash: None,
@@ -607,7 +630,8 @@ struct WrBuffers {
     vertex_slot: wgpu::Buffer,
     reservoirs: [wgpu::Buffer; 2],
     prev_reservoirs: wgpu::Buffer,
-    /// Last frame's secondary vertices (the temporal pass's MIS weights).
+    /// Last frame's grid items' vertices: secondary, then primary when unified (the temporal
+    /// pass's MIS weights).
     prev_vertices: wgpu::Buffer,
     debug: wgpu::Buffer,
 }
@@ -620,7 +644,8 @@ impl WrBuffers {
         slots: u64,
     ) -> Result<Self, WorldRestirError> {
         let px = u64::from(pixels);
-        let res_bytes = px * size_of::<WrReservoir>() as u64;
+        let items = u64::from(config.items(pixels));
+        let res_bytes = items * size_of::<WrReservoir>() as u64;
         ctx.check_binding_size("the world-restir reservoirs", res_bytes)?;
         let zeroed = |label: &str, size: u64| buffers::storage_zeroed(&ctx.device, label, size);
         let pair = |label: &str, size: u64| [0, 1].map(|p| zeroed(&format!("{label} {p}"), size));
@@ -633,6 +658,8 @@ impl WrBuffers {
             combine: config.combine as u32,
             gi_stride: config.gi_stride,
             debug_view: 0,
+            items: config.items(pixels),
+            ..Default::default()
         };
         Ok(Self {
             params: buffers::with_usage(
@@ -642,11 +669,14 @@ impl WrBuffers {
                 wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
             ),
             offsets: pair("wr offsets", slots * 4),
-            cells: pair("wr cells", px * 4),
-            vertex_slot: zeroed("wr vertex slot", px * 8),
+            cells: pair("wr cells", items * 4),
+            vertex_slot: zeroed("wr vertex slot", items * 8),
             reservoirs: pair("wr reservoirs", res_bytes),
             prev_reservoirs: zeroed("wr prev reservoirs", res_bytes),
-            prev_vertices: zeroed("wr prev vertices", px * size_of::<render::GVertex>() as u64),
+            prev_vertices: zeroed(
+                "wr prev vertices",
+                items * size_of::<render::GVertex>() as u64,
+            ),
             debug: zeroed("wr debug", px * 16),
         })
     }
@@ -662,6 +692,8 @@ struct WrPasses {
     temporal: Option<[Pass; 2]>,
     spatial: [Vec<Pass>; 2],
     shade: Pass,
+    /// Direct light from the unified cache (replaces the renderer's).
+    shade_direct: Option<Pass>,
     debug: Pass,
     /// The reservoirs the shade pass reads.
     final_index: usize,
@@ -690,6 +722,14 @@ impl WrPasses {
         let [generate, insert, scatter, reuse, shade, debug] = KERNELS.map(kernel);
         let (generate, insert, scatter) = (generate?, insert?, scatter?);
         let (reuse, shade, debug) = (reuse?, shade?, debug?);
+        // A pass over the grid items (secondary vertices, + primary ones when unified), or
+        // over the pixels.
+        let items = config.items(shared.pixels);
+        let item_pass =
+            |(k, layout): &(Kernel, BindGroupLayout), entry: &str, res: Vec<(&str, Resource)>| {
+                let group = layout.bind(device, res)?;
+                Ok::<Pass, GpuError>(shared.pass_over(device, k, entry, Some(&group), items))
+            };
         let pass =
             |(k, layout): &(Kernel, BindGroupLayout), entry: &str, res: Vec<(&str, Resource)>| {
                 let group = layout.bind(device, res)?;
@@ -706,16 +746,17 @@ impl WrPasses {
                 ("wr_vertex_slot", (&b.vertex_slot).into()),
                 ("wr_hash", hash),
             ];
-            pass(&insert, "wr_insert", res)
+            item_pass(&insert, "wr_insert", res)
         };
         let scatter_p = |entry: &str, p: usize| {
             let res = vec![
+                params(),
                 ("wr_vertex_slot", (&b.vertex_slot).into()),
                 ("wr_offsets", (&b.offsets[p]).into()),
                 ("wr_counters", tables[p].counters().into()),
                 ("wr_cells", (&b.cells[p]).into()),
             ];
-            pass(&scatter, entry, res)
+            item_pass(&scatter, entry, res)
         };
         // One reuse pass: reads `src` (and `own` for the receiver), writes `out`, looks up the
         // grid of parity `grid`.
@@ -739,7 +780,7 @@ impl WrPasses {
                     ("wr_prev_vertices", (&b.prev_vertices).into()),
                     ("wr_hash", Resource::Block(hash)),
                 ];
-                pass(&reuse, "wr_reuse", res)
+                item_pass(&reuse, "wr_reuse", res)
             };
         let r = &b.reservoirs;
         let mut cur = 0;
@@ -766,7 +807,7 @@ impl WrPasses {
             ("wr_debug", (&b.debug).into()),
         ];
         Ok(Self {
-            generate: pass(
+            generate: item_pass(
                 &generate,
                 "wr_generate",
                 vec![params(), ("wr_out", (&r[0]).into())],
@@ -784,6 +825,14 @@ impl WrPasses {
                 "wr_shade",
                 vec![params(), ("wr_final", (&r[cur]).into())],
             )?,
+            shade_direct: match config.unified {
+                true => Some(pass(
+                    &shade,
+                    "wr_shade_direct",
+                    vec![params(), ("wr_final", (&r[cur]).into())],
+                )?),
+                false => None,
+            },
             debug: pass(&debug, "wr_debug_view", debug_res)?,
             final_index: cur,
         })
@@ -882,7 +931,10 @@ impl WorldRestir {
             });
         }
         f.span("shade", |f| f.dispatch(&passes.shade));
-        self.renderer.encode_shade_direct(f);
+        match &passes.shade_direct {
+            Some(direct) => f.span("shade_direct", |f| f.dispatch(direct)),
+            None => self.renderer.encode_shade_direct(f),
+        }
         if self.config.temporal {
             f.span("persist", |f| self.encode_persist(f));
         }
@@ -904,11 +956,21 @@ impl WorldRestir {
         Ok(())
     }
 
-    /// Keeps this frame's final reservoirs and secondary vertices for the next temporal pass.
+    /// Keeps this frame's final reservoirs and grid items' vertices (secondary, then primary
+    /// when unified) for the next temporal pass.
     fn encode_persist(&self, f: &mut FrameEncoder) {
-        let b = &self.buffers;
+        let (b, r) = (&self.buffers, &self.renderer.buffers);
         f.copy(&b.reservoirs[self.passes.final_index], &b.prev_reservoirs);
-        f.copy(&self.renderer.buffers.secondary, &b.prev_vertices);
+        f.copy(&r.secondary, &b.prev_vertices);
+        if self.config.unified {
+            f.raw().copy_buffer_to_buffer(
+                &r.gbuffer,
+                0,
+                &b.prev_vertices,
+                r.secondary.size(),
+                None,
+            );
+        }
     }
 
     /// Clears the accumulated images (the temporal history stays).

@@ -27,7 +27,7 @@ fn wr_source_vertex(j: u32, temporal: bool) -> GVertex {
     if temporal {
         return wr_prev_vertices[j];
     }
-    return render_secondary[j];
+    return wr_vertex(j);
 }
 
 // a / (a + b), with 0 / 0 = 0.
@@ -86,13 +86,13 @@ fn wr_merged_m(i: u32, j: u32, v: GVertex, temporal: bool, cap: u32) -> u32 {
 @compute @workgroup_size(WORKGROUP_SIZE)
 fn wr_reuse(id: Invocation) {
     let i = item_index(id);
-    if i >= render_params.pixel_count { return; }
+    if i >= wr_params.items { return; }
     let own = wr_self[i];
     if !wr_has_vertex(i) {
         wr_out[i] = own;
         return;
     }
-    let v = render_secondary[i];
+    let v = wr_vertex(i);
     let temporal = wr_pass.temporal != 0u;
     var rng = wr_rng(i, select(WR_PASS_SPATIAL, WR_PASS_TEMPORAL, temporal), wr_pass.pass_index);
     let u_own = rng_next_f32(&rng);

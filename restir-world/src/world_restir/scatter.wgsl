@@ -6,7 +6,7 @@
 @compute @workgroup_size(WORKGROUP_SIZE)
 fn wr_scatter(id: Invocation) {
     let i = item_index(id);
-    if i >= render_params.pixel_count { return; }
+    if i >= wr_params.items { return; }
     let e = wr_vertex_slot[i];
     if e.x < WR_FIRST_SENTINEL {
         wr_cells[wr_offsets[e.x] + e.y] = i;
@@ -18,7 +18,7 @@ fn wr_scatter(id: Invocation) {
 @compute @workgroup_size(WORKGROUP_SIZE)
 fn wr_sort_cells(id: Invocation) {
     let i = item_index(id);
-    if i >= render_params.pixel_count { return; }
+    if i >= wr_params.items { return; }
     let e = wr_vertex_slot[i];
     if e.x >= WR_FIRST_SENTINEL || e.y != 0u {
         return;

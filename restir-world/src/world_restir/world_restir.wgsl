@@ -29,6 +29,10 @@ struct WrParams {
     combine: u32,
     gi_stride: u32,
     debug_view: u32,
+    items: u32,
+    _pad0: u32,
+    _pad1: u32,
+    _pad2: u32,
 }
 
 // Per reuse pass: `pass_index` mixes into the random stream, `temporal` = 1 for the pass that
@@ -45,15 +49,32 @@ fn wr_empty_stored() -> WrReservoir {
     return r;
 }
 
-// Whether pixel i has a secondary vertex (primary hit and GI hit).
+// Grid items: item i < pixel_count is pixel i's secondary vertex; with the unified cache,
+// item pixel_count + i is pixel i's primary vertex (wr_params.items in all).
+
+// Whether item i has a vertex (a secondary one needs a primary hit and a GI hit).
 fn wr_has_vertex(i: u32) -> bool {
+    let n = render_params.pixel_count;
+    if i >= n {
+        return render_gbuffer[i - n].prim != BVH_NO_HIT;
+    }
     return render_gbuffer[i].prim != BVH_NO_HIT && render_secondary[i].prim != BVH_NO_HIT;
 }
 
-// Whether pixel i generates a reservoir and enters the grid this frame: with gi_stride s, one
-// pixel of each s x s block, rotating over frames (GI resolution scale 1/s).
+// The vertex of item i.
+fn wr_vertex(i: u32) -> GVertex {
+    let n = render_params.pixel_count;
+    if i >= n {
+        return render_gbuffer[i - n];
+    }
+    return render_secondary[i];
+}
+
+// Whether item i generates a reservoir and enters the grid this frame: with gi_stride s, one
+// secondary vertex of each s x s block of pixels, rotating over frames (GI resolution scale
+// 1/s); every primary vertex.
 fn wr_is_active(i: u32, stride: u32) -> bool {
-    if stride <= 1u {
+    if stride <= 1u || i >= render_params.pixel_count {
         return true;
     }
     let w = render_params.camera.width;
