@@ -1101,6 +1101,7 @@ mod tests {
             ("gi-stride", "2"),
             ("combine", "one-over-z"),
             ("sort-cells", "off"),
+            ("unified", "on"),
         ] {
             c.set(key, value).unwrap_or_else(|e| panic!("{key}: {e}"));
         }
@@ -1122,6 +1123,7 @@ mod tests {
                 gi_stride: 2,
                 combine: Combine::OneOverZ,
                 sort_cells: false,
+                unified: true,
             }
         );
         c.set("buckets", "auto").unwrap();
