@@ -12,8 +12,12 @@
 //! | `temporal` | `wr_reuse` over table\[1-p\] (Alg. 3) | R0, prev reservoirs | R1 |
 //! | `spatial` | k x `wr_reuse` over table\[p\], ping-pong | R1/R0 | R0/R1 |
 //! | `shade` | `wr_shade` | final reservoirs | `render_indirect_frame` |
-//! | `shade_direct`, `accumulate` | the renderer's | | direct, sums |
+//! | `shade_direct` | the renderer's, or `wr_shade_direct` when unified | | direct |
+//! | `accumulate` | the renderer's | | sums |
 //! | `persist` | copy final reservoirs -> prev reservoirs | | |
+//!
+//! The passes from `generate` to `spatial` run over the grid's items: the secondary vertices,
+//! followed by the primary ones with the unified cache ([`WorldRestirConfig::unified`]).
 //!
 //! `p` is the frame's parity: the two hash tables, slot-offset buffers and cell storages are
 //! double-buffered and swap roles each frame, so the temporal pass looks vertices up in last
@@ -858,7 +862,8 @@ impl WorldRestir {
     /// A renderer for `scene` seen by `camera` whose indirect light uses world-space ReSTIR
     /// with `config`; direct light at the primary is the `ris` baseline's (RIS over
     /// `render::DEFAULT_CANDIDATES` + one shadow ray), whatever `config.candidates` (the GI
-    /// vertices' candidates) is, so that direct light compares equal with `ris`.
+    /// vertices' candidates) is, so that direct light compares equal with `ris`; with
+    /// `config.unified` it comes from the primary vertices' reservoirs in the same grid.
     pub fn new(
         ctx: &GpuContext,
         scene: &Scene,
