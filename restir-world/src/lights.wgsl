@@ -141,8 +141,8 @@ fn lights_pdf_area(light: u32) -> f32 {
 // the light, u.z, u.w the point on a triangle (or the environment's pixel); an environment
 // sample draws two more uniforms from rng for the direction in its pixel.
 fn lights_sample(u: vec4<f32>, rng: ptr<function, u32>) -> LightSample {
-    var s: LightSample;
     if lights_info.count == 0u {
+        var s: LightSample;
         s.pdf_area = 0.0;
         s.light = 0xffffffffu;
         s.triangle = 0xffffffffu;
@@ -150,45 +150,45 @@ fn lights_sample(u: vec4<f32>, rng: ptr<function, u32>) -> LightSample {
     }
     let i = lights_pick(u.x, u.y);
     let t = lights_triangles[i];
+    if t.kind != LIGHTS_KIND_ENV {
+        // A triangle's point from u.zw; punctual lights have no coordinates to draw.
+        return lights_sample_at(i, sampling_triangle_uniform(u.zw));
+    }
+    let w = lights_info.env_width;
+    let n = w * lights_info.env_height;
+    let column = min(u32(u.z * f32(n)), n - 1u);
+    let c = lights_env[column];
+    var k = c.alias_index;
+    if u.w < c.alias_prob {
+        k = column;
+    }
+    let a = rng_next_f32(rng);
+    let b = rng_next_f32(rng);
+    let phi = (f32(k % w) + a) * (6.28318530717959 / f32(w));
+    let rows = lights_env_row_cosines(k / w);
+    let cos_theta = rows.x + b * (rows.y - rows.x);
+    let sin_theta = sqrt(max(1.0 - cos_theta * cos_theta, 0.0));
+    let px = lights_env[k];
+    var s = lights_sample_common(i, t);
+    s.position = vec3<f32>(sin_theta * sin(phi), cos_theta, -sin_theta * cos(phi));
+    s.normal = s.position;
+    s.coords = sampling_oct_encode(s.position);
+    s.pdf_area = t.prob * px.pdf;
+    s.emission = px.radiance;
+    return s;
+}
+
+// The fields of a sample of light i (its table entry t) that do not depend on where on the
+// light it is: a punctual light's whole sample.
+fn lights_sample_common(i: u32, t: LightTriangle) -> LightSample {
+    var s: LightSample;
     s.light = i;
     s.emission = t.emission;
     s.triangle = t.triangle;
     s.kind = t.kind;
-    if t.kind == LIGHTS_KIND_TRIANGLE {
-        let b = sampling_triangle_uniform(u.zw);
-        s.coords = b;
-        s.position = t.p0 + b.x * t.e1 + b.y * t.e2;
-        s.pdf_area = t.prob / t.area;
-        s.normal = normalize(cross(t.e1, t.e2));
-        return s;
-    }
     s.position = t.p0;
     s.pdf_area = t.prob;
-    s.normal = t.e1;
-    if t.kind == LIGHTS_KIND_DIRECTIONAL {
-        s.normal = t.p0;
-    } else if t.kind == LIGHTS_KIND_ENV {
-        let w = lights_info.env_width;
-        let n = w * lights_info.env_height;
-        let column = min(u32(u.z * f32(n)), n - 1u);
-        let c = lights_env[column];
-        var k = c.alias_index;
-        if u.w < c.alias_prob {
-            k = column;
-        }
-        let a = rng_next_f32(rng);
-        let b = rng_next_f32(rng);
-        let phi = (f32(k % w) + a) * (6.28318530717959 / f32(w));
-        let rows = lights_env_row_cosines(k / w);
-        let cos_theta = rows.x + b * (rows.y - rows.x);
-        let sin_theta = sqrt(max(1.0 - cos_theta * cos_theta, 0.0));
-        let px = lights_env[k];
-        s.position = vec3<f32>(sin_theta * sin(phi), cos_theta, -sin_theta * cos(phi));
-        s.normal = s.position;
-        s.coords = sampling_oct_encode(s.position);
-        s.pdf_area = t.prob * px.pdf;
-        s.emission = px.radiance;
-    }
+    s.normal = select(t.e1, t.p0, t.kind == LIGHTS_KIND_DIRECTIONAL);
     return s;
 }
 
@@ -198,23 +198,12 @@ fn lights_sample(u: vec4<f32>, rng: ptr<function, u32>) -> LightSample {
 // not needed by the reuse passes that decode samples).
 fn lights_sample_at(light: u32, coords: vec2<f32>) -> LightSample {
     let t = lights_triangles[light];
-    var s: LightSample;
-    s.light = light;
-    s.emission = t.emission;
-    s.triangle = t.triangle;
-    s.kind = t.kind;
+    var s = lights_sample_common(light, t);
     s.coords = coords;
     if t.kind == LIGHTS_KIND_TRIANGLE {
         s.position = t.p0 + coords.x * t.e1 + coords.y * t.e2;
         s.pdf_area = t.prob / t.area;
         s.normal = normalize(cross(t.e1, t.e2));
-        return s;
-    }
-    s.position = t.p0;
-    s.pdf_area = t.prob;
-    s.normal = t.e1;
-    if t.kind == LIGHTS_KIND_DIRECTIONAL {
-        s.normal = t.p0;
     } else if t.kind == LIGHTS_KIND_ENV {
         s.position = sampling_oct_decode(coords);
         s.normal = s.position;
