@@ -6,7 +6,7 @@ use restir_world::render::Renderer;
 use restir_world::sampling::Estimator;
 use restir_world::scene::{BuiltinOptions, Camera, CameraPath, Scene, builtin};
 use restir_world::world_restir::{
-    self, DebugView, WorldRestir, WorldRestirConfig, WrParams, WrPass, WrReservoir,
+    self, DebugView, WorldRestir, WorldRestirConfig, WrParams, WrPass,
 };
 use tests::gpu;
 
@@ -45,9 +45,9 @@ fn mean_lum(img: &[[f32; 3]]) -> f64 {
 fn layouts_match_wgsl() {
     let src = &world_restir::wgsl_modules()[0].1;
     tests::assert_wgsl_layout!(
-        WrReservoir,
+        restir_world::render::StoredReservoir,
         src,
-        "WrReservoir",
+        "StoredReservoir",
         [light_kind, coords, ucw, m]
     );
     tests::assert_wgsl_layout!(

@@ -101,6 +101,20 @@ pub enum RenderError {
     Settings(String),
 }
 
+/// WGSL `StoredReservoir` (16 bytes): a reservoir as world-restir and restir-di store it, its
+/// light sample as the light and the packed coordinates on it, and reservoir's packed (W, M).
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct StoredReservoir {
+    /// The sample's `lights::KIND_*` in the low 2 bits, its light table index above.
+    pub light_kind: u32,
+    /// Barycentrics of a triangle point (two unorm16), or an environment direction's
+    /// octahedral coordinates (two snorm16); 0 for punctual lights.
+    pub coords: u32,
+    pub ucw: f32,
+    pub m: u32,
+}
+
 /// WGSL `GVertex`.
 #[repr(C)]
 #[derive(Debug, Clone, Copy, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]

@@ -213,6 +213,47 @@ fn render_light_sample_at(light: u32, coords: vec2<f32>) -> LightSample {
     return render_textured_emission(lights_sample_at(light, coords));
 }
 
+// A reservoir as the reuse methods (world-restir, restir-di) store it between passes, 16 bytes
+// (Rust twin: render::StoredReservoir). Its light sample is the light and where on it, one
+// representation for every light kind: light_kind = the sample's LIGHTS_KIND_* in the low 2
+// bits and its light table index above; coords = LightSample.coords packed: a triangle point's
+// barycentrics as two unorm16, an environment direction's octahedral coordinates as two
+// snorm16, 0 for punctual lights. render_stored_sample decodes it (position, normal, textured
+// emission) from the light table. (ucw, m) is reservoir's PackedReservoir; m = 0: none.
+struct StoredReservoir {
+    light_kind: u32,
+    coords: u32,
+    ucw: f32,
+    m: u32,
+}
+
+// Light sample s with a reservoir's packed (W, M), as stored.
+fn render_store_reservoir(s: LightSample, packed: PackedReservoir) -> StoredReservoir {
+    var coords = 0u;
+    if s.kind == LIGHTS_KIND_TRIANGLE {
+        coords = pack2x16unorm(s.coords);
+    } else if s.kind == LIGHTS_KIND_ENV {
+        coords = pack2x16snorm(s.coords);
+    }
+    return StoredReservoir(s.kind | (s.light << 2u), coords, packed.ucw, packed.m);
+}
+
+// The light sample of a stored reservoir, decoded. pdf_area is 1 (the reuse passes do not use
+// it).
+fn render_stored_sample(r: StoredReservoir) -> LightSample {
+    let kind = r.light_kind & 3u;
+    var coords = unpack2x16unorm(r.coords);
+    if kind == LIGHTS_KIND_ENV {
+        coords = unpack2x16snorm(r.coords);
+    } else if coords.x + coords.y > 1.0 {
+        // Rounding can leave the triangle by half a step: back onto its edge.
+        coords /= coords.x + coords.y;
+    }
+    var s = render_light_sample_at(r.light_kind >> 2u, coords);
+    s.pdf_area = 1.0;
+    return s;
+}
+
 // Interpolated vertex normals at the hit, normalized and turned to the side of the geometric
 // normal n (n when they cancel out). Twin: reference::shading_normal.
 fn render_shading_normal(a: TriangleAttributes, hit: Hit, n: vec3<f32>) -> vec3<f32> {

@@ -6,11 +6,11 @@ fn wr_generate(id: Invocation) {
     let i = item_index(id);
     if i >= wr_params.items { return; }
     if !wr_has_vertex(i) || !wr_is_active(i, wr_params.gi_stride) || lights_info.count == 0u {
-        wr_out[i] = wr_empty_stored();
+        wr_out[i] = StoredReservoir();
         return;
     }
     let v = wr_vertex(i);
     var rng = wr_rng(i, WR_PASS_GENERATE, 0u);
     let ris = render_ris_lights(v.position, v.normal, v.shading, v.albedo, wr_params.candidates, &rng);
-    wr_out[i] = wr_store(ris.light, reservoir_pack(ris.reservoir));
+    wr_out[i] = render_store_reservoir(ris.light, reservoir_pack(ris.reservoir));
 }

@@ -405,20 +405,6 @@ pub fn auto_buckets(vertices: u32, slots_per_bucket: u32) -> u32 {
     buckets.clamp(64, u64::from(u32::MAX)) as u32
 }
 
-/// A vertex's stored reservoir (WGSL `WrReservoir`, 16 bytes): the selected light sample as
-/// its light and the packed coordinates on it, and reservoir's packed (W, M).
-#[repr(C)]
-#[derive(Debug, Clone, Copy, Default, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
-pub struct WrReservoir {
-    /// The sample's `lights::KIND_*` in the low 2 bits, its light table index above.
-    pub light_kind: u32,
-    /// Barycentrics of a triangle point (two unorm16), or an environment direction's
-    /// octahedral coordinates (two snorm16); 0 for punctual lights.
-    pub coords: u32,
-    pub ucw: f32,
-    pub m: u32,
-}
-
 /// WGSL `WrParams` (the knobs the kernels read).
 #[repr(C)]
 #[derive(Debug, Clone, Copy, Default, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
@@ -498,7 +484,7 @@ struct KernelDef {
     hash: Option<HashRole>,
 }
 
-const RES: &str = "array<WrReservoir>";
+const RES: &str = "array<StoredReservoir>";
 const PARAMS: (&str, &str, Access) = ("wr_params", "WrParams", Access::Uniform);
 const GENERATE: KernelDef = KernelDef {
     name: "generate",
@@ -649,7 +635,7 @@ impl WrBuffers {
     ) -> Result<Self, WorldRestirError> {
         let px = u64::from(pixels);
         let items = u64::from(config.items(pixels));
-        let res_bytes = items * size_of::<WrReservoir>() as u64;
+        let res_bytes = items * size_of::<render::StoredReservoir>() as u64;
         ctx.check_binding_size("the world-restir reservoirs", res_bytes)?;
         let zeroed = |label: &str, size: u64| buffers::storage_zeroed(&ctx.device, label, size);
         let pair = |label: &str, size: u64| [0, 1].map(|p| zeroed(&format!("{label} {p}"), size));
@@ -991,9 +977,9 @@ impl WorldRestir {
     }
 
     /// The last frame's final reservoirs, per pixel.
-    pub fn reservoirs(&self, ctx: &GpuContext) -> Result<Vec<WrReservoir>, GpuError> {
+    pub fn reservoirs(&self, ctx: &GpuContext) -> Result<Vec<render::StoredReservoir>, GpuError> {
         let last = &self.buffers.reservoirs[self.passes.final_index];
-        let mut v: Vec<WrReservoir> = buffers::read(ctx, last)?;
+        let mut v: Vec<render::StoredReservoir> = buffers::read(ctx, last)?;
         v.truncate(self.renderer.pixels() as usize);
         Ok(v)
     }

@@ -96,7 +96,7 @@ fn wr_reuse(id: Invocation) {
     let temporal = wr_pass.temporal != 0u;
     var rng = wr_rng(i, select(WR_PASS_SPATIAL, WR_PASS_TEMPORAL, temporal), wr_pass.pass_index);
     let u_own = rng_next_f32(&rng);
-    let own_sample = wr_light_sample(own);
+    let own_sample = render_stored_sample(own);
     let p_own = select(0.0, wr_target(v, own_sample), own.m > 0u);
     let visit = wr_visit(v, &rng);
 
@@ -129,7 +129,7 @@ fn wr_reuse(id: Invocation) {
             let vj = wr_source_vertex(j, temporal);
             let m_i = f32(m);
             let share = (m_i + m_c) / total;
-            let y = wr_light_sample(src);
+            let y = render_stored_sample(src);
             let p_here = wr_target(v, y);
             let mis = share * wr_balance(m_i * wr_target(vj, y), m_c * p_here);
             canonical += share * wr_balance(m_c * p_own, m_i * wr_target(vj, own_sample));
@@ -156,7 +156,7 @@ fn wr_reuse(id: Invocation) {
                 continue;
             }
             let src = wr_src[j];
-            let p_here = wr_target(v, wr_light_sample(src));
+            let p_here = wr_target(v, render_stored_sample(src));
             var other = reservoir_unpack(PackedReservoir(src.ucw, src.m), j);
             other.m = m;
             if reservoir_merge(&r, other, p_here, u_merge) {
@@ -167,7 +167,7 @@ fn wr_reuse(id: Invocation) {
         if wr_params.combine == WR_COMBINE_ONE_OVER_Z && chosen_p_hat > 0.0 {
             // Z: the receiver (its target at y is chosen_p_hat > 0) and every merged
             // reservoir whose own vertex could have produced y.
-            let y = wr_light_sample(chosen);
+            let y = render_stored_sample(chosen);
             var z = own.m;
             for (var n = 0u; n < visit.count; n += visit.increment) {
                 let j = wr_visited(visit, n);

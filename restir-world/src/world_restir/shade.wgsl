@@ -11,7 +11,7 @@ fn wr_shade(id: Invocation) {
         let res = wr_final[i];
         if res.m > 0u && res.ucw > 0.0 {
             let v = render_secondary[i];
-            let y = wr_light_sample(res);
+            let y = render_stored_sample(res);
             let f = wr_contribution(v, y);
             if any(f > vec3<f32>(0.0)) && render_visible_sample(v.position, v.normal, y) {
                 c = render_gbuffer[i].albedo * f * res.ucw;
@@ -32,7 +32,7 @@ fn wr_shade_direct(id: Invocation) {
     var c = g.emission;
     let res = wr_final[render_params.pixel_count + i];
     if g.prim != BVH_NO_HIT && res.m > 0u && res.ucw > 0.0 {
-        let y = wr_light_sample(res);
+        let y = render_stored_sample(res);
         let f = wr_contribution(g, y);
         if any(f > vec3<f32>(0.0)) && render_visible_sample(g.position, g.normal, y) {
             c += f * res.ucw;
