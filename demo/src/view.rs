@@ -17,8 +17,8 @@ use restir_world::GpuContext;
 use restir_world::gpu::PassTimes;
 use restir_world::image_io::{self, Image};
 use restir_world::methods::{
-    self, FrameLoop, FrameMethod, MethodError, MethodSettings, Readback, WORLD_RESTIR_VARIANTS,
-    run_frames,
+    self, FrameLoop, FrameMethod, MethodError, MethodSettings, RESTIR_DI_VARIANTS, Readback,
+    WORLD_RESTIR_VARIANTS, run_frames,
 };
 use restir_world::sampling::Estimator;
 use restir_world::scene::{Camera, CameraPath, Scene};
@@ -745,7 +745,10 @@ impl Viewer {
             settings: self.settings,
             speed: self.setup.speed,
             dt,
-            has_debug: matches!(self.settings, MethodSettings::WorldRestir(_)),
+            has_debug: matches!(
+                self.settings,
+                MethodSettings::WorldRestir(_) | MethodSettings::WorldRestirDi(..)
+            ),
             render_cmd: self.render_command(),
         };
         let texture = self.texture.as_ref().map(|t| t.id());
@@ -962,13 +965,21 @@ fn spec_of(settings: &MethodSettings) -> String {
             k if k.is_empty() => "world-restir".into(),
             k => format!("world-restir:{k}"),
         },
+        MethodSettings::RestirDi(d) => match d.knobs_spec() {
+            k if k.is_empty() => "restir-di".into(),
+            k => format!("restir-di:{k}"),
+        },
+        MethodSettings::WorldRestirDi(_, d) => match d.knobs_spec() {
+            k if k.is_empty() => "world-restir+restir-di".into(),
+            k => format!("world-restir+restir-di:{k}"),
+        },
     }
 }
 
 fn knob_texts(settings: &MethodSettings) -> Vec<String> {
     let c = match settings {
-        MethodSettings::WorldRestir(c) => *c,
-        MethodSettings::Baseline(_) => WorldRestirConfig::default(),
+        MethodSettings::WorldRestir(c) | MethodSettings::WorldRestirDi(c, _) => *c,
+        MethodSettings::Baseline(_) | MethodSettings::RestirDi(_) => WorldRestirConfig::default(),
     };
     WorldRestirConfig::KNOBS
         .iter()
@@ -989,7 +1000,8 @@ struct Info {
     render_cmd: String,
 }
 
-/// The specs the method list offers: every registry entry, then world-restir's variants.
+/// The specs the method list offers: every registry entry, then world-restir's and
+/// restir-di's variants.
 fn method_specs() -> Vec<String> {
     let mut v: Vec<String> = methods::registry()
         .iter()
@@ -1000,6 +1012,12 @@ fn method_specs() -> Vec<String> {
             .iter()
             .filter(|(n, _, _)| *n != "both")
             .map(|(n, _, _)| format!("world-restir:{n}")),
+    );
+    v.extend(
+        RESTIR_DI_VARIANTS
+            .iter()
+            .filter(|(n, _, _)| *n != "both")
+            .map(|(n, _, _)| format!("restir-di:{n}")),
     );
     v
 }

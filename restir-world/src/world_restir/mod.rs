@@ -32,6 +32,7 @@ use crate::gpu::{
     Resource, Tracer, WgslModule, buffers,
 };
 use crate::render::{self, RenderError, Renderer, SharedGroups, shared_bindings};
+use crate::restir_di::{RestirDi, RestirDiConfig};
 use crate::scene::{Camera, Scene};
 
 /// Library WGSL (structs and helpers shared by the passes).
@@ -63,6 +64,8 @@ pub enum WorldRestirError {
     Scan(#[from] gpu_scan::ScanError),
     #[error(transparent)]
     Gpu(#[from] GpuError),
+    #[error(transparent)]
+    RestirDi(#[from] crate::restir_di::RestirDiError),
     #[error("bad world-restir setting: {0}")]
     Config(String),
 }
@@ -805,6 +808,9 @@ pub struct WorldRestir {
     scan_bindings: [ScanBinding; 2],
     passes: WrPasses,
     parity: usize,
+    /// ReSTIR DI for the direct light at the primary vertex (`world-restir+restir-di`);
+    /// `None`: the `ris` baseline's.
+    direct: Option<RestirDi>,
 }
 
 impl WorldRestir {
@@ -819,8 +825,25 @@ impl WorldRestir {
         config: WorldRestirConfig,
         seed: u32,
     ) -> Result<Self, WorldRestirError> {
+        Self::with_direct(ctx, scene, camera, config, None, seed)
+    }
+
+    /// [`WorldRestir::new`] whose direct light at the primary vertex is ReSTIR DI with
+    /// `direct` (when given) instead of the `ris` baseline's.
+    pub fn with_direct(
+        ctx: &GpuContext,
+        scene: &Scene,
+        camera: &Camera,
+        config: WorldRestirConfig,
+        direct: Option<RestirDiConfig>,
+        seed: u32,
+    ) -> Result<Self, WorldRestirError> {
         config.validate()?;
         let renderer = Renderer::new(ctx, scene, camera, render::ris(), seed)?;
+        let direct = match direct {
+            Some(c) => Some(RestirDi::new(ctx, &renderer, c)?),
+            None => None,
+        };
         let device = &ctx.device;
         let table = config.table(camera.width, camera.height);
         let grid_params = HashGridParams::new(&table, &config.sizing(camera), camera.eye)?;
@@ -848,11 +871,17 @@ impl WorldRestir {
             scan_bindings,
             passes,
             parity: 0,
+            direct,
         })
     }
 
     pub fn config(&self) -> &WorldRestirConfig {
         &self.config
+    }
+
+    /// The ReSTIR DI stage of the direct light, when it has one.
+    pub fn direct(&self) -> Option<&RestirDi> {
+        self.direct.as_ref()
     }
 
     /// The renderer underneath (camera, frame counters).
@@ -884,7 +913,10 @@ impl WorldRestir {
             });
         }
         f.span("shade", |f| f.dispatch(&passes.shade));
-        self.renderer.encode_shade_direct(f);
+        match self.direct.as_mut() {
+            Some(di) => di.encode(f, &self.renderer),
+            None => self.renderer.encode_shade_direct(f),
+        }
         if self.config.temporal {
             f.span("persist", |f| self.encode_persist(f));
         }
