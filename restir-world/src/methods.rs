@@ -679,6 +679,38 @@ mod tests {
     }
 
     #[test]
+    fn restir_di_variants_parse() {
+        for (v, _, _) in RESTIR_DI_VARIANTS {
+            restir_di_config("restir-di", Some(v))
+                .unwrap()
+                .validate()
+                .unwrap();
+        }
+        let n = restir_di_config("restir-di", Some("no-reuse")).unwrap();
+        assert!(!n.temporal && n.spatial_k == 0);
+        let k = restir_di_config("restir-di", Some("biased+spatial-k=2")).unwrap();
+        assert_eq!(
+            (k.combine, k.spatial_k),
+            (crate::restir_di::DiCombine::Biased, 2)
+        );
+        match parse_spec("world-restir+restir-di:temporal").unwrap() {
+            MethodSettings::WorldRestirDi(w, d) => {
+                assert_eq!(w, WorldRestirConfig::default());
+                assert!(d.temporal && d.spatial_k == 0);
+            }
+            other => panic!("{other:?}"),
+        }
+        for (bad, knob) in [
+            ("spatial-k=x", "spatial-k"),
+            ("tiles=0", "tiles"),
+            ("bogus", "bogus"),
+        ] {
+            let e = restir_di_config("restir-di", Some(bad)).unwrap_err();
+            assert!(e.to_string().contains(knob), "{bad}: {e}");
+        }
+    }
+
+    #[test]
     fn world_restir_variants_parse() {
         for (v, _, _) in WORLD_RESTIR_VARIANTS {
             world_restir_config(Some(v)).unwrap().validate().unwrap();

@@ -88,6 +88,9 @@ pub struct FrameRecord {
     /// between evaluation frames, or no indirect reference).
     pub indirect: Option<Err2>,
     pub combined: Option<Err2>,
+    /// Error of this frame's direct image against the reference's combined minus indirect
+    /// (null without an indirect reference).
+    pub direct: Option<Err2>,
     /// relMSE of the running average of frames 0..=frame (static camera only).
     pub accumulated_rel_mse_indirect: Option<f64>,
     pub accumulated_rel_mse_combined: Option<f64>,
@@ -127,6 +130,8 @@ pub struct MethodRun {
     /// (after warm-up for methods with temporal reuse).
     pub frame_indirect: Option<Err2>,
     pub frame_combined: Option<Err2>,
+    /// The same for the direct image (reference: combined minus indirect).
+    pub frame_direct: Option<Err2>,
     /// FLIP (mean) of the last evaluated frame, tone-mapped.
     pub frame_flip_combined: Option<f64>,
     pub frame_flip_indirect: Option<f64>,
@@ -145,9 +150,11 @@ pub struct EqualTimeEntry {
     pub ms_per_frame: Option<f64>,
     pub frame_indirect: Option<Err2>,
     pub frame_combined: Option<Err2>,
+    pub frame_direct: Option<Err2>,
     /// relMSE of this method at equal time divided by the target's (>1: the target is better).
     pub rel_mse_ratio_indirect: Option<f64>,
     pub rel_mse_ratio_combined: Option<f64>,
+    pub rel_mse_ratio_direct: Option<f64>,
     /// The same ratio of the trimmed relMSE (robust to fireflies).
     pub rel_mse_trimmed_ratio_indirect: Option<f64>,
     /// GPU time this method needs to reach the target's per-frame relMSE (1/N variance law
@@ -164,6 +171,7 @@ pub struct EqualTime {
     pub target_ms_per_frame: f64,
     pub target_frame_indirect: Option<Err2>,
     pub target_frame_combined: Option<Err2>,
+    pub target_frame_direct: Option<Err2>,
     pub entries: Vec<EqualTimeEntry>,
 }
 
@@ -328,6 +336,7 @@ fn run_method(
                 .collect(),
             indirect: None,
             combined: None,
+            direct: None,
             accumulated_rel_mse_indirect: None,
             accumulated_rel_mse_combined: None,
             grid_overflows: m.grid_overflows(ctx)?,
@@ -340,6 +349,13 @@ fn run_method(
             rec.combined = Some(metrics::errors(&combined, &r.combined)?.into());
             if let Some(ri) = &r.indirect {
                 rec.indirect = Some(metrics::errors(&indirect, ri)?.into());
+                let rd: Vec<[f32; 3]> = r
+                    .combined
+                    .iter()
+                    .zip(ri)
+                    .map(|(c, i)| [0, 1, 2].map(|k| c[k] - i[k]))
+                    .collect();
+                rec.direct = Some(metrics::errors(&direct, &rd)?.into());
             }
             if static_camera {
                 let n = f64::from(f + 1);
@@ -388,6 +404,7 @@ fn run_method(
     };
     let frame_indirect = mean_err(|r| r.indirect);
     let frame_combined = mean_err(|r| r.combined);
+    let frame_direct = mean_err(|r| r.direct);
     let timed = &records[TIMING_WARMUP_FRAMES.min(frames.saturating_sub(1)) as usize..];
     let times = TimeSummary::of(timed, ctx.features.timestamps);
     let mut run = MethodRun {
@@ -406,6 +423,7 @@ fn run_method(
         max_grid_overflows: records.iter().filter_map(|r| r.grid_overflows).max(),
         frame_indirect,
         frame_combined,
+        frame_direct,
         frame_flip_combined: None,
         frame_flip_indirect: None,
         accumulated_indirect: None,
@@ -746,8 +764,10 @@ fn compare_scene(
                 ms_per_frame: eq.ms_per_frame_median,
                 frame_indirect: eq.frame_indirect,
                 frame_combined: eq.frame_combined,
+                frame_direct: eq.frame_direct,
                 rel_mse_ratio_indirect: ratio(eq.frame_indirect, target.frame_indirect, rel),
                 rel_mse_ratio_combined: ratio(eq.frame_combined, target.frame_combined, rel),
+                rel_mse_ratio_direct: ratio(eq.frame_direct, target.frame_direct, rel),
                 rel_mse_trimmed_ratio_indirect: ratio(
                     eq.frame_indirect,
                     target.frame_indirect,
@@ -775,6 +795,7 @@ fn compare_scene(
             target_ms_per_frame: t_ms,
             target_frame_indirect: target.frame_indirect,
             target_frame_combined: target.frame_combined,
+            target_frame_direct: target.frame_direct,
             entries,
         });
     }

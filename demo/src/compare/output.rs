@@ -201,11 +201,11 @@ fn markdown(r: &Report, strip: &[StripRow]) -> String {
              indirect | frame relMSE indirect, 0.1% trimmed | frame relMSE combined | frame MSE \
              indirect | frame MSE combined | frame FLIP combined | accum. relMSE indirect | \
              accum. relMSE combined | accum. FLIP combined | bias indirect (mean / reference, \
-             RGB) | bias combined | grid overflows (most in a frame) |"
+             RGB) | bias combined | grid overflows (most in a frame) | frame relMSE direct |"
         );
         let _ = writeln!(
             s,
-            "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"
+            "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"
         );
         for m in &sc.methods {
             let stages: Vec<String> = m
@@ -215,7 +215,7 @@ fn markdown(r: &Report, strip: &[StripRow]) -> String {
                 .collect();
             let _ = writeln!(
                 s,
-                "| {}{} | {} | {} ({}) | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} |",
+                "| {}{} | {} | {} ({}) | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} |",
                 m.method,
                 m.planted_bias
                     .map(|b| format!(" (planted bias x{b})"))
@@ -237,6 +237,7 @@ fn markdown(r: &Report, strip: &[StripRow]) -> String {
                 rgb(m.bias_combined),
                 m.max_grid_overflows
                     .map_or_else(|| "-".to_owned(), |o| o.to_string()),
+                sci(rel(m.frame_direct)),
             );
         }
         s.push('\n');
@@ -256,14 +257,18 @@ fn markdown(r: &Report, strip: &[StripRow]) -> String {
                 "| method | spp/frame in the same time | ms/frame | frame relMSE indirect | \
                  frame relMSE indirect, trimmed | frame relMSE combined | relMSE ratio indirect \
                  (method/{t}) | same, trimmed | relMSE ratio combined | equal-error speed-up of \
-                 {t}, indirect | same, trimmed | equal-error speed-up, combined |",
+                 {t}, indirect | same, trimmed | equal-error speed-up, combined | frame relMSE \
+                 direct | relMSE ratio direct |",
                 t = eq.target
             );
-            let _ = writeln!(s, "|---|---|---|---|---|---|---|---|---|---|---|---|");
+            let _ = writeln!(
+                s,
+                "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"
+            );
             for e in &eq.entries {
                 let _ = writeln!(
                     s,
-                    "| {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} |",
+                    "| {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} |",
                     e.method,
                     e.spp_per_frame,
                     sci(e.ms_per_frame),
@@ -276,6 +281,8 @@ fn markdown(r: &Report, strip: &[StripRow]) -> String {
                     sci(e.equal_error_speedup_indirect),
                     sci(e.equal_error_speedup_indirect_trimmed),
                     sci(e.equal_error_speedup_combined),
+                    sci(rel(e.frame_direct)),
+                    sci(e.rel_mse_ratio_direct),
                 );
             }
             if let Some(t) = sc.methods.iter().find(|m| m.method == eq.target)

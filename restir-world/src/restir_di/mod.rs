@@ -110,7 +110,11 @@ pub struct RestirDiConfig {
     /// Spatial neighbours per pixel (default 4; 0: no spatial pass; at most
     /// [`MAX_SPATIAL_K`]).
     pub spatial_k: u32,
-    /// Radius of the spatial neighbourhood in pixels (default 30).
+    /// Radius of the spatial neighbourhood in pixels (default 3). RTXDI's 32 is for 1080p;
+    /// on many-lights at 128x128 (small lights near the surfaces: the target changes within a
+    /// few pixels) the frame relMSE of the direct image was 3.07 at 30 px, 2.10 at 4, 1.53 at
+    /// 3 and 1.56 at 2 (seed 1; seed 2: 1.28 at 3, 2.81 at 2: fireflies decide single runs),
+    /// against 4.62 for `ris`.
     pub spatial_radius: f32,
     /// A reused pixel's depth (distance to the eye) must be within this fraction of the
     /// receiver's (default 0.1).
@@ -131,7 +135,7 @@ impl Default for RestirDiConfig {
             temporal: true,
             temporal_m_cap: 20,
             spatial_k: 4,
-            spatial_radius: 30.0,
+            spatial_radius: 3.0,
             depth_threshold: 0.1,
             normal_threshold: 0.9,
             combine: DiCombine::Pairwise,
