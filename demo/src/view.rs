@@ -1233,3 +1233,24 @@ fn knobs_ui(ui: &mut egui::Ui, config: WorldRestirConfig, c: &mut Controls, a: &
         }
     });
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The method list offers every registry entry and the variants, and each entry's spec
+    /// parses back to settings whose `spec_of` parses again (the list and the spec field agree).
+    #[test]
+    fn method_list_offers_every_method_and_variant() {
+        let specs = method_specs();
+        for name in ["ris", "world-restir", "restir-di", "world-restir+restir-di"] {
+            assert!(specs.iter().any(|s| s == name), "{name} missing: {specs:?}");
+        }
+        assert!(specs.iter().any(|s| s == "restir-di:biased"), "{specs:?}");
+        for spec in &specs {
+            let settings = methods::parse_spec(spec).unwrap_or_else(|e| panic!("{spec}: {e}"));
+            let again = methods::parse_spec(&spec_of(&settings)).expect("spec_of parses");
+            assert_eq!(again, settings, "{spec}");
+        }
+    }
+}
