@@ -65,18 +65,15 @@ type Cached = (String, u32, u32, u32, [f64; 3]);
 /// jittered edges and dominates the noise of the image mean on cornell, is identical in both
 /// and cancels in the ratio; what remains is the reflected direct light.
 fn reference(name: &str, side: u32, frames: u32, seed: u32) -> [f64; 3] {
+    // Held while computing, so that tests running in parallel wait for a reference rather
+    // than compute it twice.
     static CACHE: Mutex<Vec<Cached>> = Mutex::new(Vec::new());
+    let mut cache = CACHE.lock().unwrap_or_else(|e| e.into_inner());
     let key = |c: &&Cached| c.0 == name && (c.1, c.2, c.3) == (side, frames, seed);
-    if let Some(c) = CACHE
-        .lock()
-        .unwrap_or_else(|e| e.into_inner())
-        .iter()
-        .find(key)
-    {
+    if let Some(c) = cache.iter().find(key) {
         return c.4;
     }
     let r = direct_means("ris:128", name, side, frames, seed);
-    let mut cache = CACHE.lock().unwrap_or_else(|e| e.into_inner());
     cache.push((name.to_owned(), side, frames, seed, r));
     r
 }
