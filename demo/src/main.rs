@@ -175,7 +175,8 @@ struct RenderArgs {
     scene_opts: scenes::SceneArgs,
     /// A method of the registry as `name` or `name:variant` (nee, ris, ris:K, world-restir,
     /// world-restir:VARIANT or knobs key=value joined by +, e.g.
-    /// world-restir:temporal+spatial-passes=4; see `compare --help`), or cpu-reference (the CPU
+    /// world-restir:temporal+spatial-passes=4, restir-di[:VARIANT], world-restir+restir-di;
+    /// see `compare --help`), or cpu-reference (the CPU
     /// reference renderer: the nee estimator, or ris with --reference-ris; f64 accumulation, all
     /// cores).
     #[arg(long, default_value = "nee")]
@@ -641,13 +642,15 @@ fn compare_cmd(a: CompareArgs) -> Result<()> {
     for sc in &report.scenes {
         for m in &sc.methods {
             println!(
-                "{:>12} {:>14}: {} ms/frame, frame relMSE indirect {} combined {}",
+                "{:>12} {:>14}: {} ms/frame, frame relMSE indirect {} combined {} direct {}",
                 sc.scene,
                 m.method,
                 m.ms_per_frame.map_or("-".into(), |v| format!("{v:.3}")),
                 m.frame_indirect
                     .map_or("-".into(), |e| format!("{:.4e}", e.rel_mse)),
                 m.frame_combined
+                    .map_or("-".into(), |e| format!("{:.4e}", e.rel_mse)),
+                m.frame_direct
                     .map_or("-".into(), |e| format!("{:.4e}", e.rel_mse)),
             );
         }

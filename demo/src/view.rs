@@ -17,9 +17,10 @@ use restir_world::GpuContext;
 use restir_world::gpu::PassTimes;
 use restir_world::image_io::{self, Image};
 use restir_world::methods::{
-    self, FrameLoop, FrameMethod, MethodError, MethodSettings, Readback, WORLD_RESTIR_VARIANTS,
-    run_frames,
+    self, FrameLoop, FrameMethod, MethodError, MethodSettings, RESTIR_DI_VARIANTS, Readback,
+    WORLD_RESTIR_VARIANTS, run_frames,
 };
+use restir_world::restir_di::RestirDiConfig;
 use restir_world::sampling::Estimator;
 use restir_world::scene::{Camera, CameraPath, Scene};
 use restir_world::world_restir::{DebugView, WorldRestirConfig};
@@ -745,7 +746,10 @@ impl Viewer {
             settings: self.settings,
             speed: self.setup.speed,
             dt,
-            has_debug: matches!(self.settings, MethodSettings::WorldRestir(_)),
+            has_debug: matches!(
+                self.settings,
+                MethodSettings::WorldRestir(_) | MethodSettings::WorldRestirDi(..)
+            ),
             render_cmd: self.render_command(),
         };
         let texture = self.texture.as_ref().map(|t| t.id());
@@ -962,17 +966,88 @@ fn spec_of(settings: &MethodSettings) -> String {
             k if k.is_empty() => "world-restir".into(),
             k => format!("world-restir:{k}"),
         },
+        MethodSettings::RestirDi(d) => match d.knobs_spec() {
+            k if k.is_empty() => "restir-di".into(),
+            k => format!("restir-di:{k}"),
+        },
+        MethodSettings::WorldRestirDi(_, d) => match d.knobs_spec() {
+            k if k.is_empty() => "world-restir+restir-di".into(),
+            k => format!("world-restir+restir-di:{k}"),
+        },
     }
 }
 
+/// Applies one knob (`key`, `value`) to a method's settings: the new settings, or why not.
+type ApplyKnob = Box<dyn Fn(&str, &str) -> Result<MethodSettings, String>>;
+
+/// One panel of knobs: a configuration's knob names, current values, and how to apply one.
+struct KnobPanel {
+    title: &'static str,
+    keys: &'static [&'static str],
+    values: Vec<String>,
+    apply: ApplyKnob,
+}
+
+fn world_restir_panel(
+    c: WorldRestirConfig,
+    wrap: impl Fn(WorldRestirConfig) -> MethodSettings + 'static,
+) -> KnobPanel {
+    KnobPanel {
+        title: "world-restir knobs",
+        keys: &WorldRestirConfig::KNOBS,
+        values: WorldRestirConfig::KNOBS
+            .iter()
+            .map(|k| c.get(k).unwrap_or_default())
+            .collect(),
+        apply: Box::new(move |key, value| {
+            let mut next = c;
+            next.set(key, value)
+                .and_then(|()| next.validate())
+                .map_err(|e| e.to_string())?;
+            Ok(wrap(next))
+        }),
+    }
+}
+
+fn restir_di_panel(
+    d: RestirDiConfig,
+    wrap: impl Fn(RestirDiConfig) -> MethodSettings + 'static,
+) -> KnobPanel {
+    KnobPanel {
+        title: "restir-di knobs",
+        keys: &RestirDiConfig::KNOBS,
+        values: RestirDiConfig::KNOBS
+            .iter()
+            .map(|k| d.get(k).unwrap_or_default())
+            .collect(),
+        apply: Box::new(move |key, value| {
+            let mut next = d;
+            next.set(key, value)
+                .and_then(|()| next.validate())
+                .map_err(|e| e.to_string())?;
+            Ok(wrap(next))
+        }),
+    }
+}
+
+/// The knob panels of a method: world-restir's and restir-di's, for the methods that have them
+/// (`world-restir+restir-di` offers restir-di's only: its spec carries no world-restir knobs).
+fn knob_panels(settings: &MethodSettings) -> Vec<KnobPanel> {
+    match *settings {
+        MethodSettings::Baseline(_) => Vec::new(),
+        MethodSettings::WorldRestir(c) => vec![world_restir_panel(c, MethodSettings::WorldRestir)],
+        MethodSettings::RestirDi(d) => vec![restir_di_panel(d, MethodSettings::RestirDi)],
+        MethodSettings::WorldRestirDi(c, d) => vec![restir_di_panel(d, move |n| {
+            MethodSettings::WorldRestirDi(c, n)
+        })],
+    }
+}
+
+/// The editable texts of every knob of `settings`' panels, in panel order.
 fn knob_texts(settings: &MethodSettings) -> Vec<String> {
-    let c = match settings {
-        MethodSettings::WorldRestir(c) => *c,
-        MethodSettings::Baseline(_) => WorldRestirConfig::default(),
-    };
-    WorldRestirConfig::KNOBS
-        .iter()
-        .map(|k| c.get(k).unwrap_or_default())
+    knob_panels(settings)
+        .into_iter()
+        .flat_map(|p| p.values)
         .collect()
 }
 
@@ -989,7 +1064,8 @@ struct Info {
     render_cmd: String,
 }
 
-/// The specs the method list offers: every registry entry, then world-restir's variants.
+/// The specs the method list offers: every registry entry, then world-restir's and
+/// restir-di's variants.
 fn method_specs() -> Vec<String> {
     let mut v: Vec<String> = methods::registry()
         .iter()
@@ -1000,6 +1076,12 @@ fn method_specs() -> Vec<String> {
             .iter()
             .filter(|(n, _, _)| *n != "both")
             .map(|(n, _, _)| format!("world-restir:{n}")),
+    );
+    v.extend(
+        RESTIR_DI_VARIANTS
+            .iter()
+            .filter(|(n, _, _)| *n != "both")
+            .map(|(n, _, _)| format!("restir-di:{n}")),
     );
     v
 }
@@ -1127,10 +1209,12 @@ fn controls_ui(ui: &mut egui::Ui, info: &Info, c: &mut Controls, s: &Stats, a: &
             }
         }
     });
-    if let MethodSettings::WorldRestir(config) = info.settings {
-        egui::CollapsingHeader::new("world-restir knobs")
+    let mut offset = 0;
+    for panel in knob_panels(&info.settings) {
+        egui::CollapsingHeader::new(panel.title)
             .default_open(true)
-            .show(ui, |ui| knobs_ui(ui, config, c, a));
+            .show(ui, |ui| knobs_ui(ui, &panel, offset, c, a));
+        offset += panel.keys.len();
     }
     ui.separator();
     egui::ComboBox::from_label("shown")
@@ -1182,16 +1266,23 @@ fn controls_ui(ui: &mut egui::Ui, info: &Info, c: &mut Controls, s: &Stats, a: &
     });
 }
 
-/// One row per knob of [`WorldRestirConfig::KNOBS`]: switches as checkboxes, the rest as text
-/// that [`WorldRestirConfig::set`] parses when Enter is pressed.
-fn knobs_ui(ui: &mut egui::Ui, config: WorldRestirConfig, c: &mut Controls, a: &mut Actions) {
-    egui::Grid::new("knobs").show(ui, |ui| {
-        for (i, key) in WorldRestirConfig::KNOBS.iter().enumerate() {
-            let Some(text) = c.knob_text.get_mut(i) else {
+/// One row per knob of `panel`: switches as checkboxes, the rest as text that the
+/// configuration's `set` parses when Enter is pressed. `offset`: the panel's first text in
+/// `c.knob_text`.
+fn knobs_ui(
+    ui: &mut egui::Ui,
+    panel: &KnobPanel,
+    offset: usize,
+    c: &mut Controls,
+    a: &mut Actions,
+) {
+    egui::Grid::new(panel.title).show(ui, |ui| {
+        for (i, key) in panel.keys.iter().enumerate() {
+            let Some(text) = c.knob_text.get_mut(offset + i) else {
                 continue;
             };
             ui.label(*key);
-            let current = config.get(key).unwrap_or_default();
+            let current = panel.values.get(i).cloned().unwrap_or_default();
             let mut apply = None;
             if current == "on" || current == "off" {
                 let mut on = current == "on";
@@ -1206,12 +1297,42 @@ fn knobs_ui(ui: &mut egui::Ui, config: WorldRestirConfig, c: &mut Controls, a: &
             }
             ui.end_row();
             if let Some(value) = apply {
-                let mut next = config;
-                match next.set(key, &value).and_then(|()| next.validate()) {
-                    Ok(()) => a.settings = Some(MethodSettings::WorldRestir(next)),
+                match (panel.apply)(key, &value) {
+                    Ok(settings) => a.settings = Some(settings),
                     Err(e) => *text = format!("{value} ({e})"),
                 }
             }
         }
     });
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The method list offers every registry entry and the variants, and each entry's spec
+    /// parses back to settings whose `spec_of` parses again (the list and the spec field agree).
+    #[test]
+    fn method_list_offers_every_method_and_variant() {
+        let specs = method_specs();
+        for name in ["ris", "world-restir", "restir-di", "world-restir+restir-di"] {
+            assert!(specs.iter().any(|s| s == name), "{name} missing: {specs:?}");
+        }
+        assert!(specs.iter().any(|s| s == "restir-di:biased"), "{specs:?}");
+        // The knob panels apply a knob to the right configuration and keep the other.
+        let both = methods::parse_spec("world-restir+restir-di").unwrap();
+        let panels = knob_panels(&both);
+        assert_eq!(panels.len(), 1);
+        assert_eq!(knob_texts(&both).len(), panels[0].keys.len());
+        let next = (panels[0].apply)("spatial-k", "2").unwrap();
+        assert_eq!(spec_of(&next), "world-restir+restir-di:spatial-k=2");
+        let err = (panels[0].apply)("spatial-k", "99").unwrap_err();
+        assert!(err.contains("spatial-k"), "{err}");
+        assert!(knob_panels(&methods::parse_spec("ris").unwrap()).is_empty());
+        for spec in &specs {
+            let settings = methods::parse_spec(spec).unwrap_or_else(|e| panic!("{spec}: {e}"));
+            let again = methods::parse_spec(&spec_of(&settings)).expect("spec_of parses");
+            assert_eq!(again, settings, "{spec}");
+        }
+    }
 }

@@ -10,7 +10,7 @@
 //!   pass is written in (`BindingSet`, `WgslModule`, `Kernel`, `Pass`, `FrameEncoder`).
 //! - [`scene`], [`trace`], [`lights`], [`sampling`]: the scene, the BVH tracer, light sampling.
 //! - [`render`]: the renderer's shared passes and the `nee`/`ris` baselines;
-//!   [`world_restir`] builds on it.
+//!   [`world_restir`] (indirect) and [`restir_di`] (direct) build on it.
 //! - [`methods`]: the registry of methods, the one frame loop (`run_frames`) and readback.
 //! - [`reference`](mod@reference) (CPU) and [`gpu_reference`]: converged references; [`metrics`].
 
@@ -22,6 +22,7 @@ pub mod methods;
 pub mod metrics;
 pub mod reference;
 pub mod render;
+pub mod restir_di;
 pub mod sampling;
 pub mod scene;
 pub mod trace;
@@ -40,5 +41,6 @@ pub fn wgsl_modules() -> Vec<(String, String)> {
     modules.extend(trace::wgsl_modules());
     modules.extend(render::wgsl_modules());
     modules.extend(world_restir::wgsl_modules());
+    modules.extend(restir_di::wgsl_modules());
     modules
 }

@@ -12,6 +12,7 @@ use crate::gpu::{FrameEncoder, GpuContext, GpuError, GpuTimer, PassTimes, SpanTi
 use crate::image_io::Image;
 use crate::reference::Rendered;
 use crate::render::{self, RenderError, Renderer};
+use crate::restir_di::{RestirDiConfig, RestirDiError, RestirDiRenderer};
 use crate::sampling::Estimator;
 use crate::scene::{Camera, CameraPath, Scene};
 use crate::world_restir::{DebugView, WorldRestir, WorldRestirConfig, WorldRestirError};
@@ -23,6 +24,8 @@ pub enum MethodError {
     Render(#[from] RenderError),
     #[error(transparent)]
     WorldRestir(#[from] WorldRestirError),
+    #[error(transparent)]
+    RestirDi(#[from] RestirDiError),
     #[error(transparent)]
     Gpu(#[from] GpuError),
     #[error("unknown method {name:?}; known: {known}")]
@@ -169,6 +172,22 @@ impl FrameMethod for WorldRestir {
         view: DebugView,
     ) -> Result<Option<Vec<[f32; 3]>>, MethodError> {
         Ok(Some(WorldRestir::debug_image(self, ctx, view)?))
+    }
+}
+
+impl FrameMethod for RestirDiRenderer {
+    fn renderer(&self) -> &Renderer {
+        RestirDiRenderer::renderer(self)
+    }
+    fn encode_frame(&mut self, f: &mut FrameEncoder) -> Result<(), MethodError> {
+        RestirDiRenderer::encode_frame(self, f);
+        Ok(())
+    }
+    fn set_camera(&mut self, camera: &Camera) -> Result<(), MethodError> {
+        Ok(RestirDiRenderer::set_camera(self, camera)?)
+    }
+    fn restart_accumulation(&mut self, f: &mut FrameEncoder) {
+        RestirDiRenderer::restart_accumulation(self, f);
     }
 }
 
@@ -357,6 +376,58 @@ pub fn world_restir_config(variant: Option<&str>) -> Result<WorldRestirConfig, M
     Ok(config)
 }
 
+/// The named variants of `restir-di` (and of the direct light of `world-restir+restir-di`):
+/// (name, the knobs it sets, what it is).
+pub const RESTIR_DI_VARIANTS: [(&str, &str, &str); 5] = [
+    (
+        "both",
+        "",
+        "temporal + spatial reuse, pairwise MIS (the default)",
+    ),
+    (
+        "no-reuse",
+        "temporal=off+spatial-k=0",
+        "initial candidates from the light tiles only",
+    ),
+    ("temporal", "spatial-k=0", "temporal reuse only"),
+    ("spatial", "temporal=off", "spatial reuse only"),
+    (
+        "biased",
+        "combine=biased",
+        "the paper's 1/M weights instead of pairwise MIS",
+    ),
+];
+
+/// The configuration of a `restir-di` variant: named variants and knobs `key=value` (see
+/// [`RestirDiConfig::set`]) joined by `+`, applied in order (e.g. `biased+spatial-k=2`).
+/// `method` names the method in errors.
+pub fn restir_di_config(
+    method: &str,
+    variant: Option<&str>,
+) -> Result<RestirDiConfig, MethodError> {
+    let bad = |msg: String| MethodError::Variant {
+        method: method.into(),
+        msg,
+    };
+    let mut config = RestirDiConfig::default();
+    for part in variant.unwrap_or("both").split('+') {
+        let knobs = match RESTIR_DI_VARIANTS.iter().find(|v| v.0 == part) {
+            Some((_, knobs, _)) => *knobs,
+            None if part.contains('=') => part,
+            None => {
+                let names: Vec<&str> = RESTIR_DI_VARIANTS.iter().map(|v| v.0).collect();
+                let known = names.join(", ");
+                return Err(bad(format!("unknown variant {part:?}; known: {known}")));
+            }
+        };
+        for (key, value) in knobs.split('+').filter_map(|k| k.split_once('=')) {
+            config.set(key, value).map_err(|e| bad(e.to_string()))?;
+        }
+    }
+    config.validate().map_err(|e| bad(e.to_string()))?;
+    Ok(config)
+}
+
 /// What a method spec parses to: the settings of one of the renderers.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum MethodSettings {
@@ -364,6 +435,11 @@ pub enum MethodSettings {
     Baseline(Estimator),
     /// `world-restir[:variant]`.
     WorldRestir(WorldRestirConfig),
+    /// `restir-di[:variant]`: `ris` with ReSTIR DI for the direct light.
+    RestirDi(RestirDiConfig),
+    /// `world-restir+restir-di[:variant]`: world-restir's indirect light (its defaults) and
+    /// ReSTIR DI (the variant) for the direct light.
+    WorldRestirDi(WorldRestirConfig, RestirDiConfig),
 }
 
 impl MethodSettings {
@@ -380,6 +456,17 @@ impl MethodSettings {
             MethodSettings::WorldRestir(c) => {
                 Box::new(WorldRestir::new(ctx, scene, camera, c, seed)?)
             }
+            MethodSettings::RestirDi(c) => {
+                Box::new(RestirDiRenderer::new(ctx, scene, camera, c, seed)?)
+            }
+            MethodSettings::WorldRestirDi(w, d) => Box::new(WorldRestir::with_direct(
+                ctx,
+                scene,
+                camera,
+                w,
+                Some(d),
+                seed,
+            )?),
         })
     }
 }
@@ -440,6 +527,18 @@ fn parse_world_restir(variant: Option<&str>) -> Result<MethodSettings, MethodErr
     world_restir_config(variant).map(MethodSettings::WorldRestir)
 }
 
+fn parse_restir_di(variant: Option<&str>) -> Result<MethodSettings, MethodError> {
+    restir_di_config("restir-di", variant).map(MethodSettings::RestirDi)
+}
+
+fn parse_world_restir_di(variant: Option<&str>) -> Result<MethodSettings, MethodError> {
+    let d = restir_di_config("world-restir+restir-di", variant)?;
+    Ok(MethodSettings::WorldRestirDi(
+        WorldRestirConfig::default(),
+        d,
+    ))
+}
+
 /// Parses a method spec (`name` or `name:variant`) without a GPU: the name is registered and
 /// its variant parses. Tools call it before any expensive work.
 pub fn parse_spec(spec: &str) -> Result<MethodSettings, MethodError> {
@@ -476,6 +575,22 @@ pub fn registry() -> &'static [MethodEntry] {
                        paper-grid, or knobs key=value (e.g. spatial-passes=2), joined by +",
             equal_time_target: true,
             parse: parse_world_restir,
+        },
+        MethodEntry {
+            name: "restir-di",
+            about: "ris with screen-space ReSTIR DI (light tiles, temporal + spatial reuse) for \
+                    the direct light",
+            variants: "both, no-reuse, temporal, spatial, biased, or knobs key=value (e.g. \
+                       spatial-k=4), joined by +",
+            equal_time_target: false,
+            parse: parse_restir_di,
+        },
+        MethodEntry {
+            name: "world-restir+restir-di",
+            about: "world-space ReSTIR GI for the indirect light, ReSTIR DI for the direct light",
+            variants: "restir-di's variants and knobs (world-restir at its defaults)",
+            equal_time_target: false,
+            parse: parse_world_restir_di,
         },
     ];
     REGISTRY
@@ -524,6 +639,10 @@ mod tests {
             "ris:4",
             "ris:65535",
             "world-restir:biased+spatial-passes=2",
+            "restir-di",
+            "restir-di:no-reuse",
+            "restir-di:biased+spatial-k=2",
+            "world-restir+restir-di:spatial-k=4",
         ] {
             check_spec(good).unwrap();
         }
@@ -533,6 +652,10 @@ mod tests {
             "ris:65536",
             "ris:x",
             "world-restir:bogus",
+            "restir-di:bogus",
+            "restir-di:spatial-k=99",
+            "restir-di:tiles=0",
+            "world-restir+restir-di:combine=x",
             "nope",
         ] {
             assert!(check_spec(bad).is_err(), "{bad}");
@@ -558,6 +681,38 @@ mod tests {
         let biased = world_restir_config(Some("biased+spatial-passes=3")).unwrap();
         assert_eq!(biased.knobs_spec(), "spatial-passes=3+combine=biased");
         assert!(WorldRestirConfig::default().get("nosuch").is_err());
+    }
+
+    #[test]
+    fn restir_di_variants_parse() {
+        for (v, _, _) in RESTIR_DI_VARIANTS {
+            restir_di_config("restir-di", Some(v))
+                .unwrap()
+                .validate()
+                .unwrap();
+        }
+        let n = restir_di_config("restir-di", Some("no-reuse")).unwrap();
+        assert!(!n.temporal && n.spatial_k == 0);
+        let k = restir_di_config("restir-di", Some("biased+spatial-k=2")).unwrap();
+        assert_eq!(
+            (k.combine, k.spatial_k),
+            (crate::restir_di::DiCombine::Biased, 2)
+        );
+        match parse_spec("world-restir+restir-di:temporal").unwrap() {
+            MethodSettings::WorldRestirDi(w, d) => {
+                assert_eq!(w, WorldRestirConfig::default());
+                assert!(d.temporal && d.spatial_k == 0);
+            }
+            other => panic!("{other:?}"),
+        }
+        for (bad, knob) in [
+            ("spatial-k=x", "spatial-k"),
+            ("tiles=0", "tiles"),
+            ("bogus", "bogus"),
+        ] {
+            let e = restir_di_config("restir-di", Some(bad)).unwrap_err();
+            assert!(e.to_string().contains(knob), "{bad}: {e}");
+        }
     }
 
     #[test]

@@ -64,7 +64,7 @@ fn ray_query_images_equal_bvh_images() {
     };
     let bvh = gpu::with_tracer(Tracer::Bvh).expect("bvh");
     for scene in ["cornell", "many-lights"] {
-        for spec in ["nee", "ris", "world-restir"] {
+        for spec in ["nee", "ris", "world-restir", "restir-di"] {
             let a = images(&rq, scene, spec);
             let b = images(&bvh, scene, spec);
             assert!(

@@ -9,7 +9,8 @@
 //!    (`render_secondary`).
 //! 3. *(ReSTIR passes: read the G-buffer and secondary vertices, write `render_indirect_frame`
 //!    instead of step 5.)*
-//! 4. `shade_direct`: emission seen at the primary + NEE there -> `render_direct_frame`.
+//! 4. `shade_direct`: emission seen at the primary + NEE there -> `render_direct_frame`
+//!    (`restir_di::RestirDi` writes it instead in the `restir-di` methods).
 //! 5. `shade_indirect`: primary albedo x NEE at the secondary vertex -> `render_indirect_frame`.
 //! 6. `accumulate`: running sums of both frames; advances the GPU frame counter that seeds
 //!    every pass.
@@ -693,6 +694,13 @@ impl Renderer {
         f.span("shade_direct", |f| f.dispatch(&self.passes.shade_direct));
     }
 
+    /// Step 5: primary albedo x NEE at the secondary vertex -> `render_indirect_frame`.
+    pub fn encode_shade_indirect(&self, f: &mut FrameEncoder) {
+        f.span("shade_indirect", |f| {
+            f.dispatch(&self.passes.shade_indirect)
+        });
+    }
+
     /// Step 6: adds the frame to the running sums and advances the frame counter.
     pub fn encode_accumulate(&mut self, f: &mut FrameEncoder) {
         f.span("accumulate", |f| f.dispatch(&self.passes.accumulate));
@@ -704,9 +712,7 @@ impl Renderer {
     pub fn encode_frame(&mut self, f: &mut FrameEncoder) {
         self.encode_primary_and_gi(f);
         self.encode_shade_direct(f);
-        f.span("shade_indirect", |f| {
-            f.dispatch(&self.passes.shade_indirect)
-        });
+        self.encode_shade_indirect(f);
         self.encode_accumulate(f);
     }
 

@@ -36,6 +36,7 @@ use crate::gpu::{
     Resource, Tracer, WgslModule, buffers,
 };
 use crate::render::{self, RenderError, Renderer, SharedGroups, shared_bindings};
+use crate::restir_di::{RestirDi, RestirDiConfig};
 use crate::scene::{Camera, Scene};
 
 /// Library WGSL (structs and helpers shared by the passes).
@@ -67,6 +68,8 @@ pub enum WorldRestirError {
     Scan(#[from] gpu_scan::ScanError),
     #[error(transparent)]
     Gpu(#[from] GpuError),
+    #[error(transparent)]
+    RestirDi(#[from] crate::restir_di::RestirDiError),
     #[error("bad world-restir setting: {0}")]
     Config(String),
 }
@@ -842,6 +845,9 @@ pub struct WorldRestir {
     scan_bindings: [ScanBinding; 2],
     passes: WrPasses,
     parity: usize,
+    /// ReSTIR DI for the direct light at the primary vertex (`world-restir+restir-di`);
+    /// `None`: the `ris` baseline's.
+    direct: Option<RestirDi>,
 }
 
 impl WorldRestir {
@@ -857,8 +863,30 @@ impl WorldRestir {
         config: WorldRestirConfig,
         seed: u32,
     ) -> Result<Self, WorldRestirError> {
+        Self::with_direct(ctx, scene, camera, config, None, seed)
+    }
+
+    /// [`WorldRestir::new`] whose direct light at the primary vertex is ReSTIR DI with
+    /// `direct` (when given) instead of the `ris` baseline's.
+    pub fn with_direct(
+        ctx: &GpuContext,
+        scene: &Scene,
+        camera: &Camera,
+        config: WorldRestirConfig,
+        direct: Option<RestirDiConfig>,
+        seed: u32,
+    ) -> Result<Self, WorldRestirError> {
         config.validate()?;
+        if config.unified && direct.is_some() {
+            return Err(WorldRestirError::Config(
+                "unified and restir-di both light the direct image: use one".into(),
+            ));
+        }
         let renderer = Renderer::new(ctx, scene, camera, render::ris(), seed)?;
+        let direct = match direct {
+            Some(c) => Some(RestirDi::new(ctx, &renderer, c)?),
+            None => None,
+        };
         let device = &ctx.device;
         let table = config.table(camera.width, camera.height);
         let grid_params = HashGridParams::new(&table, &config.sizing(camera), camera.eye)?;
@@ -886,11 +914,17 @@ impl WorldRestir {
             scan_bindings,
             passes,
             parity: 0,
+            direct,
         })
     }
 
     pub fn config(&self) -> &WorldRestirConfig {
         &self.config
+    }
+
+    /// The ReSTIR DI stage of the direct light, when it has one.
+    pub fn direct(&self) -> Option<&RestirDi> {
+        self.direct.as_ref()
     }
 
     /// The renderer underneath (camera, frame counters).
@@ -922,9 +956,10 @@ impl WorldRestir {
             });
         }
         f.span("shade", |f| f.dispatch(&passes.shade));
-        match &passes.shade_direct {
-            Some(direct) => f.span("shade_direct", |f| f.dispatch(direct)),
-            None => self.renderer.encode_shade_direct(f),
+        match (&passes.shade_direct, self.direct.as_mut()) {
+            (Some(unified), _) => f.span("shade_direct", |f| f.dispatch(unified)),
+            (None, Some(di)) => di.encode(f, &self.renderer),
+            (None, None) => self.renderer.encode_shade_direct(f),
         }
         if self.config.temporal {
             f.span("persist", |f| self.encode_persist(f));
