@@ -8,9 +8,7 @@ use std::sync::Mutex;
 use std::time::Instant;
 
 use restir_world::methods::{self, FrameMethod};
-use restir_world::restir_di::{
-    self, DiParams, DiPass, DiReservoir, RestirDiConfig, RestirDiRenderer,
-};
+use restir_world::restir_di::{self, DiParams, DiPass, RestirDiConfig, RestirDiRenderer};
 use restir_world::scene::{BuiltinOptions, Camera, CameraPath, Scene, builtin};
 use tests::gpu;
 
@@ -107,17 +105,10 @@ const BIAS_RUNS: [(&str, u32, u32, &[u32]); 2] = [
 fn layouts_match_wgsl() {
     let src = &restir_di::wgsl_modules()[2].1;
     tests::assert_wgsl_layout!(
-        DiReservoir,
+        restir_world::render::StoredReservoir,
         src,
-        "DiReservoir",
-        [
-            light_position,
-            ucw,
-            light_normal,
-            m,
-            light_emission,
-            light_kind
-        ]
+        "StoredReservoir",
+        [light_kind, coords, ucw, m]
     );
     tests::assert_wgsl_layout!(
         DiParams,
@@ -151,7 +142,8 @@ fn layouts_match_wgsl() {
             ("light", 28),
             ("emission", 32),
             ("triangle", 44),
-            ("kind", 48),
+            ("coords", 48),
+            ("kind", 56),
         ],
     );
     sample.unwrap();

@@ -7,7 +7,7 @@
 fn di_initial(id: Invocation) {
     let i = item_index(id);
     if i >= render_params.pixel_count { return; }
-    var out: DiReservoir;
+    var out: StoredReservoir;
     let g = render_gbuffer[i];
     if g.prim == BVH_NO_HIT {
         di_out[i] = out;
@@ -42,6 +42,6 @@ fn di_initial(id: Invocation) {
         }
     }
     reservoir_finalize(&r, chosen_p_hat);
-    out = di_store(chosen, r.ucw, 1u);
+    out = render_store_reservoir(chosen, PackedReservoir(r.ucw, 1u));
     di_out[i] = out;
 }

@@ -298,19 +298,6 @@ impl RestirDiConfig {
     }
 }
 
-/// A pixel's stored reservoir (WGSL `DiReservoir`).
-#[repr(C)]
-#[derive(Debug, Clone, Copy, Default, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
-pub struct DiReservoir {
-    pub light_position: [f32; 3],
-    pub ucw: f32,
-    pub light_normal: [f32; 3],
-    pub m: u32,
-    pub light_emission: [f32; 3],
-    /// The sample's `lights::KIND_*` in the low 2 bits, its light table index above.
-    pub light_kind: u32,
-}
-
 /// WGSL `DiParams`: the knobs and the frame's history, uploaded every frame.
 #[repr(C)]
 #[derive(Debug, Clone, Copy, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
@@ -363,7 +350,7 @@ struct KernelDef {
     own: &'static [(&'static str, &'static str, Access)],
 }
 
-const RES: &str = "array<DiReservoir>";
+const RES: &str = "array<StoredReservoir>";
 const PARAMS: (&str, &str, Access) = ("di_params", "DiParams", Access::Uniform);
 const TILES: KernelDef = KernelDef {
     name: "tiles",
@@ -488,7 +475,7 @@ impl RestirDi {
             config.tile_bytes(),
         )?;
         let px = u64::from(renderer.pixels());
-        let res_bytes = px * size_of::<DiReservoir>() as u64;
+        let res_bytes = px * size_of::<render::StoredReservoir>() as u64;
         ctx.check_binding_size("the restir-di reservoirs", res_bytes)?;
         let device = &ctx.device;
         let zeroed = |label: &str, size: u64| buffers::storage_zeroed(device, label, size);
@@ -662,8 +649,8 @@ impl RestirDi {
         &self,
         ctx: &GpuContext,
         renderer: &Renderer,
-    ) -> Result<Vec<DiReservoir>, GpuError> {
-        let mut v: Vec<DiReservoir> =
+    ) -> Result<Vec<render::StoredReservoir>, GpuError> {
+        let mut v: Vec<render::StoredReservoir> =
             buffers::read(ctx, &self.buffers.reservoirs[self.passes.final_index])?;
         v.truncate(renderer.pixels() as usize);
         Ok(v)
@@ -762,8 +749,8 @@ mod tests {
 
     #[test]
     fn the_light_sample_stride_is_the_wgsl_one() {
-        // position, pdf_area, normal, light, emission, triangle, kind: 13 x 4 bytes, rounded up
-        // to the 16-byte alignment of its vec3 fields.
-        assert_eq!(LIGHT_SAMPLE_BYTES, (13u64 * 4).next_multiple_of(16));
+        // position, pdf_area, normal, light, emission, triangle, coords (8-aligned), kind:
+        // 15 x 4 bytes, rounded up to the 16-byte alignment of its vec3 fields.
+        assert_eq!(LIGHT_SAMPLE_BYTES, (15u64 * 4).next_multiple_of(16));
     }
 }

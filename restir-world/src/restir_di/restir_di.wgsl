@@ -1,22 +1,8 @@
-// Screen-space ReSTIR DI library (Bitterli et al. 2020; Wyman & Panteleev 2021): the stored
-// reservoir, the knobs, the target function and the screen-space helpers (reprojection,
-// similarity tests) of the restir-di passes. Structs and functions only. Needs the render
-// library (render::library: render_* bindings, lights, trace, rng), reservoir::wgsl() and the
-// constants header restir_di::constants_wgsl().
-
-// One pixel's reservoir as stored between passes (Rust twin: restir_di::DiReservoir). The
-// selected light sample is the payload, one representation for every light kind (as
-// world-restir's WrReservoir): light_position is the point on the light or, for the kinds at
-// infinity, the unit direction towards it; light_kind = LIGHTS_KIND_* in the low 2 bits and the
-// light table index above. (ucw, m) is reservoir's PackedReservoir; m = 0: no reservoir.
-struct DiReservoir {
-    light_position: vec3<f32>,
-    ucw: f32,
-    light_normal: vec3<f32>,
-    m: u32,
-    light_emission: vec3<f32>,
-    light_kind: u32,
-}
+// Screen-space ReSTIR DI library (Bitterli et al. 2020; Wyman & Panteleev 2021): the knobs,
+// the target function and the screen-space helpers (reprojection, similarity tests) of the
+// restir-di passes; reservoirs are the render library's StoredReservoir. Structs and functions
+// only. Needs the render library (render::library: render_* bindings, lights, trace, rng),
+// reservoir::wgsl() and the constants header restir_di::constants_wgsl().
 
 // Knobs and the frame's history (Rust twin: restir_di::DiParams), uploaded every frame.
 // prev_camera: last frame's camera; history = 1 when last frame's G-buffer and reservoirs
@@ -44,21 +30,6 @@ struct DiPass {
     _pad0: u32,
     _pad1: u32,
     _pad2: u32,
-}
-
-fn di_store(s: LightSample, ucw: f32, m: u32) -> DiReservoir {
-    return DiReservoir(s.position, ucw, s.normal, m, s.emission, s.kind | (s.light << 2u));
-}
-
-fn di_light_sample(r: DiReservoir) -> LightSample {
-    var s: LightSample;
-    s.position = r.light_position;
-    s.normal = r.light_normal;
-    s.emission = r.light_emission;
-    s.kind = r.light_kind & 3u;
-    s.light = r.light_kind >> 2u;
-    s.pdf_area = 1.0;
-    return s;
 }
 
 // Unshadowed reflected radiance of light sample s at the primary vertex g.

@@ -85,7 +85,7 @@ fn di_reuse(id: Invocation) {
     }
 
     let u_own = rng_next_f32(&rng);
-    let own_sample = di_light_sample(own);
+    let own_sample = render_stored_sample(own);
     let p_own = di_target(g, own_sample);
     var m_total = own.m;
     for (var n = 0u; n < k; n++) {
@@ -104,7 +104,7 @@ fn di_reuse(id: Invocation) {
             let q = di_source_vertex(idx[n], temporal);
             let m_n = f32(ms[n]);
             let share = (m_n + m_c) / total;
-            let y = di_light_sample(src);
+            let y = render_stored_sample(src);
             let p_here = di_target(g, y);
             let mis = share * di_balance(m_n * di_target(q, y), m_c * p_here);
             canonical += share * di_balance(m_c * p_own, m_n * di_target(q, own_sample));
@@ -124,7 +124,7 @@ fn di_reuse(id: Invocation) {
         for (var n = 0u; n < k; n++) {
             let u_merge = rng_next_f32(&rng);
             let src = di_src[idx[n]];
-            let p_here = di_target(g, di_light_sample(src));
+            let p_here = di_target(g, render_stored_sample(src));
             if reservoir_merge(&r, reservoir_unpack(PackedReservoir(src.ucw, ms[n]), idx[n]), p_here, u_merge) {
                 chosen = src;
                 chosen_p_hat = p_here;

@@ -11,7 +11,7 @@ fn di_shade(id: Invocation) {
     if g.prim != BVH_NO_HIT {
         let res = di_final[i];
         if res.m > 0u && res.ucw > 0.0 {
-            let y = di_light_sample(res);
+            let y = render_stored_sample(res);
             let f = di_contribution(g, y);
             if any(f > vec3<f32>(0.0)) && render_visible_sample(g.position, g.normal, y) {
                 c += f * res.ucw;
