@@ -92,7 +92,7 @@ const DEMO_COMPARE: [&str; 14] = [
     "--scene",
     "many-lights,cornell",
     "--methods",
-    "nee,ris,world-restir",
+    "nee,ris,world-restir,world-restir+restir-di,world-restir:unified",
     "--size",
     "256x256",
     "--frames",
@@ -110,8 +110,8 @@ const RESULTS_COMPARE: [&str; 16] = [
     "--scene",
     "many-lights,cornell",
     "--methods",
-    "nee,ris,world-restir,world-restir:biased,world-restir:one-over-z,world-restir:paper-grid,\
-     world-restir:no-reuse",
+    "nee,ris,world-restir,restir-di,world-restir+restir-di,world-restir:unified,world-restir:biased,\
+     world-restir:one-over-z,world-restir:paper-grid,world-restir:no-reuse",
     "--size",
     "256x256",
     "--frames",
