@@ -1077,11 +1077,15 @@ fn method_specs() -> Vec<String> {
             .filter(|(n, _, _)| *n != "both")
             .map(|(n, _, _)| format!("world-restir:{n}")),
     );
+    // The variants of restir-di; the shared light tiles need world-restir's generate pass.
     v.extend(
         RESTIR_DI_VARIANTS
             .iter()
             .filter(|(n, _, _)| *n != "both")
-            .map(|(n, _, _)| format!("restir-di:{n}")),
+            .map(|(n, _, _)| match *n {
+                "gi-tiles" => format!("world-restir+restir-di:{n}"),
+                _ => format!("restir-di:{n}"),
+            }),
     );
     v
 }

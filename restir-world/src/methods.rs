@@ -378,7 +378,7 @@ pub fn world_restir_config(variant: Option<&str>) -> Result<WorldRestirConfig, M
 
 /// The named variants of `restir-di` (and of the direct light of `world-restir+restir-di`):
 /// (name, the knobs it sets, what it is).
-pub const RESTIR_DI_VARIANTS: [(&str, &str, &str); 5] = [
+pub const RESTIR_DI_VARIANTS: [(&str, &str, &str); 6] = [
     (
         "both",
         "",
@@ -395,6 +395,11 @@ pub const RESTIR_DI_VARIANTS: [(&str, &str, &str); 5] = [
         "biased",
         "combine=biased",
         "the paper's 1/M weights instead of pairwise MIS",
+    ),
+    (
+        "gi-tiles",
+        "gi-tiles=on",
+        "the light tiles also feed world-restir's generate (world-restir+restir-di only)",
     ),
 ];
 
@@ -425,6 +430,11 @@ pub fn restir_di_config(
         }
     }
     config.validate().map_err(|e| bad(e.to_string()))?;
+    if config.gi_tiles && method == "restir-di" {
+        return Err(bad(
+            "gi-tiles feeds world-restir's generate pass: use world-restir+restir-di".into(),
+        ));
+    }
     Ok(config)
 }
 
@@ -686,11 +696,18 @@ mod tests {
     #[test]
     fn restir_di_variants_parse() {
         for (v, _, _) in RESTIR_DI_VARIANTS {
-            restir_di_config("restir-di", Some(v))
+            restir_di_config("world-restir+restir-di", Some(v))
                 .unwrap()
                 .validate()
                 .unwrap();
         }
+        // The shared tiles need world-restir's generate pass.
+        assert!(restir_di_config("restir-di", Some("gi-tiles")).is_err());
+        assert!(
+            restir_di_config("world-restir+restir-di", Some("gi-tiles"))
+                .unwrap()
+                .gi_tiles
+        );
         let n = restir_di_config("restir-di", Some("no-reuse")).unwrap();
         assert!(!n.temporal && n.spatial_k == 0);
         let k = restir_di_config("restir-di", Some("biased+spatial-k=2")).unwrap();

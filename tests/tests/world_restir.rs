@@ -64,9 +64,9 @@ fn layouts_match_wgsl() {
             gi_stride,
             debug_view,
             items,
-            _pad0,
-            _pad1,
-            _pad2
+            tiles,
+            tile_size,
+            _pad0
         ]
     );
     tests::assert_wgsl_layout!(WrPass, src, "WrPass", [pass_index, temporal, _pad0, _pad1]);

@@ -387,21 +387,28 @@ fn render_ris_lights(p: vec3<f32>, n: vec3<f32>, ns: vec3<f32>, albedo: vec3<f32
     out.p_hat = 0.0;
     for (var k = 0u; k < candidates; k++) {
         let s = render_light_sample(render_rand4(rng), rng);
-        let u = rng_next_f32(rng);
-        var w = 0.0;
-        var p_hat = 0.0;
-        if s.pdf_area > 0.0 {
-            p_hat = render_luminance(render_light_contribution(p, n, ns, albedo, s));
-            w = p_hat / s.pdf_area;
-        }
-        if reservoir_update(&r, w, u) {
-            out.light = s;
-            out.p_hat = p_hat;
-        }
+        render_ris_candidate(&r, &out, p, n, ns, albedo, s, rng_next_f32(rng));
     }
     reservoir_finalize(&r, out.p_hat);
     out.reservoir = r;
     return out;
+}
+
+// One RIS candidate: light sample s, drawn with density s.pdf_area, into r with uniform u, at
+// (p, n, ns, albedo); out keeps the selected sample and its target.
+fn render_ris_candidate(r: ptr<function, Reservoir>, out: ptr<function, RisLightSample>,
+                        p: vec3<f32>, n: vec3<f32>, ns: vec3<f32>, albedo: vec3<f32>,
+                        s: LightSample, u: f32) {
+    var w = 0.0;
+    var p_hat = 0.0;
+    if s.pdf_area > 0.0 {
+        p_hat = render_luminance(render_light_contribution(p, n, ns, albedo, s));
+        w = p_hat / s.pdf_area;
+    }
+    if reservoir_update(r, w, u) {
+        (*out).light = s;
+        (*out).p_hat = p_hat;
+    }
 }
 
 // Reflected direct light by RIS over `candidates` light samples, then one shadow ray for the

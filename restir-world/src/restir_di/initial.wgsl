@@ -18,30 +18,10 @@ fn di_initial(id: Invocation) {
         di_out[i] = out;
         return;
     }
-    let w = render_params.camera.width;
-    let blocks_x = (w + 7u) / 8u;
-    let block = ((i / w) / 8u) * blocks_x + (i % w) / 8u;
-    var block_rng = di_rng(block, DI_PASS_TILE_PICK);
-    let tile = (rng_next_u32(&block_rng) % di_params.tiles) * di_params.tile_size;
+    let first = light_tiles_first(i, di_params.tiles, di_params.tile_size);
     var rng = di_rng(i, DI_PASS_INITIAL);
-    var r = reservoir_empty();
-    var chosen: LightSample;
-    var chosen_p_hat = 0.0;
-    for (var k = 0u; k < di_params.candidates; k++) {
-        let s = di_tiles[tile + rng_next_u32(&rng) % di_params.tile_size];
-        let u = rng_next_f32(&rng);
-        var weight = 0.0;
-        var p_hat = 0.0;
-        if s.pdf_area > 0.0 {
-            p_hat = di_target(g, s);
-            weight = p_hat / s.pdf_area;
-        }
-        if reservoir_update(&r, weight, u) {
-            chosen = s;
-            chosen_p_hat = p_hat;
-        }
-    }
-    reservoir_finalize(&r, chosen_p_hat);
-    out = render_store_reservoir(chosen, PackedReservoir(r.ucw, 1u));
+    let ris = light_tiles_ris(g.position, g.normal, g.shading, g.albedo, first, di_params.tile_size,
+                              di_params.candidates, &rng);
+    out = render_store_reservoir(ris.light, PackedReservoir(ris.reservoir.ucw, 1u));
     di_out[i] = out;
 }

@@ -39,6 +39,7 @@ const TILES_WGSL: &str = include_str!("tiles.wgsl");
 const INITIAL_WGSL: &str = include_str!("initial.wgsl");
 const REUSE_WGSL: &str = include_str!("reuse.wgsl");
 const SHADE_WGSL: &str = include_str!("shade.wgsl");
+const LIGHT_TILES_WGSL: &str = include_str!("light_tiles.wgsl");
 
 /// Random-stream ids of the passes (the renderer reserves 0..4, world-restir 4..8).
 const PASS_TILES: u32 = 8;
@@ -124,6 +125,10 @@ pub struct RestirDiConfig {
     pub normal_threshold: f32,
     /// Combination weights (default [`DiCombine::Pairwise`], unbiased).
     pub combine: DiCombine,
+    /// The light tiles also feed world-restir's generate pass (default off; only with
+    /// world-restir, i.e. `world-restir+restir-di`): its GI vertices draw their candidates from
+    /// the tile of their pixel's block, filled once per frame before it.
+    pub gi_tiles: bool,
 }
 
 impl Default for RestirDiConfig {
@@ -139,13 +144,14 @@ impl Default for RestirDiConfig {
             depth_threshold: 0.1,
             normal_threshold: 0.9,
             combine: DiCombine::Pairwise,
+            gi_tiles: false,
         }
     }
 }
 
 impl RestirDiConfig {
     /// The knob names [`RestirDiConfig::set`] takes.
-    pub const KNOBS: [&'static str; 10] = [
+    pub const KNOBS: [&'static str; 11] = [
         "tiles",
         "tile-size",
         "candidates",
@@ -156,6 +162,7 @@ impl RestirDiConfig {
         "depth-threshold",
         "normal-threshold",
         "combine",
+        "gi-tiles",
     ];
 
     /// Sets one knob from its name (with `-` or `_`) and a value: numbers, `on` / `off` for
@@ -166,21 +173,21 @@ impl RestirDiConfig {
                 .parse()
                 .map_err(|_| RestirDiError::Config(format!("{key}: cannot parse {value:?}")))
         }
+        fn switch(key: &str, value: &str) -> Result<bool, RestirDiError> {
+            match value {
+                "on" | "true" | "1" => Ok(true),
+                "off" | "false" | "0" => Ok(false),
+                _ => Err(RestirDiError::Config(format!(
+                    "{key}: expected on or off, got {value:?}"
+                ))),
+            }
+        }
         match key.replace('-', "_").as_str() {
             "tiles" => self.tiles = parse(key, value)?,
             "tile_size" => self.tile_size = parse(key, value)?,
             "candidates" => self.candidates = parse(key, value)?,
-            "temporal" => {
-                self.temporal = match value {
-                    "on" | "true" | "1" => true,
-                    "off" | "false" | "0" => false,
-                    _ => {
-                        return Err(RestirDiError::Config(format!(
-                            "{key}: expected on or off, got {value:?}"
-                        )));
-                    }
-                }
-            }
+            "temporal" => self.temporal = switch(key, value)?,
+            "gi_tiles" => self.gi_tiles = switch(key, value)?,
             "temporal_m_cap" => self.temporal_m_cap = parse(key, value)?,
             "spatial_k" => self.spatial_k = parse(key, value)?,
             "spatial_radius" => self.spatial_radius = parse(key, value)?,
@@ -216,6 +223,7 @@ impl RestirDiConfig {
             "tile_size" => self.tile_size.to_string(),
             "candidates" => self.candidates.to_string(),
             "temporal" => if self.temporal { "on" } else { "off" }.to_owned(),
+            "gi_tiles" => if self.gi_tiles { "on" } else { "off" }.to_owned(),
             "temporal_m_cap" => self.temporal_m_cap.to_string(),
             "spatial_k" => self.spatial_k.to_string(),
             "spatial_radius" => self.spatial_radius.to_string(),
@@ -329,10 +337,19 @@ pub struct DiPass {
     pub _pad2: u32,
 }
 
+/// The reader of the presampled light tiles (light_tiles.wgsl), for kernels that bind
+/// `light_tiles`: restir-di's initial candidates, and world-restir's generate when the tiles
+/// feed it ([`RestirDiConfig::gi_tiles`]).
+pub(crate) fn light_tiles_module() -> WgslModule {
+    let source =
+        format!("const LIGHT_TILES_PICK_PASS: u32 = {PASS_TILE_PICK}u;\n{LIGHT_TILES_WGSL}");
+    WgslModule::new("light-tiles", &["render"], source)
+}
+
 /// Generated constants header.
 pub fn constants_wgsl() -> String {
     format!(
-        "const DI_PASS_TILES: u32 = {PASS_TILES}u;\nconst DI_PASS_TILE_PICK: u32 = {PASS_TILE_PICK}u;\n\
+        "const DI_PASS_TILES: u32 = {PASS_TILES}u;\n\
          const DI_PASS_INITIAL: u32 = {PASS_INITIAL}u;\nconst DI_PASS_TEMPORAL: u32 = {PASS_TEMPORAL}u;\n\
          const DI_PASS_SPATIAL: u32 = {PASS_SPATIAL}u;\nconst DI_NO_PIXEL: u32 = 0xffffffffu;\n\
          const DI_MAX_NEIGHBOURS: u32 = {MAX_SPATIAL_K}u;\n\
@@ -358,7 +375,7 @@ const TILES: KernelDef = KernelDef {
     source: TILES_WGSL,
     own: &[
         PARAMS,
-        ("di_tiles", "array<LightSample>", Access::ReadWrite),
+        ("light_tiles", "array<LightSample>", Access::ReadWrite),
     ],
 };
 const INITIAL: KernelDef = KernelDef {
@@ -367,7 +384,7 @@ const INITIAL: KernelDef = KernelDef {
     source: INITIAL_WGSL,
     own: &[
         PARAMS,
-        ("di_tiles", "array<LightSample>", Access::Read),
+        ("light_tiles", "array<LightSample>", Access::Read),
         ("di_out", RES, Access::ReadWrite),
     ],
 };
@@ -401,9 +418,11 @@ impl KernelDef {
         set
     }
 
-    /// The modules composed after the render library.
+    /// The modules composed after the render library (+ the light-tiles reader for kernels
+    /// that bind the tiles).
     fn modules(&self) -> Vec<WgslModule> {
-        vec![
+        let tiles = self.own.iter().any(|(name, _, _)| *name == "light_tiles");
+        let mut modules = vec![
             WgslModule::new("di-constants", &[], constants_wgsl()),
             WgslModule::new("di-bindings", &["restir-di"], self.bindings().wgsl(GROUP)),
             WgslModule::new("restir-di", &["render", "reservoir", "di-constants"], WGSL),
@@ -412,7 +431,9 @@ impl KernelDef {
                 &["restir-di", "di-bindings", "workgroup"],
                 self.source,
             ),
-        ]
+        ];
+        modules.extend(tiles.then(light_tiles_module));
+        modules
     }
 }
 
@@ -580,7 +601,7 @@ impl RestirDi {
             }
         };
         // The tile pass runs over tiles x tile_size items, not pixels.
-        let tile_group = group(&tiles, vec![params(), ("di_tiles", (&b.tiles).into())])?;
+        let tile_group = group(&tiles, vec![params(), ("light_tiles", (&b.tiles).into())])?;
         let mut groups: Vec<&wgpu::BindGroup> = shared.groups.iter().collect();
         groups.push(&tile_group);
         let tile_pass = tiles.0.pass(
@@ -596,7 +617,7 @@ impl RestirDi {
                 "di_initial",
                 vec![
                     params(),
-                    ("di_tiles", (&b.tiles).into()),
+                    ("light_tiles", (&b.tiles).into()),
                     ("di_out", (&r[0]).into()),
                 ],
             )?,
@@ -625,7 +646,9 @@ impl RestirDi {
         let params = Self::params(&self.config, &prev, self.last_camera.is_some());
         f.upload(&self.buffers.params, 0, &params);
         let p = &self.passes;
-        f.span("di-tiles", |f| f.dispatch(&p.tiles));
+        if !self.config.gi_tiles {
+            self.encode_tiles(f);
+        }
         f.span("di-initial", |f| f.dispatch(&p.initial));
         if let Some(t) = &p.temporal {
             f.span("di-temporal", |f| f.dispatch(t));
@@ -642,6 +665,18 @@ impl RestirDi {
             });
         }
         self.last_camera = Some(camera);
+    }
+
+    /// Records the fill of this frame's light tiles (span `di-tiles`). [`RestirDi::encode`] does
+    /// it, except with [`RestirDiConfig::gi_tiles`]: world-restir then calls it before its
+    /// generate pass, which reads the same tiles.
+    pub fn encode_tiles(&self, f: &mut FrameEncoder) {
+        f.span("di-tiles", |f| f.dispatch(&self.passes.tiles));
+    }
+
+    /// The light tiles buffer (`tiles x tile_size` `LightSample`s).
+    pub(crate) fn tiles(&self) -> &wgpu::Buffer {
+        &self.buffers.tiles
     }
 
     /// The last frame's final reservoirs, per pixel.
@@ -674,6 +709,11 @@ impl RestirDiRenderer {
         seed: u32,
     ) -> Result<Self, RestirDiError> {
         config.validate()?;
+        if config.gi_tiles {
+            return Err(RestirDiError::Config(
+                "gi-tiles feeds world-restir's generate pass: use world-restir+restir-di".into(),
+            ));
+        }
         let renderer = Renderer::new(ctx, scene, camera, render::ris(), seed)?;
         let di = RestirDi::new(ctx, &renderer, config)?;
         Ok(Self { renderer, di })

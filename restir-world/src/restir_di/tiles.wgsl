@@ -9,5 +9,5 @@ fn di_fill_tiles(id: Invocation) {
     let i = item_index(id);
     if i >= di_params.tiles * di_params.tile_size { return; }
     var rng = di_rng(i, DI_PASS_TILES);
-    di_tiles[i] = render_light_sample(render_rand4(&rng), &rng);
+    light_tiles[i] = render_light_sample(render_rand4(&rng), &rng);
 }

@@ -1,5 +1,6 @@
-// Pass "generate" (paper Algorithm 1): RIS over wr_params.candidates light samples at each
-// grid item's vertex, target = luminance of the unshadowed reflected radiance. Writes wr_out.
+// Pass "generate" (paper Algorithm 1): RIS over wr_params.candidates light samples (from the
+// light table, or from restir-di's presampled light tiles when they are shared) at each grid
+// item's vertex, target = luminance of the unshadowed reflected radiance. Writes wr_out.
 
 @compute @workgroup_size(WORKGROUP_SIZE)
 fn wr_generate(id: Invocation) {
@@ -11,6 +12,14 @@ fn wr_generate(id: Invocation) {
     }
     let v = wr_vertex(i);
     var rng = wr_rng(i, WR_PASS_GENERATE, 0u);
-    let ris = render_ris_lights(v.position, v.normal, v.shading, v.albedo, wr_params.candidates, &rng);
+    var ris: RisLightSample;
+    if wr_params.tiles > 0u {
+        // Candidates from the light tile of the pixel's block (restir-di's, shared).
+        let first = light_tiles_first(i % render_params.pixel_count, wr_params.tiles, wr_params.tile_size);
+        ris = light_tiles_ris(v.position, v.normal, v.shading, v.albedo, first, wr_params.tile_size,
+                              wr_params.candidates, &rng);
+    } else {
+        ris = render_ris_lights(v.position, v.normal, v.shading, v.albedo, wr_params.candidates, &rng);
+    }
     wr_out[i] = render_store_reservoir(ris.light, reservoir_pack(ris.reservoir));
 }

@@ -36,7 +36,7 @@ use crate::gpu::{
     Resource, Tracer, WgslModule, buffers,
 };
 use crate::render::{self, RenderError, Renderer, SharedGroups, shared_bindings};
-use crate::restir_di::{RestirDi, RestirDiConfig};
+use crate::restir_di::{self, RestirDi, RestirDiConfig};
 use crate::scene::{Camera, Scene};
 
 /// Library WGSL (structs and helpers shared by the passes).
@@ -424,9 +424,11 @@ pub struct WrParams {
     pub debug_view: u32,
     /// Grid items: [`WorldRestirConfig::items`].
     pub items: u32,
+    /// Light tiles the generate pass draws its candidates from (restir-di's, with its
+    /// `gi-tiles`), and samples per tile; 0: from the light table.
+    pub tiles: u32,
+    pub tile_size: u32,
     pub _pad0: u32,
-    pub _pad1: u32,
-    pub _pad2: u32,
 }
 
 /// WGSL `WrPass`.
@@ -493,7 +495,11 @@ const GENERATE: KernelDef = KernelDef {
     name: "generate",
     entries: &["wr_generate"],
     source: GENERATE_WGSL,
-    own: &[PARAMS, ("wr_out", RES, Access::ReadWrite)],
+    own: &[
+        PARAMS,
+        ("wr_out", RES, Access::ReadWrite),
+        ("light_tiles", "array<LightSample>", Access::Read),
+    ],
     hash: None,
 };
 const INSERT: KernelDef = KernelDef {
@@ -583,7 +589,8 @@ impl KernelDef {
             Some(_) => gpu_hash::wgsl::compose(role(HashRole::Table), role(HashRole::Lookup)),
             None => String::new(),
         };
-        vec![
+        let tiles = self.own.iter().any(|(name, _, _)| *name == "light_tiles");
+        let mut modules = vec![
             WgslModule::new("wr-constants", &[], constants_wgsl()),
             WgslModule::new("wr-bindings", &[], self.bindings().wgsl(GROUP)),
             WgslModule::new("gpu-hash", &[], hash),
@@ -597,7 +604,9 @@ impl KernelDef {
                 &["world-restir", "wr-bindings", "gpu-hash", "workgroup"],
                 self.source,
             ),
-        ]
+        ];
+        modules.extend(tiles.then(restir_di::light_tiles_module));
+        modules
     }
 }
 
@@ -627,14 +636,18 @@ struct WrBuffers {
     /// pass's MIS weights).
     prev_vertices: wgpu::Buffer,
     debug: wgpu::Buffer,
+    /// Bound as the generate pass's light tiles when it draws from the light table.
+    no_tiles: wgpu::Buffer,
 }
 
 impl WrBuffers {
+    /// `tiles`: (tile count, samples per tile) of the light tiles generate draws from, if any.
     fn new(
         ctx: &GpuContext,
         config: &WorldRestirConfig,
         pixels: u32,
         slots: u64,
+        tiles: Option<(u32, u32)>,
     ) -> Result<Self, WorldRestirError> {
         let px = u64::from(pixels);
         let items = u64::from(config.items(pixels));
@@ -652,6 +665,8 @@ impl WrBuffers {
             gi_stride: config.gi_stride,
             debug_view: 0,
             items: config.items(pixels),
+            tiles: tiles.map_or(0, |t| t.0),
+            tile_size: tiles.map_or(0, |t| t.1),
             ..Default::default()
         };
         Ok(Self {
@@ -671,6 +686,7 @@ impl WrBuffers {
                 items * size_of::<render::GVertex>() as u64,
             ),
             debug: zeroed("wr debug", px * 16),
+            no_tiles: zeroed("wr no light tiles", restir_di::LIGHT_SAMPLE_BYTES),
         })
     }
 }
@@ -701,6 +717,7 @@ impl WrPasses {
         b: &WrBuffers,
         tables: &[HashTable; 2],
         config: &WorldRestirConfig,
+        tiles: Option<&wgpu::Buffer>,
     ) -> Result<Self, WorldRestirError> {
         let device = &ctx.device;
         let kernel = |k: &KernelDef| -> Result<(Kernel, BindGroupLayout), GpuError> {
@@ -803,7 +820,11 @@ impl WrPasses {
             generate: item_pass(
                 &generate,
                 "wr_generate",
-                vec![params(), ("wr_out", (&r[0]).into())],
+                vec![
+                    params(),
+                    ("wr_out", (&r[0]).into()),
+                    ("light_tiles", tiles.unwrap_or(&b.no_tiles).into()),
+                ],
             )?,
             insert: both(&insert_p)?,
             scatter: both(&|p| scatter_p("wr_scatter", p))?,
@@ -896,14 +917,24 @@ impl WorldRestir {
         let slots = u32::try_from(table.num_slots()).map_err(|_| {
             WorldRestirError::Config(format!("{} slots do not fit u32", table.num_slots()))
         })?;
-        let buffers = WrBuffers::new(ctx, &config, renderer.pixels(), table.num_slots())?;
+        // restir-di's light tiles, when they feed the generate pass too.
+        let gi_tiles = direct.as_ref().filter(|d| d.config().gi_tiles);
+        let tile_dims = gi_tiles.map(|d| (d.config().tiles, d.config().tile_size));
+        let buffers = WrBuffers::new(
+            ctx,
+            &config,
+            renderer.pixels(),
+            table.num_slots(),
+            tile_dims,
+        )?;
         let scan = Scan::new(device, &ScanDescriptor::for_device(device, slots.max(1)))?;
         let bind_scan = |p: usize| {
             let (counters, offsets) = (tables[p].counters(), &buffers.offsets[p]);
             scan.bind(device, counters, offsets, slots, ScanKind::Exclusive, None)
         };
         let scan_bindings = [bind_scan(0)?, bind_scan(1)?];
-        let passes = WrPasses::new(ctx, &renderer.shared, &buffers, &tables, &config)?;
+        let tiles = gi_tiles.map(RestirDi::tiles);
+        let passes = WrPasses::new(ctx, &renderer.shared, &buffers, &tables, &config, tiles)?;
         Ok(Self {
             renderer,
             config,
@@ -945,6 +976,9 @@ impl WorldRestir {
         let grid = self.grid_params.with_eye(self.renderer.camera().eye)?;
         f.upload(self.tables[p].params(), 0, &grid);
         self.renderer.encode_primary_and_gi(f);
+        if let Some(di) = self.direct.as_ref().filter(|d| d.config().gi_tiles) {
+            di.encode_tiles(f);
+        }
         f.span("generate", |f| f.dispatch(&passes.generate));
         f.span("build", |f| self.encode_build(f, p))?;
         if let Some(temporal) = &passes.temporal {

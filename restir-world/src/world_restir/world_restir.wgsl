@@ -15,9 +15,9 @@ struct WrParams {
     gi_stride: u32,
     debug_view: u32,
     items: u32,
+    tiles: u32,
+    tile_size: u32,
     _pad0: u32,
-    _pad1: u32,
-    _pad2: u32,
 }
 
 // Per reuse pass: `pass_index` mixes into the random stream, `temporal` = 1 for the pass that
