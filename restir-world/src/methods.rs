@@ -713,7 +713,7 @@ mod tests {
         let k = restir_di_config("restir-di", Some("biased+spatial-k=2")).unwrap();
         assert_eq!(
             (k.combine, k.spatial_k),
-            (crate::restir_di::DiCombine::Biased, 2)
+            (crate::world_restir::Combine::Biased, 2)
         );
         match parse_spec("world-restir+restir-di:temporal").unwrap() {
             MethodSettings::WorldRestirDi(w, d) => {

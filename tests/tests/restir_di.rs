@@ -387,6 +387,7 @@ fn bad_knobs_are_named() {
             "normal-threshold",
         ),
         ("restir-di:combine=nope", "combine"),
+        ("restir-di:combine=one-over-z", "combine"),
         ("restir-di:bogus", "bogus"),
     ] {
         let e = methods::check_spec(spec).expect_err(spec).to_string();

@@ -213,6 +213,27 @@ fn render_light_sample_at(light: u32, coords: vec2<f32>) -> LightSample {
     return render_textured_emission(lights_sample_at(light, coords));
 }
 
+// Pairwise MIS with confidence weights (Bitterli 2022; Wyman et al. 2023) for one of the k
+// neighbours a reuse pass merges into its canonical reservoir: with confidences m_n (the
+// neighbour's M) and m_c (the canonical's M / k) out of `total` (the canonical's M + every
+// neighbour's), the neighbour shares its part (m_n + m_c) / total of the unit MIS mass with the
+// canonical by a two-strategy balance heuristic. From the targets of the neighbour's vertex at
+// the neighbour's sample y (p_n_y) and at the canonical sample (p_n_own), and of the canonical
+// vertex at both (p_c_y, p_c_own), returns (y's MIS weight, this neighbour's part of the
+// canonical sample's weight). The canonical parts summed over the neighbours (1 when k = 0)
+// and the neighbours' weights add up to 1 wherever the canonical target is non-zero: unbiased.
+fn render_pairwise_mis(m_n: f32, m_c: f32, total: f32, p_n_y: f32, p_c_y: f32, p_n_own: f32,
+                       p_c_own: f32) -> vec2<f32> {
+    let share = (m_n + m_c) / total;
+    return vec2<f32>(share * render_balance(m_n * p_n_y, m_c * p_c_y),
+                     share * render_balance(m_c * p_c_own, m_n * p_n_own));
+}
+
+// a / (a + b), with 0 / 0 = 0.
+fn render_balance(a: f32, b: f32) -> f32 {
+    return select(0.0, a / (a + b), a + b > 0.0);
+}
+
 // A reservoir as the reuse methods (world-restir, restir-di) store it between passes, 16 bytes
 // (Rust twin: render::StoredReservoir). Its light sample is the light and where on it, one
 // representation for every light kind: light_kind = the sample's LIGHTS_KIND_* in the low 2

@@ -32,6 +32,7 @@ use crate::gpu::{
 use crate::render::{self, GVertex, RenderError, Renderer, SharedGroups, shared_bindings};
 use crate::sampling::CameraGpu;
 use crate::scene::Camera;
+use crate::world_restir::Combine;
 
 /// Library WGSL (structs and helpers shared by the passes).
 pub const WGSL: &str = include_str!("restir_di.wgsl");
@@ -68,32 +69,6 @@ pub enum RestirDiError {
     Config(String),
 }
 
-/// Combination (MIS) weights of the reuse passes (reuse.wgsl has the formulas).
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum DiCombine {
-    /// The paper's 1/M: biased where a neighbour could not have produced the sample.
-    Biased = 0,
-    /// Pairwise MIS with confidence weights: unbiased; two more target evaluations per
-    /// neighbour than 1/M, no more rays.
-    Pairwise = 1,
-}
-
-impl DiCombine {
-    /// Every mode with its command-line name.
-    pub const ALL: [(DiCombine, &'static str); 2] = [
-        (DiCombine::Biased, "biased"),
-        (DiCombine::Pairwise, "pairwise"),
-    ];
-
-    /// The command-line name.
-    pub fn name(self) -> &'static str {
-        Self::ALL
-            .iter()
-            .find(|(c, _)| *c == self)
-            .map_or("", |(_, n)| n)
-    }
-}
-
 /// Every knob of ReSTIR DI with its default.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct RestirDiConfig {
@@ -123,8 +98,9 @@ pub struct RestirDiConfig {
     /// Cosine between a reused pixel's shading normal and the receiver's, at least (default
     /// 0.9, about 25 degrees).
     pub normal_threshold: f32,
-    /// Combination weights (default [`DiCombine::Pairwise`], unbiased).
-    pub combine: DiCombine,
+    /// Combination weights (default [`Combine::Pairwise`], unbiased; or [`Combine::Biased`],
+    /// the paper's 1/M; 1/Z is world-restir's only).
+    pub combine: Combine,
     /// The light tiles also feed world-restir's generate pass (default off; only with
     /// world-restir, i.e. `world-restir+restir-di`): its GI vertices draw their candidates from
     /// the tile of their pixel's block, filled once per frame before it.
@@ -143,7 +119,7 @@ impl Default for RestirDiConfig {
             spatial_radius: 3.0,
             depth_threshold: 0.1,
             normal_threshold: 0.9,
-            combine: DiCombine::Pairwise,
+            combine: Combine::Pairwise,
             gi_tiles: false,
         }
     }
@@ -194,15 +170,9 @@ impl RestirDiConfig {
             "depth_threshold" => self.depth_threshold = parse(key, value)?,
             "normal_threshold" => self.normal_threshold = parse(key, value)?,
             "combine" => {
-                self.combine = DiCombine::ALL
-                    .iter()
-                    .find(|(_, n)| *n == value)
-                    .map(|(c, _)| *c)
-                    .ok_or_else(|| {
-                        RestirDiError::Config(format!(
-                            "{key}: unknown combination {value:?}; known: biased, pairwise"
-                        ))
-                    })?
+                self.combine = value
+                    .parse()
+                    .map_err(|e| RestirDiError::Config(format!("{key}: {e}")))?
             }
             _ => return Err(Self::unknown(key)),
         }
@@ -252,6 +222,12 @@ impl RestirDiConfig {
     /// buffer against the device).
     pub fn validate(&self) -> Result<(), RestirDiError> {
         let bad = |m: String| Err(RestirDiError::Config(m));
+        if self.combine == Combine::OneOverZ {
+            return bad(
+                "combine: one-over-z is world-restir's only; restir-di has biased and pairwise"
+                    .into(),
+            );
+        }
         if self.tiles == 0 {
             return bad("tiles must be at least 1".into());
         }
@@ -319,7 +295,7 @@ pub struct DiParams {
     pub temporal_m_cap: u32,
     pub spatial_k: u32,
     pub spatial_radius: f32,
-    /// [`DiCombine`] as u32.
+    /// [`Combine`] as u32.
     pub combine: u32,
     pub depth_threshold: f32,
     pub normal_threshold: f32,
@@ -354,8 +330,8 @@ pub fn constants_wgsl() -> String {
          const DI_PASS_SPATIAL: u32 = {PASS_SPATIAL}u;\nconst DI_NO_PIXEL: u32 = 0xffffffffu;\n\
          const DI_MAX_NEIGHBOURS: u32 = {MAX_SPATIAL_K}u;\n\
          const DI_COMBINE_BIASED: u32 = {}u;\nconst DI_COMBINE_PAIRWISE: u32 = {}u;\n",
-        DiCombine::Biased as u32,
-        DiCombine::Pairwise as u32,
+        Combine::Biased as u32,
+        Combine::Pairwise as u32,
     )
 }
 

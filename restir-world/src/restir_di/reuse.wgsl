@@ -18,9 +18,6 @@
 //   (T = M_c + sum M_n). Unbiased. Cost: two more target evaluations per neighbour (the
 //   neighbour's target at its own sample and at the canonical sample) than 1/M's one, no ray.
 
-fn di_balance(a: f32, b: f32) -> f32 {
-    return select(0.0, a / (a + b), a + b > 0.0);
-}
 
 // The vertex that produced source reservoir j (last frame's in the temporal pass).
 fn di_source_vertex(j: u32, temporal: bool) -> GVertex {
@@ -102,13 +99,12 @@ fn di_reuse(id: Invocation) {
             let u_merge = rng_next_f32(&rng);
             let src = di_src[idx[n]];
             let q = di_source_vertex(idx[n], temporal);
-            let m_n = f32(ms[n]);
-            let share = (m_n + m_c) / total;
             let y = render_stored_sample(src);
             let p_here = di_target(g, y);
-            let mis = share * di_balance(m_n * di_target(q, y), m_c * p_here);
-            canonical += share * di_balance(m_c * p_own, m_n * di_target(q, own_sample));
-            if reservoir_update(&r, mis * p_here * src.ucw, u_merge) {
+            let w = render_pairwise_mis(f32(ms[n]), m_c, total, di_target(q, y), p_here,
+                                        di_target(q, own_sample), p_own);
+            canonical += w.y;
+            if reservoir_update(&r, w.x * p_here * src.ucw, u_merge) {
                 chosen = src;
                 chosen_p_hat = p_here;
             }

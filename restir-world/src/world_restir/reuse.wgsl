@@ -30,11 +30,6 @@ fn wr_source_vertex(j: u32, temporal: bool) -> GVertex {
     return wr_vertex(j);
 }
 
-// a / (a + b), with 0 / 0 = 0.
-fn wr_balance(a: f32, b: f32) -> f32 {
-    return select(0.0, a / (a + b), a + b > 0.0);
-}
-
 // The cell's visited subset: `count` reservoirs from `start`, every `increment`-th from
 // `offset`, and the temporal M cap of each.
 struct WrVisit {
@@ -127,13 +122,12 @@ fn wr_reuse(id: Invocation) {
             }
             let src = wr_src[j];
             let vj = wr_source_vertex(j, temporal);
-            let m_i = f32(m);
-            let share = (m_i + m_c) / total;
             let y = render_stored_sample(src);
             let p_here = wr_target(v, y);
-            let mis = share * wr_balance(m_i * wr_target(vj, y), m_c * p_here);
-            canonical += share * wr_balance(m_c * p_own, m_i * wr_target(vj, own_sample));
-            if reservoir_update(&r, mis * p_here * src.ucw, u_merge) {
+            let w = render_pairwise_mis(f32(m), m_c, total, wr_target(vj, y), p_here,
+                                        wr_target(vj, own_sample), p_own);
+            canonical += w.y;
+            if reservoir_update(&r, w.x * p_here * src.ucw, u_merge) {
                 chosen = src;
                 chosen_p_hat = p_here;
             }
