@@ -653,6 +653,8 @@ impl WrBuffers {
         let items = u64::from(config.items(pixels));
         let res_bytes = items * size_of::<render::StoredReservoir>() as u64;
         ctx.check_binding_size("the world-restir reservoirs", res_bytes)?;
+        let vertex_bytes = items * size_of::<render::GVertex>() as u64;
+        ctx.check_binding_size("world-restir's last-frame vertices", vertex_bytes)?;
         let zeroed = |label: &str, size: u64| buffers::storage_zeroed(&ctx.device, label, size);
         let pair = |label: &str, size: u64| [0, 1].map(|p| zeroed(&format!("{label} {p}"), size));
         let wr_params = WrParams {
@@ -681,10 +683,7 @@ impl WrBuffers {
             vertex_slot: zeroed("wr vertex slot", items * 8),
             reservoirs: pair("wr reservoirs", res_bytes),
             prev_reservoirs: zeroed("wr prev reservoirs", res_bytes),
-            prev_vertices: zeroed(
-                "wr prev vertices",
-                items * size_of::<render::GVertex>() as u64,
-            ),
+            prev_vertices: zeroed("wr prev vertices", vertex_bytes),
             debug: zeroed("wr debug", px * 16),
             no_tiles: zeroed("wr no light tiles", restir_di::LIGHT_SAMPLE_BYTES),
         })
