@@ -83,6 +83,15 @@ impl BindingSet {
         }
     }
 
+    /// A set of the buffers `(name, WGSL type, access)`, in order.
+    pub fn of_buffers(label: &str, buffers: &[(&str, &str, Access)]) -> Self {
+        buffers
+            .iter()
+            .fold(Self::new(label), |set, (name, ty, access)| {
+                set.buffer(name, ty, *access)
+            })
+    }
+
     /// Declares the next binding: a buffer named `name` of WGSL type `ty`.
     pub fn buffer(mut self, name: &str, ty: &str, access: Access) -> Self {
         self.slots.push(Slot::Buffer {

@@ -469,6 +469,23 @@ impl SharedGroups {
         Kernel::new(device, label, &source, &layouts, entry_points)
     }
 
+    /// A kernel with its own group-3 bindings `own`, after checking that the stage's storage
+    /// buffers (shared + own) fit the device: the kernel and `own`'s layout.
+    pub fn own_kernel(
+        &self,
+        ctx: &GpuContext,
+        label: &str,
+        own: &BindingSet,
+        modules: Vec<WgslModule>,
+        entry_points: &[&str],
+    ) -> Result<(Kernel, BindGroupLayout), GpuError> {
+        let sets = shared_bindings(self.tracer);
+        ctx.check_storage_buffers(label, &[&sets[0], &sets[1], &sets[2], own])?;
+        let layout = own.layout(&ctx.device);
+        let kernel = self.kernel(&ctx.device, label, modules, Some(&layout), entry_points);
+        Ok((kernel, layout))
+    }
+
     /// A pass of `entry` over every pixel with the shared groups (+ `own` at group 3).
     pub fn pass(
         &self,

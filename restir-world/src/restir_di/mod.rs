@@ -29,7 +29,7 @@ use crate::gpu::{
     Access, BindGroupLayout, BindingSet, FrameEncoder, GpuContext, GpuError, Kernel, Pass,
     Resource, Tracer, WgslModule, buffers,
 };
-use crate::render::{self, GVertex, RenderError, Renderer, SharedGroups, shared_bindings};
+use crate::render::{self, GVertex, RenderError, Renderer, SharedGroups};
 use crate::sampling::CameraGpu;
 use crate::scene::Camera;
 use crate::world_restir::Combine;
@@ -387,11 +387,7 @@ const KERNELS: [&KernelDef; 4] = [&TILES, &INITIAL, &REUSE, &SHADE];
 
 impl KernelDef {
     fn bindings(&self) -> BindingSet {
-        let mut set = BindingSet::new(self.name);
-        for (name, ty, access) in self.own {
-            set = set.buffer(name, ty, *access);
-        }
-        set
+        BindingSet::of_buffers(self.name, self.own)
     }
 
     /// The modules composed after the render library (+ the light-tiles reader for kernels
@@ -524,14 +520,9 @@ impl RestirDi {
         config: &RestirDiConfig,
     ) -> Result<DiPasses, RestirDiError> {
         let device = &ctx.device;
-        let kernel = |k: &KernelDef| -> Result<(Kernel, BindGroupLayout), GpuError> {
-            let sets = shared_bindings(shared.tracer);
-            let own = k.bindings();
+        let kernel = |k: &KernelDef| {
             let name = format!("restir-di {}", k.name);
-            ctx.check_storage_buffers(&name, &[&sets[0], &sets[1], &sets[2], &own])?;
-            let layout = own.layout(device);
-            let kernel = shared.kernel(device, &name, k.modules(), Some(&layout), &[k.entry]);
-            Ok((kernel, layout))
+            shared.own_kernel(ctx, &name, &k.bindings(), k.modules(), &[k.entry])
         };
         let [tiles, initial, reuse, shade] = KERNELS.map(kernel);
         let (tiles, initial, reuse, shade) = (tiles?, initial?, reuse?, shade?);

@@ -35,7 +35,7 @@ use crate::gpu::{
     Access, BindGroupLayout, BindingSet, FrameEncoder, GpuContext, GpuError, Kernel, Pass,
     Resource, Tracer, WgslModule, buffers,
 };
-use crate::render::{self, RenderError, Renderer, SharedGroups, shared_bindings};
+use crate::render::{self, RenderError, Renderer, SharedGroups};
 use crate::restir_di::{self, RestirDi, RestirDiConfig};
 use crate::scene::{Camera, Scene};
 
@@ -565,10 +565,7 @@ const KERNELS: [&KernelDef; 6] = [&GENERATE, &INSERT, &SCATTER, &REUSE, &SHADE, 
 impl KernelDef {
     /// Group 3: the kernel's own buffers, then its gpu-hash role's as the block `wr_hash`.
     fn bindings(&self) -> BindingSet {
-        let mut set = BindingSet::new(self.name);
-        for (name, ty, access) in self.own {
-            set = set.buffer(name, ty, *access);
-        }
+        let set = BindingSet::of_buffers(self.name, self.own);
         match self.hash {
             Some(HashRole::Table) => set.block("wr_hash", gpu_hash::bind_group_layout_entries),
             Some(HashRole::Lookup) => {
@@ -719,14 +716,9 @@ impl WrPasses {
         tiles: Option<&wgpu::Buffer>,
     ) -> Result<Self, WorldRestirError> {
         let device = &ctx.device;
-        let kernel = |k: &KernelDef| -> Result<(Kernel, BindGroupLayout), GpuError> {
-            let sets = shared_bindings(shared.tracer);
-            let own = k.bindings();
+        let kernel = |k: &KernelDef| {
             let name = format!("world-restir {}", k.name);
-            ctx.check_storage_buffers(&name, &[&sets[0], &sets[1], &sets[2], &own])?;
-            let layout = own.layout(device);
-            let kernel = shared.kernel(device, &name, k.modules(), Some(&layout), k.entries);
-            Ok((kernel, layout))
+            shared.own_kernel(ctx, &name, &k.bindings(), k.modules(), k.entries)
         };
         let [generate, insert, scatter, reuse, shade, debug] = KERNELS.map(kernel);
         let (generate, insert, scatter) = (generate?, insert?, scatter?);
