@@ -10,6 +10,9 @@
 //!   own kernels (see the workspace's WGSL composition convention).
 //! - [`Reservoir`] / [`PackedReservoir`]: the Rust twin, the same operations in the same order
 //!   (the numerical contract is documented on [`Reservoir`]).
+//! - [`reuse`]: combining a receiver's reservoir with its neighbours' in a reuse pass (1/M,
+//!   1/Z, pairwise MIS with confidence weights), WGSL `reuse_*` in [`wgsl()`] and the twin
+//!   [`reuse::Reuse`]. A reuse pass writes only its target, its neighbour choice and its shift.
 //! - `reference` (feature `reference`, off by default): an f64 reference implementation that
 //!   tests compare the twin and the GPU against; not part of the library.
 //! - [`rng`]: the PCG random-number generator the ReSTIR passes share (WGSL + Rust twin).
@@ -36,6 +39,7 @@
 
 #[cfg(any(test, feature = "reference"))]
 pub mod reference;
+pub mod reuse;
 pub mod rng;
 #[cfg(test)]
 mod tests_contract;
@@ -45,6 +49,8 @@ pub use twin::{PackedReservoir, Reservoir, sanitize_weight};
 
 /// WGSL source of the reservoir helpers, without the constants header (see [`wgsl()`]).
 pub const RESERVOIR_WGSL: &str = include_str!("wgsl/reservoir.wgsl");
+/// WGSL source of the reuse helpers (`reuse_*`), after [`RESERVOIR_WGSL`] in [`wgsl()`].
+pub const REUSE_WGSL: &str = include_str!("wgsl/reuse.wgsl");
 
 /// Handle stored in [`Reservoir::sample`] while no candidate has been selected.
 pub const NO_SAMPLE: u32 = u32::MAX;
@@ -84,17 +90,25 @@ pub fn constants_wgsl() -> String {
          const RESERVOIR_SUM_MAX: f32 = {};\n\
          const RESERVOIR_F32_MAX: f32 = {};\n\
          const RESERVOIR_MIN_NORMAL_BITS: u32 = {MIN_NORMAL_BITS}u;\n\
-         const RESERVOIR_INF_BITS: u32 = {INF_BITS}u;\n",
+         const RESERVOIR_INF_BITS: u32 = {INF_BITS}u;\n\
+         const REUSE_ONE_OVER_M: u32 = {}u;\n\
+         const REUSE_ONE_OVER_Z: u32 = {}u;\n\
+         const REUSE_PAIRWISE: u32 = {}u;\n\
+         const REUSE_CANONICAL: u32 = {}u;\n",
         wgsl_f32(WEIGHT_MIN),
         wgsl_f32(SUM_MAX),
         wgsl_f32(f32::MAX),
+        reuse::Combination::OneOverM as u32,
+        reuse::Combination::OneOverZ as u32,
+        reuse::Combination::Pairwise as u32,
+        reuse::CANONICAL,
     )
 }
 
-/// The composed reservoir library: [`constants_wgsl()`] followed by [`RESERVOIR_WGSL`]. Append
-/// [`rng::WGSL`] when the kernel also needs the random-number generator.
+/// The composed reservoir library: [`constants_wgsl()`] followed by [`RESERVOIR_WGSL`] and
+/// [`REUSE_WGSL`]. Append [`rng::WGSL`] when the kernel also needs the random-number generator.
 pub fn wgsl() -> String {
-    format!("{}\n{RESERVOIR_WGSL}", constants_wgsl())
+    format!("{}\n{RESERVOIR_WGSL}\n{REUSE_WGSL}", constants_wgsl())
 }
 
 /// Every WGSL module this crate ships, composed as it is used, as `(name, source)`: the

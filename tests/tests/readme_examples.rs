@@ -5,6 +5,7 @@
 use glam::Vec3;
 use gpu_hash::{CellSizing, GridBinding, HASH_NOT_FOUND, HashGridParams, HashTable, TableConfig};
 use rand::{Rng, SeedableRng, rngs::StdRng};
+use reservoir::reuse::{CANONICAL, Combination, Reuse, cap_m};
 use reservoir::{PackedReservoir, Reservoir};
 use tests::{buffers, gpu};
 
@@ -172,6 +173,110 @@ fn gpu_hash_readme_user_shader_runs_and_matches_the_twins() {
     );
 }
 
+/// The twin's `Stored` (x, W, M).
+#[repr(C)]
+#[derive(Debug, Clone, Copy, PartialEq, Default, bytemuck::Pod, bytemuck::Zeroable)]
+struct Stored {
+    x: f32,
+    ucw: f32,
+    m: u32,
+}
+
+/// The twin of the README's `temporal` pass at pixel `i`.
+fn twin_temporal(i: u32, frame: u32, previous: &[Stored]) -> Stored {
+    let target = |x: f32| x * x;
+    let mut rng = reservoir::rng::Rng::seed(i, frame, 0);
+    let mut r = Reservoir::empty();
+    let mut y = 0.0;
+    for _ in 0..8 {
+        let x = rng.next_f32();
+        if r.update(target(x), rng.next_f32()) {
+            y = x;
+        }
+    }
+    r.finalize(target(y));
+    let prev = previous[i as usize];
+    let m_prev = cap_m(prev.m, 20);
+    let mut c = Reuse::begin(
+        Combination::Pairwise,
+        r.pack(),
+        target(y),
+        1,
+        m_prev,
+        rng.next_f32(),
+    );
+    let mut x = y;
+    let other = PackedReservoir {
+        ucw: prev.ucw,
+        m: m_prev,
+    };
+    if c.neighbour(
+        0,
+        other,
+        target(prev.x),
+        target(prev.x),
+        target(y),
+        rng.next_f32(),
+    ) {
+        x = prev.x;
+    }
+    let w = c.finish();
+    if c.selected() == CANONICAL {
+        x = y;
+    }
+    Stored {
+        x,
+        ucw: w.ucw,
+        m: w.m,
+    }
+}
+
+/// The twin of the README's `spatial` pass at pixel `i`.
+fn twin_spatial(i: u32, frame: u32, current: &[Stored]) -> Stored {
+    let target = |x: f32| x * x;
+    let n = current.len() as u32;
+    let mut rng = reservoir::rng::Rng::seed(i, frame, 1);
+    let own = current[i as usize];
+    let left = current[((i + n - 1) % n) as usize];
+    let right = current[((i + 1) % n) as usize];
+    let packed = PackedReservoir {
+        ucw: own.ucw,
+        m: own.m,
+    };
+    let m_n = left.m.saturating_add(right.m);
+    let mut c = Reuse::begin(
+        Combination::Pairwise,
+        packed,
+        target(own.x),
+        2,
+        m_n,
+        rng.next_f32(),
+    );
+    let mut x = own.x;
+    for (j, q) in [left, right].iter().enumerate() {
+        let other = PackedReservoir { ucw: q.ucw, m: q.m };
+        if c.neighbour(
+            j as u32,
+            other,
+            target(q.x),
+            target(q.x),
+            target(own.x),
+            rng.next_f32(),
+        ) {
+            x = q.x;
+        }
+    }
+    let w = c.finish();
+    if c.selected() == CANONICAL {
+        x = own.x;
+    }
+    Stored {
+        x,
+        ucw: w.ucw,
+        m: w.m,
+    }
+}
+
 #[test]
 fn reservoir_readme_user_shader_runs_and_matches_the_twin() {
     let user = example_block(include_str!("../../reservoir/README.md"), "reservoir");
@@ -179,84 +284,80 @@ fn reservoir_readme_user_shader_runs_and_matches_the_twin() {
     let device = &ctx.device;
     let source = format!("{}\n{}\n{user}", reservoir::wgsl(), reservoir::rng::WGSL);
     let n = 1usize << 14;
-    let packed_buf = buffers::storage_zeroed(device, "reservoirs", n as u64 * 8);
-    let samples_buf = buffers::storage_zeroed(device, "samples", n as u64 * 4);
-    let entries = [
-        buffers::storage_entry(0, false),
-        buffers::storage_entry(1, false),
-    ];
+    let bytes = (n * size_of::<Stored>()) as u64;
+    let bufs: Vec<wgpu::Buffer> = ["previous", "current", "final_out"]
+        .iter()
+        .map(|label| buffers::storage_zeroed(device, label, bytes))
+        .collect();
+    let frame_buf = buffers::storage_zeroed(device, "frame", 4);
+    let entries: Vec<_> = (0..4).map(|b| buffers::storage_entry(b, false)).collect();
     let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
         label: None,
         entries: &entries,
     });
+    let all = [&bufs[0], &bufs[1], &bufs[2], &frame_buf];
+    let group_entries: Vec<_> = all
+        .iter()
+        .enumerate()
+        .map(|(b, buf)| wgpu::BindGroupEntry {
+            binding: b as u32,
+            resource: buf.as_entire_binding(),
+        })
+        .collect();
     let group = device.create_bind_group(&wgpu::BindGroupDescriptor {
         label: None,
         layout: &layout,
-        entries: &[
-            wgpu::BindGroupEntry {
-                binding: 0,
-                resource: packed_buf.as_entire_binding(),
-            },
-            wgpu::BindGroupEntry {
-                binding: 1,
-                resource: samples_buf.as_entire_binding(),
-            },
-        ],
+        entries: &group_entries,
     });
-    let pipeline = pipeline(device, &source, "ris", &[&layout]);
-    gpu::run(ctx, |enc| {
-        let mut pass = enc.begin_compute_pass(&Default::default());
-        pass.set_pipeline(&pipeline);
-        pass.set_bind_group(0, &group, &[]);
-        pass.dispatch_workgroups((n as u32).div_ceil(64), 1, 1);
-    });
-    let packed: Vec<PackedReservoir> = buffers::read(ctx, &packed_buf).unwrap();
-    let samples: Vec<f32> = buffers::read(ctx, &samples_buf).unwrap();
-
-    // The twin of the README kernel, op for op.
-    let target = |x: f32| x * x;
-    let mut estimate = 0.0f64;
-    let mut sample_mismatches = 0;
-    for i in 0..n {
-        let mut rng = reservoir::rng::Rng::seed(i as u32, 0, 0);
-        let (mut a, mut b) = (Reservoir::empty(), Reservoir::empty());
-        let (mut ya, mut yb) = (0.0f32, 0.0f32);
-        for k in 0..16 {
-            let x = rng.next_f32();
-            if a.update_slot(target(x), rng.next_f32(), k) {
-                ya = x;
+    let passes = ["temporal", "spatial"].map(|e| pipeline(device, &source, e, &[&layout]));
+    let (mut previous, mut fin) = (vec![Stored::default(); n], Vec::new());
+    for frame in 0..2u32 {
+        ctx.queue
+            .write_buffer(&frame_buf, 0, bytemuck::bytes_of(&frame));
+        gpu::run(ctx, |enc| {
+            for p in &passes {
+                let mut pass = enc.begin_compute_pass(&Default::default());
+                pass.set_pipeline(p);
+                pass.set_bind_group(0, &group, &[]);
+                pass.dispatch_workgroups((n as u32).div_ceil(64), 1, 1);
             }
-            let z = rng.next_f32();
-            if b.update_slot(target(z), rng.next_f32(), 16 + k) {
-                yb = z;
+            enc.copy_buffer_to_buffer(&bufs[2], 0, &bufs[0], 0, bytes);
+        });
+        // The twin from the GPU's own inputs of this frame, pass by pass.
+        let current: Vec<Stored> = buffers::read(ctx, &bufs[1]).unwrap();
+        fin = buffers::read(ctx, &bufs[2]).unwrap();
+        let mut mismatches = 0;
+        for i in 0..n {
+            for (got, want) in [
+                (current[i], twin_temporal(i as u32, frame, &previous)),
+                (fin[i], twin_spatial(i as u32, frame, &current)),
+            ] {
+                assert_eq!(got.m, want.m, "frame {frame} pixel {i}: M");
+                // A WGSL division may differ by a few ulp (2.5 allowed), which can flip a
+                // selection only at a near tie.
+                if got.x != want.x {
+                    mismatches += 1;
+                    continue;
+                }
+                let ulps = got.ucw.to_bits().abs_diff(want.ucw.to_bits());
+                assert!(
+                    ulps <= 16,
+                    "frame {frame} pixel {i}: W {} vs {}",
+                    got.ucw,
+                    want.ucw
+                );
             }
         }
-        a.finalize(target(ya));
-        b.finalize(target(yb));
-        if a.merge(&b, target(yb), rng.next_f32()) {
-            ya = yb;
-        }
-        a.finalize(target(ya));
-        a.cap_m(20);
-        let got = packed[i];
-        assert_eq!(got.m, a.m, "invocation {i}: m");
-        // The divisions of finalize may differ by a few ulp (WGSL allows 2.5), which can flip
-        // the merge's selection only at a near tie.
-        if samples[i] != ya {
-            sample_mismatches += 1;
-            continue;
-        }
-        let ulps = got.ucw.to_bits().abs_diff(a.ucw.to_bits());
-        assert!(ulps <= 8, "invocation {i}: W {} vs twin {}", got.ucw, a.ucw);
-        estimate += f64::from(samples[i] * got.ucw);
+        assert!(
+            mismatches <= n / 1000,
+            "frame {frame}: {mismatches} selections differ"
+        );
+        previous = fin.clone();
     }
-    assert!(
-        sample_mismatches <= n / 1000,
-        "{sample_mismatches} samples differ from the twin"
-    );
-    // f(x) = x over [0, 1): integral 1/2. RIS with p_hat = x^2 has variance well below 0.1 per
-    // sample, so the mean of 16384 estimates is within 0.01 with overwhelming probability.
-    let mean = estimate / (n - sample_mismatches) as f64;
-    assert!((mean - 0.5).abs() < 0.01, "RIS estimate {mean}");
-    eprintln!("reservoir README example: mean estimate {mean:.4} (exact 0.5)");
+    // f(x) = x over [0, 1): integral 1/2; the mean of 16384 estimates is within 0.01 with
+    // overwhelming probability (each has a variance well below 0.1).
+    let mean = fin.iter().map(|s| f64::from(s.x * s.ucw)).sum::<f64>() / n as f64;
+    assert!((mean - 0.5).abs() < 0.01, "reuse estimate {mean}");
+    assert!(fin.iter().all(|s| s.m > 8), "spatial reuse merged nothing");
+    eprintln!("reservoir README example: mean estimate {mean:.4} (exact 0.5) after two frames");
 }
