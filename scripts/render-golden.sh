@@ -1,26 +1,39 @@
 #!/usr/bin/env bash
 # Renders a fixed set of images (same seeds, same sizes) with the restir-demo binary BIN into
-# OUT: nee, ris and world-restir (static and orbiting camera) on cornell and many-lights, and
-# nee, ris and world-restir on furnace and colonnade.
+# OUT: every method and variant of the registry, static and with an orbiting camera, on cornell
+# and many-lights, and the baselines and world-restir on furnace and colonnade.
 # `scripts/same-images.sh` runs it for two revisions and checks the EXRs are byte-identical.
-# usage: scripts/render-golden.sh BIN OUT
+# usage: scripts/render-golden.sh BIN OUT [EXTRA-RENDER-ARGS...]
 set -euo pipefail
 bin=$1
 out=$2
+shift 2
+extra=("$@")
 mkdir -p "$out"
+methods=(nee ris ris:4
+  world-restir world-restir:no-reuse world-restir:temporal world-restir:spatial
+  world-restir:no-adaptive world-restir:no-jitter world-restir:biased world-restir:one-over-z
+  world-restir:paper-grid world-restir:unified
+  restir-di restir-di:no-reuse restir-di:temporal restir-di:spatial restir-di:biased
+  world-restir+restir-di world-restir+restir-di:gi-tiles world-restir+restir-di:biased)
+render() { # name, args...
+  local name=$1
+  shift
+  "$bin" render "$@" "${extra[@]}" --out "$out/$name" >/dev/null 2>>"$out/render.log"
+}
 for scene in cornell many-lights; do
-  for method in nee ris world-restir; do
-    "$bin" render --scene "$scene" --lights 2000 --method "$method" --size 64x48 --frames 6 \
-      --seed 7 --out "$out/$scene-$method-static" >/dev/null 2>>"$out/render.log"
+  for method in "${methods[@]}"; do
+    tag=${method//[:+]/_}
+    render "$scene-$tag-static" --scene "$scene" --lights 2000 --method "$method" --size 64x48 \
+      --frames 6 --seed 7
+    render "$scene-$tag-orbit" --scene "$scene" --lights 2000 --method "$method" \
+      --animation orbit --anim-frames 4 --orbit-degrees 20 --size 64x48 --frames 6 --seed 7
   done
-  "$bin" render --scene "$scene" --lights 2000 --method world-restir --animation orbit \
-    --anim-frames 4 --orbit-degrees 20 --size 64x48 --frames 6 --seed 7 \
-    --out "$out/$scene-world-restir-orbit" >/dev/null 2>>"$out/render.log"
 done
 for scene in furnace colonnade; do
-  for method in nee ris world-restir; do
-    "$bin" render --scene "$scene" --method "$method" --size 48x32 --frames 4 --seed 7 \
-      --out "$out/$scene-$method-static" >/dev/null
+  for method in nee ris world-restir restir-di world-restir+restir-di; do
+    tag=${method//[:+]/_}
+    render "$scene-$tag-static" --scene "$scene" --method "$method" --size 48x32 --frames 4 --seed 7
   done
 done
 find "$out" -name '*.exr' | sort

@@ -65,7 +65,6 @@ fn main() -> ExitCode {
 
 fn test(args: &[String]) -> Result<(), String> {
     ensure_vulkan()?;
-    ensure_ray_query_mesa()?;
     let display = ensure_xvfb()?;
     // Print the adapter up front, so every log names the device the tests ran on.
     cargo(&["run", "--quiet", "--package", "demo", "--", "info"])?;
@@ -131,7 +130,6 @@ const DEMO_SCENES: [&str; 2] = ["cornell", "many-lights"];
 
 fn demo(args: &[String]) -> Result<(), String> {
     ensure_vulkan()?;
-    ensure_ray_query_mesa()?;
     let base = ["run", "--release", "--package", "demo", "--"];
     if args.is_empty() {
         for scene in DEMO_SCENES {
@@ -224,7 +222,7 @@ fn ensure_vulkan() -> Result<(), String> {
         return Ok(()); // the user chose another backend (e.g. gl)
     }
     if vulkan_present() {
-        return Ok(());
+        return ensure_ray_query_mesa();
     }
     let install = format!("apt-get install -y {}", LAVAPIPE_PACKAGES.join(" "));
     if !is_root() || !on_path("apt-get") {
@@ -234,9 +232,21 @@ fn ensure_vulkan() -> Result<(), String> {
              run this command again."
         ));
     }
-    eprintln!("xtask: no Vulkan driver found; installing lavapipe: apt-get update && {install}");
+    // On Debian 12, straight from bookworm-backports (Mesa 25, ray queries): one install.
+    let backports = use_bookworm_backports()?;
+    let from = if backports {
+        " from bookworm-backports"
+    } else {
+        ""
+    };
+    eprintln!(
+        "xtask: no Vulkan driver found; installing lavapipe{from}: apt-get update && {install}"
+    );
     run_apt(&["update", "-qq"])?;
     let mut install_args = vec!["install", "-y", "-qq", "--no-install-recommends"];
+    if backports {
+        install_args.extend(["-t", "bookworm-backports"]);
+    }
     install_args.extend(LAVAPIPE_PACKAGES);
     run_apt(&install_args)?;
     if vulkan_present() {
@@ -250,17 +260,14 @@ fn ensure_vulkan() -> Result<(), String> {
 /// The first Mesa whose lavapipe exposes wgpu's `EXPERIMENTAL_RAY_QUERY`.
 const RAY_QUERY_MESA_MAJOR: u32 = 25;
 
-/// On Debian 12 (bookworm) as root with lavapipe older than Mesa 25: installs lavapipe from the
-/// bookworm-backports suite of the machine's own Debian mirror (read from its apt sources), so
-/// that the ray-query tracer is tested. Anywhere else it changes nothing.
-fn ensure_ray_query_mesa() -> Result<(), String> {
+/// Whether lavapipe should come from bookworm-backports (Debian 12 as root with apt-get): then
+/// makes sure that suite of the machine's own Debian mirror (read from its apt sources) is an
+/// apt source. Anywhere else false.
+fn use_bookworm_backports() -> Result<bool, String> {
     let bookworm = std::fs::read_to_string("/etc/os-release")
         .is_ok_and(|s| s.lines().any(|l| l == "VERSION_CODENAME=bookworm"));
-    if !bookworm || !is_root() || !on_path("apt-get") || !lavapipe_installed() {
-        return Ok(());
-    }
-    if mesa_major().is_some_and(|m| m >= RAY_QUERY_MESA_MAJOR) {
-        return Ok(());
+    if !bookworm || !is_root() || !on_path("apt-get") {
+        return Ok(false);
     }
     let mirror = debian_mirror().ok_or(
         "Debian 12 without a bookworm suite in /etc/apt/sources.list{,.d}: cannot find the \
@@ -274,6 +281,18 @@ fn ensure_ray_query_mesa() -> Result<(), String> {
         );
         std::fs::write(sources, stanza)
             .map_err(|e| format!("writing {}: {e}", sources.display()))?;
+    }
+    Ok(true)
+}
+
+/// On Debian 12 as root with lavapipe older than Mesa 25 already installed: upgrades it from
+/// bookworm-backports, so that the ray-query tracer is tested. Anywhere else it changes nothing.
+fn ensure_ray_query_mesa() -> Result<(), String> {
+    if !lavapipe_installed() || mesa_major().is_some_and(|m| m >= RAY_QUERY_MESA_MAJOR) {
+        return Ok(());
+    }
+    if !use_bookworm_backports()? {
+        return Ok(());
     }
     eprintln!("xtask: installing lavapipe from bookworm-backports (Mesa 25: ray queries)");
     run_apt(&["update", "-qq"])?;
