@@ -9,8 +9,8 @@ use clap::Args;
 use restir_world::image_io::{Image, write_png};
 use restir_world::methods::{self, FrameLoop, MethodError, Readback, run_frames};
 use restir_world::reference::Rendered;
+use restir_world::render::DebugView;
 use restir_world::scene::{Camera, Scene};
-use restir_world::world_restir::DebugView;
 
 use crate::camera::Motion;
 use crate::progress_bar;

@@ -16,14 +16,12 @@ use glam::{Quat, Vec3};
 use restir_world::GpuContext;
 use restir_world::gpu::PassTimes;
 use restir_world::image_io::{self, Image};
+use restir_world::knobs::KnobKind;
 use restir_world::methods::{
-    self, FrameLoop, FrameMethod, MethodError, MethodSettings, RESTIR_DI_VARIANTS, Readback,
-    WORLD_RESTIR_VARIANTS, run_frames,
+    self, FrameLoop, FrameMethod, MethodError, MethodSettings, Readback, run_frames,
 };
-use restir_world::restir_di::RestirDiConfig;
-use restir_world::sampling::Estimator;
+use restir_world::render::DebugView;
 use restir_world::scene::{Camera, CameraPath, Scene};
-use restir_world::world_restir::{DebugView, WorldRestirConfig};
 use winit::application::ApplicationHandler;
 use winit::event::WindowEvent;
 use winit::event_loop::{ActiveEventLoop, EventLoop};
@@ -635,7 +633,7 @@ impl Viewer {
                 self.scale = self.controls.scale;
                 self.camera = camera;
                 self.controls.knob_text = knob_texts(&settings);
-                self.controls.spec_text = spec_of(&settings);
+                self.controls.spec_text = settings.spec();
                 let frames = self.stats.frames;
                 self.stats = Stats {
                     frames,
@@ -746,10 +744,7 @@ impl Viewer {
             settings: self.settings,
             speed: self.setup.speed,
             dt,
-            has_debug: matches!(
-                self.settings,
-                MethodSettings::WorldRestir(_) | MethodSettings::WorldRestirDi(..)
-            ),
+            has_debug: self.settings.world.is_some(),
             render_cmd: self.render_command(),
         };
         let texture = self.texture.as_ref().map(|t| t.id());
@@ -835,7 +830,7 @@ impl Viewer {
             "restir-demo render --scene {} --method {} --size {}x{} --seed {} --frames {} \
              --eye {} --target {} --up {} --fov {}",
             self.setup.scene_name,
-            spec_of(&self.settings),
+            self.settings.spec(),
             c.width,
             c.height,
             self.setup.args.seed,
@@ -879,7 +874,7 @@ impl Viewer {
     /// At exit: --screenshot and the summary.
     fn finish(self) -> Result<()> {
         let s = &self.stats;
-        let spec = spec_of(&self.settings);
+        let spec = self.settings.spec();
         println!(
             "view: {} frames of {spec} at {}x{} on {:?}, accumulated {}",
             s.frames,
@@ -957,100 +952,6 @@ fn fly(camera: &mut Camera, translate: Vec3, (yaw, pitch): (f32, f32)) {
     }
 }
 
-/// The spec that rebuilds `settings`.
-fn spec_of(settings: &MethodSettings) -> String {
-    match settings {
-        MethodSettings::Baseline(Estimator::Nee) => "nee".into(),
-        MethodSettings::Baseline(Estimator::Ris { candidates }) => format!("ris:{candidates}"),
-        MethodSettings::WorldRestir(c) => match c.knobs_spec() {
-            k if k.is_empty() => "world-restir".into(),
-            k => format!("world-restir:{k}"),
-        },
-        MethodSettings::RestirDi(d) => match d.knobs_spec() {
-            k if k.is_empty() => "restir-di".into(),
-            k => format!("restir-di:{k}"),
-        },
-        MethodSettings::WorldRestirDi(_, d) => match d.knobs_spec() {
-            k if k.is_empty() => "world-restir+restir-di".into(),
-            k => format!("world-restir+restir-di:{k}"),
-        },
-    }
-}
-
-/// Applies one knob (`key`, `value`) to a method's settings: the new settings, or why not.
-type ApplyKnob = Box<dyn Fn(&str, &str) -> Result<MethodSettings, String>>;
-
-/// One panel of knobs: a configuration's knob names, current values, and how to apply one.
-struct KnobPanel {
-    title: &'static str,
-    keys: &'static [&'static str],
-    values: Vec<String>,
-    apply: ApplyKnob,
-}
-
-fn world_restir_panel(
-    c: WorldRestirConfig,
-    wrap: impl Fn(WorldRestirConfig) -> MethodSettings + 'static,
-) -> KnobPanel {
-    KnobPanel {
-        title: "world-restir knobs",
-        keys: &WorldRestirConfig::KNOBS,
-        values: WorldRestirConfig::KNOBS
-            .iter()
-            .map(|k| c.get(k).unwrap_or_default())
-            .collect(),
-        apply: Box::new(move |key, value| {
-            let mut next = c;
-            next.set(key, value)
-                .and_then(|()| next.validate())
-                .map_err(|e| e.to_string())?;
-            Ok(wrap(next))
-        }),
-    }
-}
-
-fn restir_di_panel(
-    d: RestirDiConfig,
-    wrap: impl Fn(RestirDiConfig) -> MethodSettings + 'static,
-) -> KnobPanel {
-    KnobPanel {
-        title: "restir-di knobs",
-        keys: &RestirDiConfig::KNOBS,
-        values: RestirDiConfig::KNOBS
-            .iter()
-            .map(|k| d.get(k).unwrap_or_default())
-            .collect(),
-        apply: Box::new(move |key, value| {
-            let mut next = d;
-            next.set(key, value)
-                .and_then(|()| next.validate())
-                .map_err(|e| e.to_string())?;
-            Ok(wrap(next))
-        }),
-    }
-}
-
-/// The knob panels of a method: world-restir's and restir-di's, for the methods that have them
-/// (`world-restir+restir-di` offers restir-di's only: its spec carries no world-restir knobs).
-fn knob_panels(settings: &MethodSettings) -> Vec<KnobPanel> {
-    match *settings {
-        MethodSettings::Baseline(_) => Vec::new(),
-        MethodSettings::WorldRestir(c) => vec![world_restir_panel(c, MethodSettings::WorldRestir)],
-        MethodSettings::RestirDi(d) => vec![restir_di_panel(d, MethodSettings::RestirDi)],
-        MethodSettings::WorldRestirDi(c, d) => vec![restir_di_panel(d, move |n| {
-            MethodSettings::WorldRestirDi(c, n)
-        })],
-    }
-}
-
-/// The editable texts of every knob of `settings`' panels, in panel order.
-fn knob_texts(settings: &MethodSettings) -> Vec<String> {
-    knob_panels(settings)
-        .into_iter()
-        .flat_map(|p| p.values)
-        .collect()
-}
-
 /// What the overlay shows without changing.
 struct Info {
     adapter: String,
@@ -1064,30 +965,22 @@ struct Info {
     render_cmd: String,
 }
 
-/// The specs the method list offers: every registry entry, then world-restir's and
-/// restir-di's variants.
+/// The specs the method list offers: every registry entry, then each entry's named variants
+/// that parse.
 fn method_specs() -> Vec<String> {
-    let mut v: Vec<String> = methods::registry()
-        .iter()
-        .map(|e| e.name.to_owned())
-        .collect();
-    v.extend(
-        WORLD_RESTIR_VARIANTS
-            .iter()
-            .filter(|(n, _, _)| *n != "both")
-            .map(|(n, _, _)| format!("world-restir:{n}")),
-    );
-    // The variants of restir-di; the shared light tiles need world-restir's generate pass.
-    v.extend(
-        RESTIR_DI_VARIANTS
-            .iter()
-            .filter(|(n, _, _)| *n != "both")
-            .map(|(n, _, _)| match *n {
-                "gi-tiles" => format!("world-restir+restir-di:{n}"),
-                _ => format!("restir-di:{n}"),
-            }),
-    );
+    let entries = methods::registry();
+    let mut v: Vec<String> = entries.iter().map(|e| e.name.to_owned()).collect();
+    for e in entries {
+        let variants = e.variants().iter().filter(|x| x.name != "both");
+        let specs = variants.map(|x| format!("{}:{}", e.name, x.name));
+        v.extend(specs.filter(|s| methods::check_spec(s).is_ok()));
+    }
     v
+}
+
+/// The editable texts of the method's knobs, in order.
+fn knob_texts(settings: &MethodSettings) -> Vec<String> {
+    settings.knobs().into_iter().map(|(_, v)| v).collect()
 }
 
 fn overlay(
@@ -1192,7 +1085,7 @@ fn controls_ui(ui: &mut egui::Ui, info: &Info, c: &mut Controls, s: &Stats, a: &
     ui.separator();
     ui.label("method");
     egui::ComboBox::from_id_salt("method")
-        .selected_text(spec_of(&info.settings))
+        .selected_text(info.settings.spec())
         .width(260.0)
         .show_ui(ui, |ui| {
             for spec in method_specs() {
@@ -1213,12 +1106,10 @@ fn controls_ui(ui: &mut egui::Ui, info: &Info, c: &mut Controls, s: &Stats, a: &
             }
         }
     });
-    let mut offset = 0;
-    for panel in knob_panels(&info.settings) {
-        egui::CollapsingHeader::new(panel.title)
+    if !info.settings.knobs().is_empty() {
+        egui::CollapsingHeader::new("knobs")
             .default_open(true)
-            .show(ui, |ui| knobs_ui(ui, &panel, offset, c, a));
-        offset += panel.keys.len();
+            .show(ui, |ui| knobs_ui(ui, &info.settings, c, a));
     }
     ui.separator();
     egui::ComboBox::from_label("shown")
@@ -1270,39 +1161,45 @@ fn controls_ui(ui: &mut egui::Ui, info: &Info, c: &mut Controls, s: &Stats, a: &
     });
 }
 
-/// One row per knob of `panel`: switches as checkboxes, the rest as text that the
-/// configuration's `set` parses when Enter is pressed. `offset`: the panel's first text in
-/// `c.knob_text`.
-fn knobs_ui(
-    ui: &mut egui::Ui,
-    panel: &KnobPanel,
-    offset: usize,
-    c: &mut Controls,
-    a: &mut Actions,
-) {
-    egui::Grid::new(panel.title).show(ui, |ui| {
-        for (i, key) in panel.keys.iter().enumerate() {
-            let Some(text) = c.knob_text.get_mut(offset + i) else {
+/// One row per knob of the method's variant: switches as checkboxes, choices as lists, the
+/// rest as text that the knob's parser takes when Enter is pressed (`c.knob_text`).
+fn knobs_ui(ui: &mut egui::Ui, settings: &MethodSettings, c: &mut Controls, a: &mut Actions) {
+    egui::Grid::new("knobs").show(ui, |ui| {
+        for (i, (knob, current)) in settings.knobs().into_iter().enumerate() {
+            let Some(text) = c.knob_text.get_mut(i) else {
                 continue;
             };
-            ui.label(*key);
-            let current = panel.values.get(i).cloned().unwrap_or_default();
+            ui.label(knob.name).on_hover_text(knob.doc.trim());
             let mut apply = None;
-            if current == "on" || current == "off" {
-                let mut on = current == "on";
-                if ui.checkbox(&mut on, "").changed() {
-                    apply = Some(if on { "on" } else { "off" }.to_owned());
+            match knob.kind {
+                KnobKind::Switch => {
+                    let mut on = current == "on";
+                    if ui.checkbox(&mut on, "").changed() {
+                        apply = Some(if on { "on" } else { "off" }.to_owned());
+                    }
                 }
-            } else {
-                let r = ui.add(egui::TextEdit::singleline(text).desired_width(90.0));
-                if r.lost_focus() && ui.input(|i| i.key_pressed(egui::Key::Enter)) {
-                    apply = Some(text.trim().to_owned());
+                KnobKind::Choice(names) => {
+                    egui::ComboBox::from_id_salt(knob.name)
+                        .selected_text(&current)
+                        .show_ui(ui, |ui| {
+                            for name in names {
+                                if ui.selectable_label(*name == current, *name).clicked() {
+                                    apply = Some((*name).to_owned());
+                                }
+                            }
+                        });
+                }
+                KnobKind::Number => {
+                    let r = ui.add(egui::TextEdit::singleline(text).desired_width(90.0));
+                    if r.lost_focus() && ui.input(|i| i.key_pressed(egui::Key::Enter)) {
+                        apply = Some(text.trim().to_owned());
+                    }
                 }
             }
             ui.end_row();
             if let Some(value) = apply {
-                match (panel.apply)(key, &value) {
-                    Ok(settings) => a.settings = Some(settings),
+                match settings.with_knob(knob.name, &value) {
+                    Ok(next) => a.settings = Some(next),
                     Err(e) => *text = format!("{value} ({e})"),
                 }
             }
@@ -1315,27 +1212,29 @@ mod tests {
     use super::*;
 
     /// The method list offers every registry entry and the variants, and each entry's spec
-    /// parses back to settings whose `spec_of` parses again (the list and the spec field agree).
+    /// parses back to settings whose spec parses again (the list and the spec field agree).
     #[test]
     fn method_list_offers_every_method_and_variant() {
         let specs = method_specs();
         for name in ["ris", "world-restir", "restir-di", "world-restir+restir-di"] {
             assert!(specs.iter().any(|s| s == name), "{name} missing: {specs:?}");
         }
-        assert!(specs.iter().any(|s| s == "restir-di:biased"), "{specs:?}");
-        // The knob panels apply a knob to the right configuration and keep the other.
+        for spec in [
+            "restir-di:biased",
+            "world-restir:unified",
+            "world-restir+restir-di:gi-tiles",
+        ] {
+            assert!(specs.iter().any(|s| s == spec), "{spec} missing: {specs:?}");
+        }
+        assert!(
+            !specs.iter().any(|s| s == "restir-di:gi-tiles"),
+            "{specs:?}"
+        );
         let both = methods::parse_spec("world-restir+restir-di").unwrap();
-        let panels = knob_panels(&both);
-        assert_eq!(panels.len(), 1);
-        assert_eq!(knob_texts(&both).len(), panels[0].keys.len());
-        let next = (panels[0].apply)("spatial-k", "2").unwrap();
-        assert_eq!(spec_of(&next), "world-restir+restir-di:spatial-k=2");
-        let err = (panels[0].apply)("spatial-k", "99").unwrap_err();
-        assert!(err.contains("spatial-k"), "{err}");
-        assert!(knob_panels(&methods::parse_spec("ris").unwrap()).is_empty());
+        assert_eq!(knob_texts(&both).len(), both.knobs().len());
         for spec in &specs {
             let settings = methods::parse_spec(spec).unwrap_or_else(|e| panic!("{spec}: {e}"));
-            let again = methods::parse_spec(&spec_of(&settings)).expect("spec_of parses");
+            let again = methods::parse_spec(&settings.spec()).expect("spec parses");
             assert_eq!(again, settings, "{spec}");
         }
     }

@@ -8,9 +8,9 @@ use std::path::{Path, PathBuf};
 
 use crate::GpuContext;
 use crate::image_io::{self, Image, ImageIoError};
-use crate::methods::{FrameLoop, FrameMethod, MethodError, Readback, run_frames};
+use crate::methods::{FrameLoop, MethodError, Readback, run_frames};
 use crate::metrics::{self, MetricsError};
-use crate::render::Renderer;
+use crate::render::{RenderError, Renderer};
 use crate::sampling::Estimator;
 use crate::scene::{Camera, Scene};
 
@@ -218,7 +218,10 @@ fn half(
         progress(s.frames);
         Ok::<(), MethodError>(())
     })?;
-    r.read(ctx, Readback::Accumulated)?.into_rendered()
+    let images = r.read(ctx, Readback::Accumulated)?;
+    Ok(images
+        .into_rendered()
+        .map_err(|e| RenderError::Settings(e.to_string()))?)
 }
 
 /// Renders a reference (two halves of `spp / 2` samples each); `progress` gets the number of

@@ -4,19 +4,28 @@
 //! (Boissé 2021), composed from the `gpu-scan`, `gpu-hash` and `reservoir` primitives on a
 //! software-BVH ray tracer.
 //!
-//! Layers, each using only those below it:
+//! Layers, each using only those below it (a test parses the `crate::` paths and fails on a
+//! cycle):
 //!
 //! - [`gpu`]: device acquisition, timestamp spans, upload/readback, and the vocabulary every
-//!   pass is written in (`BindingSet`, `WgslModule`, `Kernel`, `Pass`, `FrameEncoder`).
-//! - [`scene`], [`trace`], [`lights`], [`sampling`]: the scene, the BVH tracer, light sampling.
-//! - [`render`]: the renderer's shared passes and the `nee`/`ris` baselines;
-//!   [`world_restir`] (indirect) and [`restir_di`] (direct) build on it.
-//! - [`methods`]: the registry of methods, the one frame loop (`run_frames`) and readback.
-//! - [`reference`](mod@reference) (CPU) and [`gpu_reference`]: converged references; [`metrics`].
+//!   pass is written in (`BindingSet`, `WgslModule`, `Kernel`, `Pass`, `FrameEncoder`);
+//!   [`image_io`] and [`knobs`] (a method's settings declared once).
+//! - [`scene`], then [`sampling`], [`trace`] (the BVH tracer), [`framing`] (a default camera),
+//!   [`lights`] (light sampling); [`reference`](mod@reference) (the CPU reference renderer),
+//!   [`images`] (the one image set) and [`metrics`].
+//! - [`render`]: the renderer's shared passes and the `nee`/`ris` baselines.
+//! - [`light_tiles`], then the stages that replace the renderer's shading: [`world_restir`]
+//!   (indirect) and [`restir_di`] (direct), independent of each other.
+//! - [`methods`]: the registry, which composes the stages into methods, the one frame loop
+//!   (`run_frames`) and readback; [`gpu_reference`]: converged GPU references.
 
+pub mod framing;
 pub mod gpu;
 pub mod gpu_reference;
 pub mod image_io;
+pub mod images;
+pub mod knobs;
+pub mod light_tiles;
 pub mod lights;
 pub mod methods;
 pub mod metrics;
@@ -28,7 +37,20 @@ pub mod scene;
 pub mod trace;
 pub mod world_restir;
 
+#[cfg(test)]
+mod layering;
+
 pub use gpu::{GpuContext, GpuError, GpuTimer};
+
+/// Every compute kernel the renderer and its stages create, composed as used, with the binding
+/// sets of its pipeline layout.
+pub fn kernels() -> Vec<render::ComposedKernel> {
+    let mut k = render::kernels();
+    k.extend(light_tiles::kernels());
+    k.extend(world_restir::kernels());
+    k.extend(restir_di::kernels());
+    k
+}
 
 /// Every WGSL module this crate ships, composed as it is used, as `(name, source)`: the
 /// workspace's naga checks validate each of them.
@@ -40,6 +62,7 @@ pub fn wgsl_modules() -> Vec<(String, String)> {
     ];
     modules.extend(trace::wgsl_modules());
     modules.extend(render::wgsl_modules());
+    modules.extend(light_tiles::wgsl_modules());
     modules.extend(world_restir::wgsl_modules());
     modules.extend(restir_di::wgsl_modules());
     modules

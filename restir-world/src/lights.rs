@@ -38,7 +38,7 @@ use reservoir::rng::Rng;
 use crate::gpu::{Access, BindingSet, Resource, WgslModule};
 use crate::sampling;
 use crate::scene::environment::{self, Environment};
-use crate::scene::{PunctualKind, Scene, builtin::luminance};
+use crate::scene::{PunctualKind, Scene, luminance};
 
 /// WGSL source of the light sampling functions (no bindings; see [`bindings`]).
 pub const WGSL: &str = include_str!("lights.wgsl");

@@ -132,7 +132,7 @@ pub fn rel_mse_of_average(a: &[[f32; 3]], b: &[[f32; 3]]) -> Result<f64, Metrics
 pub fn auto_exposure(reference: &[[f32; 3]]) -> f32 {
     let mut l: Vec<f32> = reference
         .iter()
-        .map(|p| 0.2126 * p[0] + 0.7152 * p[1] + 0.0722 * p[2])
+        .map(|p| crate::scene::luminance(*p))
         .filter(|v| v.is_finite() && *v > 0.0)
         .collect();
     if l.is_empty() {

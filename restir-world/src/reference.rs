@@ -39,7 +39,7 @@ use reservoir::rng::Rng;
 use crate::image_io::Image;
 use crate::lights::{self, LightSample, Lights};
 use crate::sampling::{self, CameraGpu, Estimator};
-use crate::scene::{Camera, Scene, SceneError, builtin::luminance};
+use crate::scene::{Camera, Scene, SceneError, luminance};
 
 /// Options of [`ReferenceRenderer::render`].
 #[derive(Debug, Clone, Copy, PartialEq)]

@@ -11,13 +11,12 @@
 use criterion::{Criterion, criterion_group, criterion_main};
 use restir_world::GpuContext;
 use restir_world::gpu::{FrameEncoder, PassTimes};
-use restir_world::methods::{
-    FrameLoop, FrameMethod, MethodError, WORLD_RESTIR_VARIANTS, run_frames, world_restir_config,
-};
+use restir_world::knobs::parse_config;
+use restir_world::methods::{Composed, FrameLoop, FrameMethod, MethodError, run_frames};
 use restir_world::render::Renderer;
 use restir_world::sampling::Estimator;
 use restir_world::scene::{BuiltinOptions, builtin};
-use restir_world::world_restir::{WorldRestir, WorldRestirConfig};
+use restir_world::world_restir::{self, WorldRestirConfig};
 use tests::{bench, buffers, floors::CopyKernel, gpu};
 
 const FRAMES: u32 = 6;
@@ -63,8 +62,8 @@ fn world_restir(c: &mut Criterion) {
     };
     let scene = builtin("many-lights", &opts).expect("many-lights");
     let cam = scene.camera_or_default(side, side);
-    let mut wr =
-        WorldRestir::new(ctx, &scene, &cam, WorldRestirConfig::default(), 1).expect("world-restir");
+    let mut wr = Composed::world_restir(ctx, &scene, &cam, WorldRestirConfig::default(), 1)
+        .expect("world-restir");
     let ris = Estimator::Ris { candidates: 16 };
     let mut ris = Renderer::new(ctx, &scene, &cam, ris, 1).expect("ris");
     let mut nee = Renderer::new(ctx, &scene, &cam, Estimator::Nee, 1).expect("nee");
@@ -99,13 +98,18 @@ fn world_restir(c: &mut Criterion) {
 
     // Per-stage spans of the defaults, then of every other variant.
     let variants = std::iter::once(("default", WorldRestirConfig::default())).chain(
-        WORLD_RESTIR_VARIANTS
+        world_restir::VARIANTS
             .iter()
-            .filter(|(name, _, _)| *name != "both")
-            .map(|(name, _, _)| (*name, world_restir_config(Some(name)).expect("variant"))),
+            .filter(|v| v.name != "both")
+            .map(|v| {
+                (
+                    v.name,
+                    parse_config(world_restir::VARIANTS, Some(v.name)).expect("variant"),
+                )
+            }),
     );
     for (variant, config) in variants {
-        let mut wr = WorldRestir::new(ctx, &scene, &cam, config, 1).expect("world-restir");
+        let mut wr = Composed::world_restir(ctx, &scene, &cam, config, 1).expect("world-restir");
         stage_result(ctx, &mut wr, variant, side, &t_ris, &t_nee, floor_ms);
     }
 }
@@ -113,7 +117,7 @@ fn world_restir(c: &mut Criterion) {
 /// One `RESULT world-restir` line: per-stage GPU ms per frame of `wr` after one warm-up frame.
 fn stage_result(
     ctx: &GpuContext,
-    wr: &mut WorldRestir,
+    wr: &mut Composed,
     variant: &str,
     side: u32,
     t_ris: &PassTimes,
@@ -121,7 +125,7 @@ fn stage_result(
     floor_ms: f64,
 ) {
     let t_wr = frame_times(ctx, wr);
-    let stats = wr.grid_stats(ctx).expect("stats");
+    let stats = wr.world().unwrap().grid_stats(ctx).expect("stats");
     eprintln!("world-restir {variant} per frame: {:?}", t_wr.per_frame());
 
     let f = |x: f64| format!("{x:.3}");
@@ -132,7 +136,7 @@ fn stage_result(
     );
     let build = ms(&t_wr, &["build"]);
     let cam = wr.renderer().camera();
-    let table = wr.config().table(cam.width, cam.height);
+    let table = wr.world().unwrap().config().table(cam.width, cam.height);
     bench::print_result(
         ctx,
         "world-restir",

@@ -7,6 +7,8 @@
 //!   (no adapter needed).
 //! - [`gpu`]: the one shared [`GpuContext`] for a test binary; tests fail loudly when there is no
 //!   adapter and skip, with a printed reason, only for missing optional features.
+//! - [`bias`]: bias and equivalence checks with negative controls that can fail.
+//! - [`scenes`](mod@scenes): small scenes the GPU tests share.
 //! - [`floors`]: same-harness floor kernels (vec4 copy) that benchmarks compare against.
 //! - [`bench`](mod@bench): GPU-timestamp timing for criterion's `iter_custom` and the `RESULT` line.
 //!
@@ -14,8 +16,10 @@
 //! [`buffers`]).
 
 pub mod bench;
+pub mod bias;
 pub mod floors;
 pub mod gpu;
+pub mod scenes;
 pub mod wgsl;
 
 pub use restir_world::GpuContext;

@@ -123,3 +123,21 @@ macro_rules! assert_wgsl_layout {
         }
     };
 }
+
+/// Asserts that the WGSL struct `$wgsl_name` in `$source` is the knob table `$config`'s GPU
+/// words: its `[gpu]` knobs as consecutive 4-byte fields, padded to `GPU_WORDS` words.
+#[macro_export]
+macro_rules! assert_knobs_layout {
+    ($config:ty, $source:expr, $wgsl_name:expr) => {
+        let fields: Vec<(&str, usize)> = <$config>::GPU_FIELDS
+            .iter()
+            .enumerate()
+            .map(|(i, f)| (*f, 4 * i))
+            .collect();
+        if let Err(e) =
+            $crate::wgsl::check_layout(&$source, $wgsl_name, 4 * <$config>::GPU_WORDS, &fields)
+        {
+            panic!("{e}");
+        }
+    };
+}

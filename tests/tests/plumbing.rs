@@ -2,8 +2,7 @@
 //! missing, unknown, repeated or wrongly shaped binding; every composed module declares, at
 //! each (group, binding), the buffer its binding set names there.
 
-use restir_world::gpu::{Access, BindingSet, Resource, Tracer};
-use restir_world::{render, trace};
+use restir_world::gpu::{Access, BindingSet, Resource};
 use tests::{buffers, gpu, wgsl};
 
 fn set() -> BindingSet {
@@ -60,60 +59,111 @@ fn wgsl_header_and_layout_agree() {
     assert!(header.contains("var<uniform> p: vec4<u32>"));
 }
 
-/// Every binding naga finds in the composed renderer and tracer modules is the one the
-/// binding sets declare at that (group, binding), by name. Planted fault: the same check
-/// against a declaration with two names swapped must find the mismatch.
+/// Every kernel the renderer and its stages create (`restir_world::kernels()`): each binding
+/// naga finds in its composed source has an entry at that (group, binding) of the pipeline
+/// layout its binding sets make, of the same kind (uniform, read-only or read-write storage,
+/// acceleration structure), and the buffer the set names there; and every layout entry is
+/// declared in the source. Control: the same check of a layout with one entry's access
+/// changed must find the mismatch.
 #[test]
-fn composed_modules_bind_what_the_sets_declare() {
-    let declared: Vec<Vec<String>> = render::shared_bindings(Tracer::Bvh)
-        .iter()
-        .enumerate()
-        .map(|(g, set)| names(&set.wgsl(g as u32)))
-        .collect();
-    let mut swapped = declared.clone();
-    swapped[0].swap(2, 3);
-    for (name, source, groups) in [
-        ("render", render::passes_source(Tracer::Bvh), 0..3),
-        ("trace_rays", trace::kernel_source(Tracer::Bvh), 1..2),
-    ] {
-        let module = wgsl::validate(name, &source).expect("valid");
-        let (checked, wrong) = check(&module, &declared, groups.clone());
-        assert!(checked >= 2, "{name}: only {checked} bindings checked");
-        assert!(wrong.is_empty(), "{name}: {wrong:?}");
-        if name == "render" {
-            let (_, wrong) = check(&module, &swapped, groups);
-            assert_eq!(wrong.len(), 2, "planted swap not found: {wrong:?}");
-        }
+fn every_kernel_declares_what_its_layout_binds() {
+    let kernels = restir_world::kernels();
+    assert!(kernels.len() >= 10, "only {} kernels", kernels.len());
+    for k in &kernels {
+        let module = wgsl::validate(&k.name, &k.source).expect("valid");
+        let layouts: Vec<_> = k.groups.iter().map(|s| s.layout_entries()).collect();
+        let names: Vec<_> = k.groups.iter().map(|s| s.binding_names()).collect();
+        let wrong = check(&module, &layouts, &names);
+        assert!(wrong.is_empty(), "{}: {wrong:?}", k.name);
     }
+    // Control: flip the access of the first storage buffer of the render group.
+    let k = &kernels[0];
+    let module = wgsl::validate(&k.name, &k.source).expect("valid");
+    let mut layouts: Vec<_> = k.groups.iter().map(|s| s.layout_entries()).collect();
+    let names: Vec<_> = k.groups.iter().map(|s| s.binding_names()).collect();
+    let e = layouts[0]
+        .iter_mut()
+        .find(|e| {
+            matches!(
+                e.ty,
+                wgpu::BindingType::Buffer {
+                    ty: wgpu::BufferBindingType::Storage { .. },
+                    ..
+                }
+            )
+        })
+        .expect("a storage buffer");
+    e.ty = wgpu::BindingType::Buffer {
+        ty: wgpu::BufferBindingType::Uniform,
+        has_dynamic_offset: false,
+        min_binding_size: None,
+    };
+    assert_eq!(
+        check(&module, &layouts, &names).len(),
+        1,
+        "planted access change not found"
+    );
 }
 
-/// (bindings checked, mismatches) of `module`'s globals in `groups` against `declared`.
+/// The mismatches between `module`'s bound globals and the pipeline layout `layouts` (one
+/// entry list per group) whose buffers `names` names.
 fn check(
     module: &naga::Module,
-    declared: &[Vec<String>],
-    groups: std::ops::Range<u32>,
-) -> (usize, Vec<String>) {
-    let mut checked = 0;
+    layouts: &[Vec<wgpu::BindGroupLayoutEntry>],
+    names: &[Vec<Option<&str>>],
+) -> Vec<String> {
     let mut wrong = Vec::new();
+    let mut seen = 0;
     for (_, var) in module.global_variables.iter() {
         let Some(b) = &var.binding else { continue };
-        if !groups.contains(&b.group) {
+        seen += 1;
+        let entry = layouts
+            .get(b.group as usize)
+            .and_then(|g| g.iter().find(|e| e.binding == b.binding));
+        let Some(entry) = entry else {
+            wrong.push(format!("{b:?} {:?}: not in the layout", var.name));
             continue;
+        };
+        let kind = match var.space {
+            naga::AddressSpace::Uniform => "uniform",
+            naga::AddressSpace::Storage { access }
+                if access.contains(naga::StorageAccess::STORE) =>
+            {
+                "read-write"
+            }
+            naga::AddressSpace::Storage { .. } => "read-only",
+            _ => "other",
+        };
+        let want = match entry.ty {
+            wgpu::BindingType::Buffer {
+                ty: wgpu::BufferBindingType::Uniform,
+                ..
+            } => "uniform",
+            wgpu::BindingType::Buffer {
+                ty: wgpu::BufferBindingType::Storage { read_only: true },
+                ..
+            } => "read-only",
+            wgpu::BindingType::Buffer { .. } => "read-write",
+            _ => "other",
+        };
+        if kind != want {
+            wrong.push(format!(
+                "{b:?} {:?}: {kind} in WGSL, {want} in the layout",
+                var.name
+            ));
         }
-        let want = &declared[b.group as usize][b.binding as usize];
-        if var.name.as_deref() != Some(want.as_str()) {
-            wrong.push(format!("{b:?}: {:?}, declared {want}", var.name));
+        let named = names
+            .get(b.group as usize)
+            .and_then(|n| n.get(b.binding as usize));
+        if let (Some(Some(want)), Some(got)) = (named, &var.name)
+            && want != got
+        {
+            wrong.push(format!("{b:?}: {got:?}, declared {want}"));
         }
-        checked += 1;
     }
-    (checked, wrong)
-}
-
-/// Variable names of a binding header, in binding order.
-fn names(header: &str) -> Vec<String> {
-    header
-        .lines()
-        .filter_map(|l| l.split("> ").nth(1)?.split(':').next())
-        .map(str::to_owned)
-        .collect()
+    let entries: usize = layouts.iter().map(Vec::len).sum();
+    if seen != entries {
+        wrong.push(format!("{seen} bound globals, {entries} layout entries"));
+    }
+    wrong
 }

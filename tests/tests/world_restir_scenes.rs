@@ -5,10 +5,11 @@
 //! planted darkening that must fail the same bound). Sponza is skipped with a printed reason
 //! when the public scenes are absent.
 
+use restir_world::methods::Composed;
 use restir_world::render::Renderer;
 use restir_world::sampling::Estimator;
 use restir_world::scene::{self, BuiltinOptions, Camera, Environment, Scene};
-use restir_world::world_restir::{WorldRestir, WorldRestirConfig};
+use restir_world::world_restir::WorldRestirConfig;
 use tests::gpu;
 
 const SIDE: u32 = 64;
@@ -40,7 +41,8 @@ fn relative_bias(
     let runs = seeds.len() as f64;
     let mut got = [0.0; 3];
     for seed in seeds {
-        let mut wr = WorldRestir::new(ctx, s, cam, WorldRestirConfig::default(), seed).unwrap();
+        let mut wr =
+            Composed::world_restir(ctx, s, cam, WorldRestirConfig::default(), seed).unwrap();
         gpu::render(&mut wr, frames);
         let m = channel_means(&gpu::images(&wr).indirect);
         for c in 0..3 {

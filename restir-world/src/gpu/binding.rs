@@ -163,6 +163,19 @@ impl BindingSet {
         out
     }
 
+    /// The name bound at each binding, in binding order (`None` for a block's bindings, whose
+    /// WGSL the block's crate declares).
+    pub fn binding_names(&self) -> Vec<Option<&str>> {
+        let mut out = Vec::new();
+        for slot in &self.slots {
+            match slot {
+                Slot::Buffer { name, .. } | Slot::Accel { name } => out.push(Some(name.as_str())),
+                Slot::Block { entries, .. } => out.extend(entries.iter().map(|_| None)),
+            }
+        }
+        out
+    }
+
     /// The layout entries, in binding order.
     pub fn layout_entries(&self) -> Vec<wgpu::BindGroupLayoutEntry> {
         let mut binding = 0;

@@ -38,9 +38,10 @@ use crate::gpu::{
     Access, BindGroupLayout, BindingSet, FrameEncoder, GpuContext, GpuError, Kernel, Pass,
     Resource, Tracer, WgslModule, buffers, compose, workgroup_size_wgsl,
 };
+pub use crate::images::{FrameImages, Readback};
 use crate::lights::{self, GpuLights, Lights};
 use crate::sampling::{CameraGpu, Estimator};
-use crate::scene::{Camera, Material, Scene};
+use crate::scene::{Camera, LUMINANCE, Material, Scene};
 use crate::trace::{self, Bvh};
 
 /// The renderer's library (structs + functions).
@@ -71,13 +72,55 @@ pub const RAY_EPS: f32 = 1e-4;
 /// tmax of unbounded rays.
 pub const T_MAX: f32 = 1e30;
 
-/// Pass ids mixed into the random seeds (each pass draws its own stream).
-const PASS_PRIMARY: u32 = 0;
-const PASS_GI: u32 = 1;
-const PASS_DIRECT: u32 = 2;
-const PASS_INDIRECT: u32 = 3;
-/// Room for later passes (ReSTIR) to take ids 4..16.
-pub const PASS_COUNT: u32 = 16;
+/// The random streams of the passes, allocated in this one place: each id is mixed into the
+/// seed of every invocation of the pass that draws from it (WGSL `render_rng`), so passes draw
+/// independent numbers. The WGSL constants `STREAM_*` are generated from [`Stream::ALL`].
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[repr(u32)]
+pub enum Stream {
+    /// Camera-ray jitter.
+    Primary = 0,
+    /// GI-ray directions.
+    Gi = 1,
+    /// NEE at the primary vertex.
+    Direct = 2,
+    /// NEE at the secondary vertex.
+    Indirect = 3,
+    WrGenerate = 4,
+    WrBuild = 5,
+    WrTemporal = 6,
+    WrSpatial = 7,
+    /// Filling the light tiles.
+    LightTiles = 8,
+    /// A pixel block's pick of a light tile.
+    LightTilePick = 9,
+    DiInitial = 10,
+    DiTemporal = 11,
+    DiSpatial = 12,
+}
+
+impl Stream {
+    /// Every stream with the suffix of its WGSL constant.
+    pub const ALL: [(Stream, &'static str); 13] = [
+        (Stream::Primary, "PRIMARY"),
+        (Stream::Gi, "GI"),
+        (Stream::Direct, "DIRECT"),
+        (Stream::Indirect, "INDIRECT"),
+        (Stream::WrGenerate, "WR_GENERATE"),
+        (Stream::WrBuild, "WR_BUILD"),
+        (Stream::WrTemporal, "WR_TEMPORAL"),
+        (Stream::WrSpatial, "WR_SPATIAL"),
+        (Stream::LightTiles, "LIGHT_TILES"),
+        (Stream::LightTilePick, "LIGHT_TILE_PICK"),
+        (Stream::DiInitial, "DI_INITIAL"),
+        (Stream::DiTemporal, "DI_TEMPORAL"),
+        (Stream::DiSpatial, "DI_SPATIAL"),
+    ];
+}
+
+/// Stream ids per seed: the seed of a render is `seed * STREAM_COUNT + stream`, so changing it
+/// changes every image.
+pub const STREAM_COUNT: u32 = 16;
 
 const METHOD_NEE: u32 = 0;
 const METHOD_RIS: u32 = 1;
@@ -250,8 +293,10 @@ pub struct RenderParams {
     /// 1 when `render_attributes` holds the scene's [`TriangleAttributes`], 0 when it is a
     /// dummy (flat shading, no texture coordinates).
     pub attributes: u32,
-    pub _pad1: u32,
-    pub _pad2: u32,
+    /// Scales of the direct and indirect frames as they are accumulated: 1 except in the
+    /// negative controls of tests ([`Renderer::plant_scale`]).
+    pub planted_direct: f32,
+    pub planted_indirect: f32,
 }
 
 /// The floor of the ray-offset scale for `scene`: its extent (largest side of its bounding
@@ -282,10 +327,16 @@ pub struct RenderState {
 pub fn constants_wgsl() -> String {
     format!(
         "const RENDER_METHOD_NEE: u32 = {METHOD_NEE}u;\nconst RENDER_METHOD_RIS: u32 = {METHOD_RIS}u;\n\
-         const RENDER_PASS_PRIMARY: u32 = {PASS_PRIMARY}u;\nconst RENDER_PASS_GI: u32 = {PASS_GI}u;\n\
-         const RENDER_PASS_DIRECT: u32 = {PASS_DIRECT}u;\nconst RENDER_PASS_INDIRECT: u32 = {PASS_INDIRECT}u;\n\
-         const RENDER_PASS_COUNT: u32 = {PASS_COUNT}u;\nconst RENDER_RAY_EPS: f32 = {RAY_EPS:e};\n\
-         const RENDER_T_MAX: f32 = {T_MAX:e};\n"
+         const STREAM_COUNT: u32 = {STREAM_COUNT}u;\nconst RENDER_RAY_EPS: f32 = {RAY_EPS:e};\n\
+         const RENDER_T_MAX: f32 = {T_MAX:e};\n\
+         const RENDER_LUMINANCE: vec3<f32> = vec3<f32>({:?}, {:?}, {:?});\n{}",
+        LUMINANCE[0],
+        LUMINANCE[1],
+        LUMINANCE[2],
+        Stream::ALL
+            .iter()
+            .map(|(s, name)| format!("const STREAM_{name}: u32 = {}u;\n", *s as u32))
+            .collect::<String>()
     )
 }
 
@@ -357,6 +408,40 @@ fn passes_module() -> WgslModule {
 /// The composed pass module on `tracer`.
 pub fn passes_source(tracer: Tracer) -> String {
     compose_with_library(tracer, vec![passes_module()])
+}
+
+/// A composed kernel module with the binding sets of its groups (0, 1, ... in order): what its
+/// pipeline layout is made of. The workspace's tests check each against the bindings naga finds
+/// in the source.
+#[derive(Debug, Clone)]
+pub struct ComposedKernel {
+    pub name: String,
+    pub source: String,
+    pub groups: Vec<BindingSet>,
+}
+
+impl ComposedKernel {
+    /// A kernel of a stage: the shared groups on the software tracer, then `own` at group 3.
+    pub fn stage(name: String, source: String, own: BindingSet) -> Self {
+        let mut groups: Vec<BindingSet> = shared_bindings(Tracer::Bvh).into();
+        groups.push(own);
+        Self {
+            name,
+            source,
+            groups,
+        }
+    }
+}
+
+/// The renderer's pass kernels on both tracers.
+pub fn kernels() -> Vec<ComposedKernel> {
+    [Tracer::Bvh, Tracer::RayQuery]
+        .map(|t| ComposedKernel {
+            name: format!("restir-world/render/{}", t.name()),
+            source: passes_source(t),
+            groups: shared_bindings(t).into(),
+        })
+        .into()
 }
 
 /// WGSL modules of the renderer, composed as used.
@@ -486,6 +571,21 @@ impl SharedGroups {
         Ok((kernel, layout))
     }
 
+    /// A pass of `entry` of `kernel` over `items` invocations (`None`: every pixel), its own
+    /// group 3 bound to `resources` by name.
+    pub fn bound_pass(
+        &self,
+        device: &wgpu::Device,
+        (kernel, layout): &OwnKernel,
+        entry: &str,
+        resources: Vec<(&str, Resource)>,
+        items: Option<u32>,
+    ) -> Result<Pass, GpuError> {
+        let group = layout.bind(device, resources)?;
+        let items = items.unwrap_or(self.pixels);
+        Ok(self.pass_over(device, kernel, entry, Some(&group), items))
+    }
+
     /// A pass of `entry` over every pixel with the shared groups (+ `own` at group 3).
     pub fn pass(
         &self,
@@ -512,6 +612,56 @@ impl SharedGroups {
     }
 }
 
+/// One kernel module of a stage above the renderer: its WGSL file, entry points and own
+/// group-3 buffers (name, WGSL type, access). Each stage composes it after the render library
+/// with its own library modules ([`SharedGroups::own_kernel`]).
+#[derive(Debug)]
+pub struct KernelDef {
+    pub name: &'static str,
+    pub entries: &'static [&'static str],
+    pub source: &'static str,
+    pub own: &'static [(&'static str, &'static str, Access)],
+}
+
+impl KernelDef {
+    /// Its group-3 buffers.
+    pub fn bindings(&self) -> BindingSet {
+        BindingSet::of_buffers(self.name, self.own)
+    }
+
+    /// Whether it binds buffer `name`.
+    pub fn binds(&self, name: &str) -> bool {
+        self.own.iter().any(|(n, _, _)| *n == name)
+    }
+}
+
+/// A created kernel with the layout of its own group-3 buffers.
+pub type OwnKernel = (Kernel, BindGroupLayout);
+
+/// Debug views of a stage's last frame (each stage draws those it has).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum DebugView {
+    /// A colour per grid slot (cell) of each vertex; black: not in the grid.
+    Cells = 0,
+    /// Heat map of log2(M) of the final reservoir (blue M = 1 .. red M >= 2^16).
+    M = 1,
+    /// Red where the vertex found its bucket full and kept its own reservoir.
+    Overflow = 2,
+}
+
+/// Reads the first `pixels` entries of a per-pixel `vec4` buffer back as RGB scaled by
+/// `scale`.
+pub fn read_rgb(
+    ctx: &GpuContext,
+    image: &wgpu::Buffer,
+    pixels: u32,
+    scale: f32,
+) -> Result<Vec<[f32; 3]>, GpuError> {
+    let v: Vec<[f32; 4]> = buffers::read(ctx, image)?;
+    let rgb = |p: &[f32; 4]| [p[0] * scale, p[1] * scale, p[2] * scale];
+    Ok(v.iter().take(pixels as usize).map(rgb).collect())
+}
+
 /// The renderer's passes.
 #[derive(Debug)]
 struct Passes {
@@ -520,6 +670,28 @@ struct Passes {
     shade_direct: Pass,
     shade_indirect: Pass,
     accumulate: Pass,
+}
+
+impl Passes {
+    fn new(device: &wgpu::Device, shared: &SharedGroups) -> Self {
+        let entries = [
+            "render_primary",
+            "render_gi",
+            "render_shade_direct",
+            "render_shade_indirect",
+            "render_accumulate",
+        ];
+        let modules = vec![passes_module()];
+        let kernel = shared.kernel(device, "render passes", modules, None, &entries);
+        let pass = |entry| shared.pass(device, &kernel, entry, None);
+        Self {
+            primary: pass(entries[0]),
+            gi: pass(entries[1]),
+            shade_direct: pass(entries[2]),
+            shade_indirect: pass(entries[3]),
+            accumulate: pass(entries[4]),
+        }
+    }
 }
 
 /// The GPU renderer of one scene and camera.
@@ -562,26 +734,18 @@ impl Renderer {
             .width
             .checked_mul(camera.height)
             .ok_or_else(|| RenderError::Settings("image too large".into()))?;
-        ctx.check_binding_size(
-            "the G-buffer",
-            u64::from(pixels) * size_of::<GVertex>() as u64,
-        )?;
-        let bvh = Bvh::build(scene)?;
-        let gpu_bvh = bvh.upload(ctx)?;
+        let vertex_bytes = u64::from(pixels) * size_of::<GVertex>() as u64;
+        ctx.check_binding_size("the G-buffer", vertex_bytes)?;
+        let gpu_bvh = Bvh::build(scene)?.upload(ctx)?;
         let gpu_lights = GpuLights::new(&ctx.device, &Lights::build(scene))?;
         let attributes = triangle_attributes(scene);
         if let Some(a) = &attributes {
-            ctx.check_binding_size(
-                "the triangle attributes",
-                (a.len() * size_of::<TriangleAttributes>()) as u64,
-            )?;
+            let bytes = (a.len() * size_of::<TriangleAttributes>()) as u64;
+            ctx.check_binding_size("the triangle attributes", bytes)?;
         }
         let textures = texture_tables(scene);
-        ctx.check_binding_size(
-            "the scene's textures (resize them)",
-            (textures.1.len() * 4) as u64,
-        )?;
-        let device = &ctx.device;
+        let texel_bytes = (textures.1.len() * 4) as u64;
+        ctx.check_binding_size("the scene's textures (resize them)", texel_bytes)?;
         let params = RenderParams {
             camera: CameraGpu::new(camera),
             pixel_count: pixels,
@@ -593,8 +757,8 @@ impl Renderer {
             candidates,
             ray_offset_floor: ray_offset_floor(scene),
             attributes: u32::from(attributes.is_some()),
-            _pad1: 0,
-            _pad2: 0,
+            planted_direct: 1.0,
+            planted_indirect: 1.0,
         };
         let no_material = [Material::new([0.0; 3], [0.0; 3])];
         let materials = match scene.materials.is_empty() {
@@ -602,18 +766,13 @@ impl Renderer {
             false => &scene.materials,
         };
         let dummy = [bytemuck::Zeroable::zeroed()];
-        let buffers = RenderBuffers::new(
-            device,
-            &params,
-            materials,
-            attributes.as_deref().unwrap_or(&dummy),
-            &textures,
-        );
-        let layouts = sets.map(|s| s.layout(device));
+        let attributes = attributes.as_deref().unwrap_or(&dummy);
+        let buffers = RenderBuffers::new(&ctx.device, &params, materials, attributes, &textures);
+        let layouts = sets.map(|s| s.layout(&ctx.device));
         let groups = [
-            layouts[0].bind(device, buffers.resources())?,
-            layouts[1].bind(device, gpu_bvh.resources())?,
-            layouts[2].bind(device, gpu_lights.resources())?,
+            layouts[0].bind(&ctx.device, buffers.resources())?,
+            layouts[1].bind(&ctx.device, gpu_bvh.resources())?,
+            layouts[2].bind(&ctx.device, gpu_lights.resources())?,
         ];
         let shared = SharedGroups {
             layouts,
@@ -621,28 +780,7 @@ impl Renderer {
             tracer: ctx.tracer,
             pixels,
         };
-        let entries = [
-            "render_primary",
-            "render_gi",
-            "render_shade_direct",
-            "render_shade_indirect",
-            "render_accumulate",
-        ];
-        let kernel = shared.kernel(
-            device,
-            "render passes",
-            vec![passes_module()],
-            None,
-            &entries,
-        );
-        let pass = |entry| shared.pass(device, &kernel, entry, None);
-        let passes = Passes {
-            primary: pass(entries[0]),
-            gi: pass(entries[1]),
-            shade_direct: pass(entries[2]),
-            shade_indirect: pass(entries[3]),
-            accumulate: pass(entries[4]),
-        };
+        let passes = Passes::new(&ctx.device, &shared);
         Ok(Self {
             camera: *camera,
             camera_changed: false,
@@ -733,6 +871,17 @@ impl Renderer {
         self.encode_accumulate(f);
     }
 
+    /// Plants a bias: the direct and indirect frames are accumulated scaled by these factors
+    /// (1 and 1 by default) from the next submission on. Only for the negative controls of
+    /// statistical tests: an estimator with a known defect applied on the GPU, which the same
+    /// check must catch.
+    pub fn plant_scale(&self, ctx: &GpuContext, direct: f32, indirect: f32) {
+        let offset = std::mem::offset_of!(RenderParams, planted_direct) as u64;
+        let scales = [direct, indirect];
+        ctx.queue
+            .write_buffer(&self.buffers.params, offset, bytemuck::cast_slice(&scales));
+    }
+
     /// Clears the running sums (the frame counter, which seeds the passes, runs on).
     pub fn restart_accumulation(&mut self, f: &mut FrameEncoder) {
         f.raw().clear_buffer(&self.buffers.accum_direct, 0, None);
@@ -740,15 +889,24 @@ impl Renderer {
         self.accumulated = 0;
     }
 
-    /// Reads a per-pixel `vec4` buffer back as RGB scaled by `scale`.
-    pub(crate) fn read_rgb(
-        &self,
-        ctx: &GpuContext,
-        image: &wgpu::Buffer,
-        scale: f32,
-    ) -> Result<Vec<[f32; 3]>, GpuError> {
-        let v: Vec<[f32; 4]> = buffers::read(ctx, image)?;
-        let rgb = |p: &[f32; 4]| [p[0] * scale, p[1] * scale, p[2] * scale];
-        Ok(v.iter().take(self.pixels() as usize).map(rgb).collect())
+    /// Reads the images back: the mean of the frames accumulated since creation or the last
+    /// restart, or the last frame alone.
+    pub fn read(&self, ctx: &GpuContext, which: Readback) -> Result<FrameImages, GpuError> {
+        let b = &self.buffers;
+        let (sums, frames, scale) = match which {
+            Readback::Accumulated => {
+                let n = self.accumulated;
+                let scale = if n == 0 { 0.0 } else { 1.0 / n as f32 };
+                ([&b.accum_direct, &b.accum_indirect], n, scale)
+            }
+            Readback::LastFrame => ([&b.direct_frame, &b.indirect_frame], 1, 1.0),
+        };
+        Ok(FrameImages {
+            width: self.camera.width,
+            height: self.camera.height,
+            frames,
+            direct: read_rgb(ctx, sums[0], self.pixels(), scale)?,
+            indirect: read_rgb(ctx, sums[1], self.pixels(), scale)?,
+        })
     }
 }

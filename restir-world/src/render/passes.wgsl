@@ -7,7 +7,7 @@
 fn render_primary(id: Invocation) {
     let i = item_index(id);
     if i >= render_params.pixel_count { return; }
-    var rng = render_rng(i, RENDER_PASS_PRIMARY);
+    var rng = render_rng(i, STREAM_PRIMARY);
     let w = render_params.camera.width;
     let jitter = vec2<f32>(rng_next_f32(&rng), rng_next_f32(&rng));
     var ray: Ray;
@@ -31,7 +31,7 @@ fn render_gi(id: Invocation) {
         render_secondary[i] = none;
         return;
     }
-    var rng = render_rng(i, RENDER_PASS_GI);
+    var rng = render_rng(i, STREAM_GI);
     let u = vec2<f32>(rng_next_f32(&rng), rng_next_f32(&rng));
     var ray: Ray;
     ray.origin = render_offset(g.position, g.normal);
@@ -57,7 +57,7 @@ fn render_shade_direct(id: Invocation) {
     let g = render_gbuffer[i];
     var c = g.emission;
     if g.prim != BVH_NO_HIT {
-        var rng = render_rng(i, RENDER_PASS_DIRECT);
+        var rng = render_rng(i, STREAM_DIRECT);
         c = g.emission + render_nee(g, &rng);
     }
     render_direct_frame[i] = vec4<f32>(c, 1.0);
@@ -73,13 +73,14 @@ fn render_shade_indirect(id: Invocation) {
     let s = render_secondary[i];
     var c = vec3<f32>(0.0);
     if g.prim != BVH_NO_HIT && s.prim != BVH_NO_HIT {
-        var rng = render_rng(i, RENDER_PASS_INDIRECT);
+        var rng = render_rng(i, STREAM_INDIRECT);
         c = g.albedo * render_nee(s, &rng);
     }
     render_indirect_frame[i] = vec4<f32>(c, 1.0);
 }
 
-// Adds this frame's direct and indirect estimates to the running sums; advances the frame.
+// Adds this frame's direct and indirect estimates to the running sums (scaled only in tests'
+// negative controls); advances the frame.
 @compute @workgroup_size(WORKGROUP_SIZE)
 fn render_accumulate(id: Invocation) {
     let i = item_index(id);
@@ -89,6 +90,6 @@ fn render_accumulate(id: Invocation) {
     if i >= render_params.pixel_count {
         return;
     }
-    render_accum_direct[i] += render_direct_frame[i];
-    render_accum_indirect[i] += render_indirect_frame[i];
+    render_accum_direct[i] += render_direct_frame[i] * render_params.planted_direct;
+    render_accum_indirect[i] += render_indirect_frame[i] * render_params.planted_indirect;
 }

@@ -66,8 +66,9 @@ struct RenderParams {
     candidates: u32,
     ray_offset_floor: f32,
     attributes: u32,
-    _pad1: u32,
-    _pad2: u32,
+    // 1 and 1 but in tests' negative controls (render::Renderer::plant_scale).
+    planted_direct: f32,
+    planted_indirect: f32,
 }
 
 // GPU-side frame counter: advanced by render_accumulate, read by every pass for its seeds.
@@ -77,12 +78,18 @@ struct RenderState {
 }
 
 fn render_luminance(c: vec3<f32>) -> f32 {
-    return dot(c, vec3<f32>(0.2126, 0.7152, 0.0722));
+    return dot(c, RENDER_LUMINANCE);
 }
 
-// Random state of pass `pass_id` at pixel `pixel` in the current frame.
-fn render_rng(pixel: u32, pass_id: u32) -> u32 {
-    return rng_seed(pixel, render_state.frame, render_params.seed * RENDER_PASS_COUNT + pass_id);
+// Random state of invocation i (a pixel, a grid item, a tile entry) of the pass drawing from
+// `stream` (a STREAM_* id) in the current frame.
+fn render_rng(i: u32, stream: u32) -> u32 {
+    return rng_seed(i, render_state.frame, render_params.seed * STREAM_COUNT + stream);
+}
+
+// render_rng of sub-stream `salt` of `stream` (e.g. the n-th of a pass's repeats).
+fn render_rng_salted(i: u32, stream: u32, salt: u32) -> u32 {
+    return rng_seed(i, render_state.frame, (render_params.seed * STREAM_COUNT + stream) ^ (salt << 20u));
 }
 
 fn render_rand4(rng: ptr<function, u32>) -> vec4<f32> {
@@ -213,27 +220,6 @@ fn render_light_sample_at(light: u32, coords: vec2<f32>) -> LightSample {
     return render_textured_emission(lights_sample_at(light, coords));
 }
 
-// Pairwise MIS with confidence weights (Bitterli 2022; Wyman et al. 2023) for one of the k
-// neighbours a reuse pass merges into its canonical reservoir: with confidences m_n (the
-// neighbour's M) and m_c (the canonical's M / k) out of `total` (the canonical's M + every
-// neighbour's), the neighbour shares its part (m_n + m_c) / total of the unit MIS mass with the
-// canonical by a two-strategy balance heuristic. From the targets of the neighbour's vertex at
-// the neighbour's sample y (p_n_y) and at the canonical sample (p_n_own), and of the canonical
-// vertex at both (p_c_y, p_c_own), returns (y's MIS weight, this neighbour's part of the
-// canonical sample's weight). The canonical parts summed over the neighbours (1 when k = 0)
-// and the neighbours' weights add up to 1 wherever the canonical target is non-zero: unbiased.
-fn render_pairwise_mis(m_n: f32, m_c: f32, total: f32, p_n_y: f32, p_c_y: f32, p_n_own: f32,
-                       p_c_own: f32) -> vec2<f32> {
-    let share = (m_n + m_c) / total;
-    return vec2<f32>(share * render_balance(m_n * p_n_y, m_c * p_c_y),
-                     share * render_balance(m_c * p_c_own, m_n * p_n_own));
-}
-
-// a / (a + b), with 0 / 0 = 0.
-fn render_balance(a: f32, b: f32) -> f32 {
-    return select(0.0, a / (a + b), a + b > 0.0);
-}
-
 // A reservoir as the reuse methods (world-restir, restir-di) store it between passes, 16 bytes
 // (Rust twin: render::StoredReservoir). Its light sample is the light and where on it, one
 // representation for every light kind: light_kind = the sample's LIGHTS_KIND_* in the low 2
@@ -273,6 +259,62 @@ fn render_stored_sample(r: StoredReservoir) -> LightSample {
     var s = render_light_sample_at(r.light_kind >> 2u, coords);
     s.pdf_area = 1.0;
     return s;
+}
+
+// f(y) W of a stored reservoir's light sample y at vertex v, times `weight` (applied first),
+// with one shadow ray: 0 when the reservoir is empty or y is occluded. Every reuse method
+// shades its final reservoirs with it.
+fn render_shade_stored(v: GVertex, res: StoredReservoir, weight: vec3<f32>) -> vec3<f32> {
+    if res.m == 0u || !(res.ucw > 0.0) {
+        return vec3<f32>(0.0);
+    }
+    let y = render_stored_sample(res);
+    let f = render_vertex_light(v, y);
+    if !any(f > vec3<f32>(0.0)) || !render_visible_sample(v.position, v.normal, y) {
+        return vec3<f32>(0.0);
+    }
+    return weight * f * res.ucw;
+}
+
+// Reuse of stored light reservoirs (restir-di, world-restir): merges neighbour n's reservoir
+// `src` (confidence m, capped), generated at vertex q, into the combination c at receiver v,
+// whose own sample is own_sample. Light samples need no shift: every Jacobian is 1. Returns
+// true when src's sample is now selected.
+fn render_reuse_light(c: ptr<function, Reuse>, n: u32, src: StoredReservoir, m: u32, v: GVertex,
+                      q: GVertex, own_sample: LightSample, u: f32) -> bool {
+    let y = render_stored_sample(src);
+    var p_n_y = 0.0;
+    var p_n_own = 0.0;
+    if (*c).mode == REUSE_PAIRWISE {
+        p_n_y = render_light_target(q, y);
+        p_n_own = render_light_target(q, own_sample);
+    }
+    return reuse_neighbour(c, n, PackedReservoir(src.ucw, m), render_light_target(v, y), p_n_y,
+                           p_n_own, u);
+}
+
+// Ends a reuse of stored light reservoirs: `own` when the receiver's sample won, else `chosen`
+// (the neighbour last selected), with the combination's W and M.
+fn render_reuse_store(c: ptr<function, Reuse>, own: StoredReservoir,
+                      chosen: StoredReservoir) -> StoredReservoir {
+    let stored = reuse_finish(c);
+    var out = chosen;
+    if reuse_selected(*c) == REUSE_CANONICAL {
+        out = own;
+    }
+    out.ucw = stored.ucw;
+    out.m = stored.m;
+    return out;
+}
+
+// Direct light at primary vertex g from a stored reservoir: the emission seen + f(y) W with one
+// shadow ray (restir-di's and the unified cache's shading).
+fn render_direct_from_stored(g: GVertex, res: StoredReservoir) -> vec3<f32> {
+    var c = g.emission;
+    if g.prim != BVH_NO_HIT {
+        c += render_shade_stored(g, res, vec3<f32>(1.0));
+    }
+    return c;
 }
 
 // Interpolated vertex normals at the hit, normalized and turned to the side of the geometric
@@ -315,6 +357,17 @@ fn render_light_contribution(p: vec3<f32>, n: vec3<f32>, ns: vec3<f32>, albedo: 
         return vec3<f32>(0.0);
     }
     return albedo * SAMPLING_INV_PI * s.emission * (cos_x * cos_l / d2);
+}
+
+// Unshadowed reflected radiance of light sample s at vertex v.
+fn render_vertex_light(v: GVertex, s: LightSample) -> vec3<f32> {
+    return render_light_contribution(v.position, v.normal, v.shading, v.albedo, s);
+}
+
+// The target p_hat of every light-sample resampling (ris, world-restir, restir-di): luminance
+// of the unshadowed reflected radiance of s at v.
+fn render_light_target(v: GVertex, s: LightSample) -> f32 {
+    return render_luminance(render_vertex_light(v, s));
 }
 
 fn render_other_light_contribution(p: vec3<f32>, n: vec3<f32>, ns: vec3<f32>, albedo: vec3<f32>, s: LightSample) -> vec3<f32> {

@@ -1,6 +1,6 @@
-// Pass "di-initial": RIS over di_params.candidates light samples at each primary vertex, drawn
-// uniformly from the tile its 8x8 pixel block picked this frame (one random tile per block per
-// frame: coherent memory), target = luminance of the unshadowed reflected radiance. The stored
+// Pass "di-initial": RIS over di_params.knobs.candidates light samples at each primary vertex,
+// drawn uniformly from the tile its 8x8 pixel block picked this frame (one random tile per
+// block per frame: coherent memory), target = luminance of the unshadowed reflected radiance. The stored
 // confidence is 1 (one frame of candidates), as RTXDI's. Writes di_out.
 
 @compute @workgroup_size(WORKGROUP_SIZE)
@@ -18,10 +18,10 @@ fn di_initial(id: Invocation) {
         di_out[i] = out;
         return;
     }
-    let first = light_tiles_first(i, di_params.tiles, di_params.tile_size);
-    var rng = di_rng(i, DI_PASS_INITIAL);
-    let ris = light_tiles_ris(g.position, g.normal, g.shading, g.albedo, first, di_params.tile_size,
-                              di_params.candidates, &rng);
+    let first = light_tiles_first(i, di_params.knobs.tiles, di_params.knobs.tile_size);
+    var rng = render_rng(i, STREAM_DI_INITIAL);
+    let ris = light_tiles_ris(g.position, g.normal, g.shading, g.albedo, first, di_params.knobs.tile_size,
+                              di_params.knobs.candidates, &rng);
     out = render_store_reservoir(ris.light, PackedReservoir(ris.reservoir.ucw, 1u));
     di_out[i] = out;
 }

@@ -4,23 +4,16 @@
 // only. Needs the render library (render::library: render_* bindings, lights, trace, rng),
 // reservoir::wgsl() and the constants header restir_di::constants_wgsl().
 
-// Knobs and the frame's history (Rust twin: restir_di::DiParams), uploaded every frame.
-// prev_camera: last frame's camera; history = 1 when last frame's G-buffer and reservoirs
-// exist.
+// Knobs (DiKnobs, generated from restir_di::RestirDiConfig) and the frame's history (Rust
+// twin: restir_di::DiParams), uploaded every frame. prev_camera: last frame's camera; history
+// = 1 when last frame's G-buffer and reservoirs exist.
 struct DiParams {
+    knobs: DiKnobs,
     prev_camera: CameraGpu,
-    tiles: u32,
-    tile_size: u32,
-    candidates: u32,
     history: u32,
-    temporal_m_cap: u32,
-    spatial_k: u32,
-    spatial_radius: f32,
-    combine: u32,
-    depth_threshold: f32,
-    normal_threshold: f32,
     _pad0: u32,
     _pad1: u32,
+    _pad2: u32,
 }
 
 // Per reuse pass (Rust twin: restir_di::DiPass): temporal = 1 for the pass that reads last
@@ -30,20 +23,6 @@ struct DiPass {
     _pad0: u32,
     _pad1: u32,
     _pad2: u32,
-}
-
-// Unshadowed reflected radiance of light sample s at the primary vertex g.
-fn di_contribution(g: GVertex, s: LightSample) -> vec3<f32> {
-    return render_light_contribution(g.position, g.normal, g.shading, g.albedo, s);
-}
-
-// The target p_hat: luminance of the unshadowed reflected radiance (the `ris` baseline's).
-fn di_target(g: GVertex, s: LightSample) -> f32 {
-    return render_luminance(di_contribution(g, s));
-}
-
-fn di_rng(i: u32, pass_id: u32) -> u32 {
-    return rng_seed(i, render_state.frame, render_params.seed * RENDER_PASS_COUNT + pass_id);
 }
 
 // The pixel whose camera ray through `cam` sees the point p, or DI_NO_PIXEL when p is behind
@@ -74,6 +53,6 @@ fn di_similar(g: GVertex, q: GVertex, eye: vec3<f32>) -> bool {
     }
     let dg = distance(g.position, eye);
     let dq = distance(q.position, eye);
-    return abs(dq - dg) <= di_params.depth_threshold * dg
-        && dot(g.shading, q.shading) >= di_params.normal_threshold;
+    return abs(dq - dg) <= di_params.knobs.depth_threshold * dg
+        && dot(g.shading, q.shading) >= di_params.knobs.normal_threshold;
 }

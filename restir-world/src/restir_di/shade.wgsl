@@ -6,17 +6,5 @@
 fn di_shade(id: Invocation) {
     let i = item_index(id);
     if i >= render_params.pixel_count { return; }
-    let g = render_gbuffer[i];
-    var c = g.emission;
-    if g.prim != BVH_NO_HIT {
-        let res = di_final[i];
-        if res.m > 0u && res.ucw > 0.0 {
-            let y = render_stored_sample(res);
-            let f = di_contribution(g, y);
-            if any(f > vec3<f32>(0.0)) && render_visible_sample(g.position, g.normal, y) {
-                c += f * res.ucw;
-            }
-        }
-    }
-    render_direct_frame[i] = vec4<f32>(c, 1.0);
+    render_direct_frame[i] = vec4<f32>(render_direct_from_stored(render_gbuffer[i], di_final[i]), 1.0);
 }

@@ -4,7 +4,7 @@
 use glam::Vec3;
 use reservoir::rng::Rng;
 
-use super::{Camera, Material, Scene, SceneError};
+use super::{Camera, Material, Scene, SceneError, luminance};
 
 /// Names accepted by [`builtin`].
 pub const BUILTIN_NAMES: [&str; 5] = [
@@ -478,11 +478,6 @@ fn hue_rgb(hue: f32, saturation: f32) -> Vec3 {
     };
     let c = Vec3::ONE.lerp(c, saturation);
     c / luminance(c.to_array())
-}
-
-/// Rec. 709 luminance of a linear RGB triple.
-pub fn luminance(c: [f32; 3]) -> f32 {
-    0.2126 * c[0] + 0.7152 * c[1] + 0.0722 * c[2]
 }
 
 /// Side length of the `furnace` box, metres.

@@ -195,7 +195,7 @@ impl Environment {
             sum += omega
                 * row
                     .iter()
-                    .map(|p| f64::from(super::builtin::luminance(*p)))
+                    .map(|p| f64::from(super::luminance(*p)))
                     .sum::<f64>();
         }
         sum / (4.0 * std::f64::consts::PI)

@@ -14,7 +14,6 @@
 mod add_lights;
 pub mod builtin;
 pub mod environment;
-mod framing;
 mod loaders;
 pub mod texture;
 
@@ -24,7 +23,6 @@ pub use builtin::{
     many_lights,
 };
 pub use environment::Environment;
-pub use framing::DEFAULT_VFOV_DEG;
 pub use loaders::{
     DEFAULT_ALBEDO, ExtensionPolicy, Loaded, extension_policy, load, load_gltf, load_obj,
 };
@@ -34,6 +32,14 @@ use std::path::PathBuf;
 
 use glam::Vec3;
 
+/// The Rec. 709 luminance weights of linear RGB (the WGSL `render_luminance` is generated
+/// from them).
+pub const LUMINANCE: [f32; 3] = [0.2126, 0.7152, 0.0722];
+
+/// Rec. 709 luminance of a linear RGB triple.
+pub fn luminance(c: [f32; 3]) -> f32 {
+    LUMINANCE[0] * c[0] + LUMINANCE[1] * c[1] + LUMINANCE[2] * c[2]
+}
 /// What can go wrong when building, loading or checking a scene.
 #[derive(Debug, thiserror::Error)]
 pub enum SceneError {
@@ -322,7 +328,7 @@ pub struct Scene {
     pub triangles: Vec<Triangle>,
     pub materials: Vec<Material>,
     /// The camera renders use (a file's first camera, or the one [`Scene::select_camera`]
-    /// chose); `None`: [`Scene::camera_or_default`] frames the scene.
+    /// chose); `None`: `Scene::camera_or_default` (in [`crate::framing`]) frames the scene.
     pub camera: Option<Camera>,
     /// All cameras of a scene file, in file order (depth-first over the default scene's
     /// nodes); empty for the built-in scenes.
@@ -488,17 +494,6 @@ impl Scene {
         let mut it = self.triangles.iter().flat_map(|t| t.v);
         let first = it.next()?;
         Some(it.fold((first, first), |(lo, hi), v| (lo.min(v), hi.max(v))))
-    }
-
-    /// The scene's camera, or a default framing at `width` x `height`: the whole bounding
-    /// sphere in a 45 degree vertical field of view, y up, from the side that shows the most of
-    /// the scene's inside (an open box from its open side; a planar scene across its plane,
-    /// never edge-on). See `framing.rs`.
-    pub fn camera_or_default(&self, width: u32, height: u32) -> Camera {
-        if let Some(c) = self.camera {
-            return Camera { width, height, ..c };
-        }
-        framing::default_camera(self, width, height)
     }
 
     /// Makes the file camera `wanted` (an index into [`Scene::cameras`] or a name) the one

@@ -8,11 +8,11 @@ fn wr_insert(id: Invocation) {
     let i = item_index(id);
     if i >= wr_params.items { return; }
     var entry = vec2<u32>(WR_NO_SLOT, 0u);
-    if wr_has_vertex(i) && wr_is_active(i, wr_params.gi_stride) {
+    if wr_has_vertex(i) && wr_is_active(i, wr_params.knobs.gi_stride) {
         let v = wr_vertex(i);
         var pos = v.position;
-        if wr_params.jitter != 0u {
-            var rng = wr_rng(i, WR_PASS_BUILD, 0u);
+        if wr_params.knobs.jitter != 0u {
+            var rng = render_rng_salted(i, STREAM_WR_BUILD, 0u);
             let u = vec2<f32>(rng_next_f32(&rng), rng_next_f32(&rng));
             pos = hash_jitter(pos, v.normal, u, hash_cell_size(hash_params, pos));
         }

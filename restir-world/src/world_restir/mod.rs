@@ -31,13 +31,18 @@
 use gpu_hash::{CellSizing, HashGridParams, HashStats, HashTable, TableConfig};
 use gpu_scan::{Scan, ScanBinding, ScanDescriptor, ScanKind};
 
+use reservoir::reuse::Combination;
+
 use crate::gpu::{
-    Access, BindGroupLayout, BindingSet, FrameEncoder, GpuContext, GpuError, Kernel, Pass,
-    Resource, Tracer, WgslModule, buffers,
+    Access, BindingSet, FrameEncoder, GpuContext, GpuError, Pass, Resource, Tracer, WgslModule,
+    buffers,
 };
-use crate::render::{self, RenderError, Renderer, SharedGroups};
-use crate::restir_di::{self, RestirDi, RestirDiConfig};
-use crate::scene::{Camera, Scene};
+use crate::knobs::{Knobs, Variant};
+use crate::light_tiles::{self, LightTiles};
+use crate::render::{
+    self, ComposedKernel, DebugView, KernelDef, OwnKernel, RenderError, Renderer, SharedGroups,
+};
+use crate::scene::Camera;
 
 /// Library WGSL (structs and helpers shared by the passes).
 pub const WGSL: &str = include_str!("world_restir.wgsl");
@@ -47,12 +52,6 @@ const SCATTER_WGSL: &str = include_str!("scatter.wgsl");
 const REUSE_WGSL: &str = include_str!("reuse.wgsl");
 const SHADE_WGSL: &str = include_str!("shade.wgsl");
 const DEBUG_WGSL: &str = include_str!("debug.wgsl");
-
-/// Random-stream ids of the passes (the renderer reserves 0..4 of its 16).
-const PASS_GENERATE: u32 = 4;
-const PASS_BUILD: u32 = 5;
-const PASS_TEMPORAL: u32 = 6;
-const PASS_SPATIAL: u32 = 7;
 
 /// The group every world-space pass binds its own buffers at (0..3 are the renderer's).
 pub const GROUP: u32 = 3;
@@ -68,138 +67,124 @@ pub enum WorldRestirError {
     Scan(#[from] gpu_scan::ScanError),
     #[error(transparent)]
     Gpu(#[from] GpuError),
-    #[error(transparent)]
-    RestirDi(#[from] crate::restir_di::RestirDiError),
     #[error("bad world-restir setting: {0}")]
     Config(String),
 }
 
-/// Combination (MIS) weights of the reuse passes (reuse.wgsl has the formulas).
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Combine {
-    /// The paper's 1/M: biased (darker) where a neighbour's target is 0 at a sample the
-    /// receiver can use.
-    Biased = 0,
-    /// 1/Z (Bitterli et al. 2020): unbiased; Z counts the merged reservoirs that could have
-    /// produced the selected sample.
-    OneOverZ = 1,
-    /// Pairwise MIS with confidence weights: unbiased, and robust to samples whose target is
-    /// far larger at the receiver than where they were drawn.
-    Pairwise = 2,
-}
-
-impl Combine {
-    /// Every mode with its command-line name.
-    pub const ALL: [(Combine, &'static str); 3] = [
-        (Combine::Biased, "biased"),
-        (Combine::OneOverZ, "one-over-z"),
-        (Combine::Pairwise, "pairwise"),
-    ];
-
-    /// The command-line name.
-    pub fn name(self) -> &'static str {
-        Self::ALL
-            .iter()
-            .find(|(c, _)| *c == self)
-            .map_or("", |(_, n)| n)
+crate::knobs! {
+    /// Every knob of world-space ReSTIR, with the paper's defaults (Boissé 2021, section 5, and
+    /// AMD's public implementation where the paper is silent).
+    #[derive(Debug, Clone, Copy, PartialEq)]
+    pub struct WorldRestirConfig {
+        /// Hash-grid buckets. `auto` (the default): sized to the frame by [`auto_buckets`] from
+        /// the number of vertices that can enter the grid; 100000 is the paper's fixed table.
+        buckets: Option<u32> = None, "buckets", Some(1)..=Some(u32::MAX);
+        /// Slots per bucket, i.e. linear-probing length (default 32, the paper's).
+        slots: u32 = 32, "slots";
+        /// RIS light candidates per vertex, the initial M (default 16, the paper's).
+        [gpu] candidates: u32 = render::DEFAULT_CANDIDATES, "candidates", 1..=render::MAX_CANDIDATES;
+        /// Reservoirs merged per cell lookup at most (default 4, the paper's `max_count`).
+        [gpu] max_count: u32 = 4, "max-count", 1..=u32::MAX;
+        /// Spatial reuse passes per frame (default 2; the paper's is 4). Chosen by measurement
+        /// on many-lights at 256x256 (llvmpipe, equal time against ris): 2 passes had the lowest
+        /// indirect relMSE per GPU millisecond; a third and fourth pass mostly re-merge the same
+        /// ~4 reservoirs of a cell and cost more than they remove.
+        spatial_passes: u32 = 2, "spatial-passes", 0..=64;
+        /// One temporal reuse pass from last frame's grid (default on, the paper's).
+        temporal: bool = true, "temporal";
+        /// Cap of the confidence taken from last frame, as a multiple of `candidates` (default
+        /// 20: at most 20 x 16 = 320 in total; each of the n <= max_count reservoirs the temporal
+        /// lookup visits is capped at 320 / n).
+        [gpu] temporal_m_cap: u32 = 20, "temporal-m-cap", 1..=65_535;
+        /// Smallest cell edge in world units (default 0.01 = 1 cm; the cell size when
+        /// `adaptive_cell_size` is off).
+        min_cell_size: f32 = 0.01, "min-cell-size";
+        /// Targeted projected cell size in pixels of the adaptive cell size (default 16).
+        projected_size: f32 = 16.0, "projected-size";
+        /// Tangent-plane jitter of the vertex position by up to one cell before insertion and
+        /// lookup (default on).
+        [gpu] jitter: bool = true, "jitter";
+        /// Cell size adapted to the distance from the eye (paper Algorithm 4; default on). Off:
+        /// every cell is `min_cell_size`.
+        adaptive_cell_size: bool = true, "adaptive-cell-size";
+        /// A stored reservoir is reused only when the cosine between its vertex normal and the
+        /// receiver's is at least this (default 0.8409 = 0.5^(1/4), i.e. dot^4 >= 0.5, about 33
+        /// degrees, as in Capsaicin).
+        [gpu] normal_threshold: f32 = 0.840_896_4, "normal-threshold", -1.0..=1.0;
+        /// GI resolution scale as a stride (default 1 = every pixel; 2 = one pixel of each 2x2
+        /// block, rotating over frames, generates a reservoir and enters the grid: the paper's
+        /// half resolution). Every pixel still looks the grid up and shades. Needs reuse on (with
+        /// no reuse the other pixels stay black). Biased above 1: a pixel without a reservoir of
+        /// its own gets only samples its neighbours could draw (measured on many-lights at
+        /// 128x128 with stride 2: indirect mean -15/-22/-13% per channel), so the default stays 1.
+        [gpu] gi_stride: u32 = 1, "gi-stride", 1..=8;
+        /// How reused reservoirs are weighted (default pairwise MIS, unbiased; `biased` is the
+        /// paper's 1/M, `one-over-z` Bitterli et al.'s 1/Z).
+        [gpu] combine: Combination = Combination::Pairwise, "combine";
+        /// Order each cell's vertex list by index after the scatter, so images do not depend on
+        /// the order atomics ran in (default on; not in the paper, which accepts the race).
+        sort_cells: bool = true, "sort-cells";
+        /// One reservoir cache for all light (the paper's future work; default off): primary
+        /// vertices enter the same grid as the secondary ones with reservoirs of their own, go
+        /// through the same temporal and spatial reuse, and their final reservoirs light the
+        /// direct image (one shadow ray each) instead of the renderer's RIS.
+        unified: bool = false, "unified";
     }
 }
 
-impl std::str::FromStr for Combine {
-    type Err = String;
-    fn from_str(s: &str) -> Result<Self, String> {
-        Self::ALL
-            .iter()
-            .find(|(_, n)| *n == s)
-            .map(|(c, _)| *c)
-            .ok_or_else(|| {
-                format!("unknown combination {s:?}; known: biased, one-over-z, pairwise")
-            })
-    }
-}
-
-/// Every knob of world-space ReSTIR, with the paper's defaults (Boissé 2021, section 5, and
-/// AMD's public implementation where the paper is silent).
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct WorldRestirConfig {
-    /// Hash-grid buckets. `None` (the default): sized to the frame by [`auto_buckets`] from the
-    /// number of vertices that can enter the grid; `Some(100_000)` is the paper's fixed table.
-    pub buckets: Option<u32>,
-    /// Slots per bucket, i.e. linear-probing length (default 32, the paper's).
-    pub slots: u32,
-    /// RIS light candidates per vertex, the initial M (default 16, the paper's).
-    pub candidates: u32,
-    /// Reservoirs merged per cell lookup at most (default 4, the paper's `max_count`).
-    pub max_count: u32,
-    /// Spatial reuse passes per frame (default 2; the paper's is 4). Chosen by measurement on
-    /// many-lights at 256x256 (llvmpipe, equal time against ris): 2 passes had the lowest
-    /// indirect relMSE per GPU millisecond; a third and fourth pass mostly re-merge the same
-    /// ~4 reservoirs of a cell and cost more than they remove.
-    pub spatial_passes: u32,
-    /// One temporal reuse pass from last frame's grid (default on, the paper's).
-    pub temporal: bool,
-    /// Cap of the confidence taken from last frame, as a multiple of `candidates` (default 20:
-    /// at most 20 x 16 = 320 in total; each of the n <= max_count reservoirs the temporal lookup
-    /// visits is capped at 320 / n).
-    pub temporal_m_cap: u32,
-    /// Smallest cell edge in world units (default 0.01 = 1 cm; the cell size when
-    /// `adaptive_cell_size` is off).
-    pub min_cell_size: f32,
-    /// Targeted projected cell size in pixels of the adaptive cell size (default 16).
-    pub projected_size: f32,
-    /// Tangent-plane jitter of the vertex position by up to one cell before insertion and
-    /// lookup (default on).
-    pub jitter: bool,
-    /// Cell size adapted to the distance from the eye (paper Algorithm 4; default on). Off:
-    /// every cell is `min_cell_size`.
-    pub adaptive_cell_size: bool,
-    /// A stored reservoir is reused only when the cosine between its vertex normal and the
-    /// receiver's is at least this (default 0.8409 = 0.5^(1/4), i.e. dot^4 >= 0.5, about 33
-    /// degrees, as in Capsaicin).
-    pub normal_threshold: f32,
-    /// GI resolution scale as a stride (default 1 = every pixel; 2 = one pixel of each 2x2
-    /// block, rotating over frames, generates a reservoir and enters the grid: the paper's half
-    /// resolution). Every pixel still looks the grid up and shades; GI rays are traced for every
-    /// pixel by the shared `gi` pass. Needs reuse on (with no reuse the other pixels stay black).
-    /// Biased above 1: a pixel without a reservoir of its own gets only samples its neighbours
-    /// could draw (measured on many-lights at 128x128 with stride 2: indirect mean -15/-22/-13%
-    /// per channel; 63.5 against 65.9 ms per frame with four spatial passes, single-frame relMSE
-    /// 5.86 against 5.90), so the default stays 1.
-    pub gi_stride: u32,
-    /// How reused reservoirs are weighted (default [`Combine::Pairwise`], unbiased).
-    pub combine: Combine,
-    /// Order each cell's vertex list by index after the scatter, so images do not depend on
-    /// the order atomics ran in (default on; not in the paper, which accepts the race).
-    pub sort_cells: bool,
-    /// One reservoir cache for all light (the paper's future work; default off): primary
-    /// vertices enter the same grid as the secondary ones with reservoirs of their own, go
-    /// through the same temporal and spatial reuse, and their final reservoirs light the
-    /// direct image (one shadow ray each) instead of the renderer's RIS.
-    pub unified: bool,
-}
-
-impl Default for WorldRestirConfig {
-    fn default() -> Self {
-        Self {
-            buckets: None,
-            slots: 32,
-            candidates: render::DEFAULT_CANDIDATES,
-            max_count: 4,
-            spatial_passes: 2,
-            temporal: true,
-            temporal_m_cap: 20,
-            min_cell_size: 0.01,
-            projected_size: 16.0,
-            jitter: true,
-            adaptive_cell_size: true,
-            normal_threshold: 0.840_896_4,
-            gi_stride: 1,
-            combine: Combine::Pairwise,
-            sort_cells: true,
-            unified: false,
-        }
-    }
-}
+/// The named variants of `world-restir`, each isolating what one part buys.
+pub const VARIANTS: &[Variant] = &[
+    Variant {
+        name: "both",
+        knobs: "",
+        about: "temporal + spatial reuse (the default)",
+    },
+    Variant {
+        name: "no-reuse",
+        knobs: "temporal=off+spatial-passes=0",
+        about: "no temporal, no spatial reuse",
+    },
+    Variant {
+        name: "temporal",
+        knobs: "spatial-passes=0",
+        about: "temporal reuse only",
+    },
+    Variant {
+        name: "spatial",
+        knobs: "temporal=off",
+        about: "spatial reuse only",
+    },
+    Variant {
+        name: "no-adaptive",
+        knobs: "adaptive-cell-size=off",
+        about: "fixed cell size",
+    },
+    Variant {
+        name: "no-jitter",
+        knobs: "jitter=off",
+        about: "no tangent jitter of the lookups",
+    },
+    Variant {
+        name: "biased",
+        knobs: "combine=biased",
+        about: "the paper's 1/M weights instead of pairwise MIS",
+    },
+    Variant {
+        name: "one-over-z",
+        knobs: "combine=one-over-z",
+        about: "1/Z weights instead of pairwise MIS",
+    },
+    Variant {
+        name: "paper-grid",
+        knobs: "buckets=100000",
+        about: "the paper's fixed 100,000 x 32 table",
+    },
+    Variant {
+        name: "unified",
+        knobs: "unified=on",
+        about: "one cache for all light: primary vertices in the grid too, direct light from it",
+    },
+];
 
 impl WorldRestirConfig {
     /// No temporal and no spatial reuse: the `ris` baseline's estimator.
@@ -249,150 +234,9 @@ impl WorldRestirConfig {
         }
     }
 
-    /// Sets one knob from its name (the field's, with `-` or `_`) and a value: numbers, `on` /
-    /// `off` for switches, `auto` or a count for `buckets`, a [`Combine`] name for `combine`.
-    pub fn set(&mut self, key: &str, value: &str) -> Result<(), WorldRestirError> {
-        fn parse<T: std::str::FromStr>(key: &str, value: &str) -> Result<T, WorldRestirError> {
-            value
-                .parse()
-                .map_err(|_| WorldRestirError::Config(format!("{key}: cannot parse {value:?}")))
-        }
-        fn switch(key: &str, value: &str) -> Result<bool, WorldRestirError> {
-            match value {
-                "on" | "true" | "1" => Ok(true),
-                "off" | "false" | "0" => Ok(false),
-                _ => Err(WorldRestirError::Config(format!(
-                    "{key}: expected on or off, got {value:?}"
-                ))),
-            }
-        }
-        match key.replace('-', "_").as_str() {
-            "buckets" => {
-                self.buckets = if value == "auto" {
-                    None
-                } else {
-                    Some(parse(key, value)?)
-                }
-            }
-            "slots" => self.slots = parse(key, value)?,
-            "candidates" => self.candidates = parse(key, value)?,
-            "max_count" => self.max_count = parse(key, value)?,
-            "spatial_passes" => self.spatial_passes = parse(key, value)?,
-            "temporal" => self.temporal = switch(key, value)?,
-            "temporal_m_cap" => self.temporal_m_cap = parse(key, value)?,
-            "min_cell_size" => self.min_cell_size = parse(key, value)?,
-            "projected_size" => self.projected_size = parse(key, value)?,
-            "jitter" => self.jitter = switch(key, value)?,
-            "adaptive_cell_size" => self.adaptive_cell_size = switch(key, value)?,
-            "normal_threshold" => self.normal_threshold = parse(key, value)?,
-            "gi_stride" => self.gi_stride = parse(key, value)?,
-            "combine" => {
-                self.combine = value.parse().map_err(WorldRestirError::Config)?;
-            }
-            "sort_cells" => self.sort_cells = switch(key, value)?,
-            "unified" => self.unified = switch(key, value)?,
-            _ => {
-                return Err(WorldRestirError::Config(format!(
-                    "unknown knob {key:?}; known: {}",
-                    Self::KNOBS.join(", ")
-                )));
-            }
-        }
-        Ok(())
-    }
-
-    /// The value of one knob as [`WorldRestirConfig::set`] takes it back (`set(key, get(key))`
-    /// changes nothing): tools that edit knobs live list [`WorldRestirConfig::KNOBS`] with it.
-    pub fn get(&self, key: &str) -> Result<String, WorldRestirError> {
-        let switch = |on: bool| if on { "on" } else { "off" }.to_owned();
-        Ok(match key.replace('-', "_").as_str() {
-            "buckets" => self.buckets.map_or("auto".into(), |b| b.to_string()),
-            "slots" => self.slots.to_string(),
-            "candidates" => self.candidates.to_string(),
-            "max_count" => self.max_count.to_string(),
-            "spatial_passes" => self.spatial_passes.to_string(),
-            "temporal" => switch(self.temporal),
-            "temporal_m_cap" => self.temporal_m_cap.to_string(),
-            "min_cell_size" => self.min_cell_size.to_string(),
-            "projected_size" => self.projected_size.to_string(),
-            "jitter" => switch(self.jitter),
-            "adaptive_cell_size" => switch(self.adaptive_cell_size),
-            "normal_threshold" => self.normal_threshold.to_string(),
-            "gi_stride" => self.gi_stride.to_string(),
-            "combine" => self.combine.name().to_owned(),
-            "sort_cells" => switch(self.sort_cells),
-            "unified" => switch(self.unified),
-            _ => {
-                return Err(WorldRestirError::Config(format!(
-                    "unknown knob {key:?}; known: {}",
-                    Self::KNOBS.join(", ")
-                )));
-            }
-        })
-    }
-
-    /// The knobs where `self` differs from the default, as `key=value` joined by `+` (a
-    /// `world-restir:` variant that rebuilds `self`; empty for the default).
-    pub fn knobs_spec(&self) -> String {
-        let default = Self::default();
-        Self::KNOBS
-            .iter()
-            .filter_map(|k| {
-                let v = self.get(k).ok()?;
-                (default.get(k).ok()? != v).then(|| format!("{k}={v}"))
-            })
-            .collect::<Vec<_>>()
-            .join("+")
-    }
-
-    /// The knob names [`WorldRestirConfig::set`] takes.
-    pub const KNOBS: [&'static str; 16] = [
-        "buckets",
-        "slots",
-        "candidates",
-        "max-count",
-        "spatial-passes",
-        "temporal",
-        "temporal-m-cap",
-        "min-cell-size",
-        "projected-size",
-        "jitter",
-        "adaptive-cell-size",
-        "normal-threshold",
-        "gi-stride",
-        "combine",
-        "sort-cells",
-        "unified",
-    ];
-
     /// Checks every knob.
     pub fn validate(&self) -> Result<(), WorldRestirError> {
-        let bad = |m: String| Err(WorldRestirError::Config(m));
-        render::check_candidates(self.candidates).map_err(WorldRestirError::Config)?;
-        if self.max_count == 0 {
-            return bad("max_count must be at least 1".into());
-        }
-        if self.spatial_passes > 64 {
-            return bad(format!(
-                "spatial_passes {} must be <= 64",
-                self.spatial_passes
-            ));
-        }
-        if !(-1.0..=1.0).contains(&self.normal_threshold) {
-            return bad(format!(
-                "normal_threshold {} must be a cosine in [-1, 1]",
-                self.normal_threshold
-            ));
-        }
-        if self.gi_stride == 0 || self.gi_stride > 8 {
-            return bad(format!("gi_stride {} must be in 1..=8", self.gi_stride));
-        }
-        if self.temporal_m_cap == 0 {
-            return bad("temporal_m_cap must be at least 1".into());
-        }
-        if self.buckets == Some(0) {
-            return bad("buckets must be at least 1 (or left to size with the frame)".into());
-        }
+        self.check_ranges().map_err(WorldRestirError::Config)?;
         self.table(1, 1).validate()?;
         Ok(())
     }
@@ -408,27 +252,19 @@ pub fn auto_buckets(vertices: u32, slots_per_bucket: u32) -> u32 {
     buckets.clamp(64, u64::from(u32::MAX)) as u32
 }
 
-/// WGSL `WrParams` (the knobs the kernels read).
+/// WGSL `WrParams`: the knobs the kernels read and the frame's layout.
 #[repr(C)]
-#[derive(Debug, Clone, Copy, Default, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
+#[derive(Debug, Clone, Copy, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
 pub struct WrParams {
-    pub candidates: u32,
-    pub max_count: u32,
-    pub normal_threshold: f32,
-    /// Absolute cap: `temporal_m_cap x candidates`.
-    pub temporal_m_cap: u32,
-    pub jitter: u32,
-    /// [`Combine`] as u32.
-    pub combine: u32,
-    pub gi_stride: u32,
+    /// [`WorldRestirConfig::gpu_words`] (WGSL `WrKnobs`).
+    pub knobs: [u32; WorldRestirConfig::GPU_WORDS],
     pub debug_view: u32,
     /// Grid items: [`WorldRestirConfig::items`].
     pub items: u32,
-    /// Light tiles the generate pass draws its candidates from (restir-di's, with its
-    /// `gi-tiles`), and samples per tile; 0: from the light table.
+    /// Light tiles the generate pass draws its candidates from, and samples per tile; 0: from
+    /// the light table.
     pub tiles: u32,
     pub tile_size: u32,
-    pub _pad0: u32,
 }
 
 /// WGSL `WrPass`.
@@ -441,35 +277,18 @@ pub struct WrPass {
     pub _pad1: u32,
 }
 
-/// Debug views ([`WorldRestir::debug_image`]).
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum DebugView {
-    /// A colour per grid slot (cell) of each vertex; black: not in the grid.
-    Cells = 0,
-    /// Heat map of log2(M) of the final reservoir (blue M = 1 .. red M >= 2^16).
-    M = 1,
-    /// Red where the vertex found its bucket full and kept its own reservoir.
-    Overflow = 2,
-}
-
-/// Generated constants header.
+/// Generated constants header and the knobs' struct.
 pub fn constants_wgsl() -> String {
     format!(
-        "const WR_PASS_GENERATE: u32 = {PASS_GENERATE}u;\nconst WR_PASS_BUILD: u32 = {PASS_BUILD}u;\n\
-         const WR_PASS_TEMPORAL: u32 = {PASS_TEMPORAL}u;\nconst WR_PASS_SPATIAL: u32 = {PASS_SPATIAL}u;\n\
-         const WR_NO_SLOT: u32 = {:#x}u;\nconst WR_FULL: u32 = {:#x}u;\n\
+        "const WR_NO_SLOT: u32 = {:#x}u;\nconst WR_FULL: u32 = {:#x}u;\n\
          const WR_FIRST_SENTINEL: u32 = {:#x}u;\nconst WR_VIEW_CELLS: u32 = {}u;\n\
-         const WR_VIEW_M: u32 = {}u;\n\
-         const WR_COMBINE_BIASED: u32 = {}u;\nconst WR_COMBINE_ONE_OVER_Z: u32 = {}u;\n\
-         const WR_COMBINE_PAIRWISE: u32 = {}u;\n",
+         const WR_VIEW_M: u32 = {}u;\n{}",
         gpu_hash::HASH_NOT_FOUND,
         gpu_hash::HASH_FULL,
         gpu_hash::HASH_FIRST_SENTINEL,
         DebugView::Cells as u32,
         DebugView::M as u32,
-        Combine::Biased as u32,
-        Combine::OneOverZ as u32,
-        Combine::Pairwise as u32,
+        WorldRestirConfig::wgsl_struct("WrKnobs"),
     )
 }
 
@@ -478,15 +297,6 @@ pub fn constants_wgsl() -> String {
 enum HashRole {
     Table,
     Lookup,
-}
-
-/// One kernel module: its own group-3 buffers and gpu-hash role, its WGSL and entry points.
-struct KernelDef {
-    name: &'static str,
-    entries: &'static [&'static str],
-    source: &'static str,
-    own: &'static [(&'static str, &'static str, Access)],
-    hash: Option<HashRole>,
 }
 
 const RES: &str = "array<StoredReservoir>";
@@ -498,9 +308,8 @@ const GENERATE: KernelDef = KernelDef {
     own: &[
         PARAMS,
         ("wr_out", RES, Access::ReadWrite),
-        ("light_tiles", "array<LightSample>", Access::Read),
+        light_tiles::BINDING,
     ],
-    hash: None,
 };
 const INSERT: KernelDef = KernelDef {
     name: "insert",
@@ -510,7 +319,6 @@ const INSERT: KernelDef = KernelDef {
         PARAMS,
         ("wr_vertex_slot", "array<vec2<u32>>", Access::ReadWrite),
     ],
-    hash: Some(HashRole::Table),
 };
 const SCATTER: KernelDef = KernelDef {
     name: "scatter",
@@ -523,7 +331,6 @@ const SCATTER: KernelDef = KernelDef {
         ("wr_counters", "array<u32>", Access::Read),
         ("wr_cells", "array<u32>", Access::ReadWrite),
     ],
-    hash: None,
 };
 const REUSE: KernelDef = KernelDef {
     name: "reuse",
@@ -539,14 +346,12 @@ const REUSE: KernelDef = KernelDef {
         ("wr_lookup_cells", "array<u32>", Access::Read),
         ("wr_prev_vertices", "array<GVertex>", Access::Read),
     ],
-    hash: Some(HashRole::Lookup),
 };
 const SHADE: KernelDef = KernelDef {
     name: "shade",
     entries: &["wr_shade", "wr_shade_direct"],
     source: SHADE_WGSL,
     own: &[PARAMS, ("wr_final", RES, Access::Read)],
-    hash: None,
 };
 const DEBUG: KernelDef = KernelDef {
     name: "debug",
@@ -558,66 +363,74 @@ const DEBUG: KernelDef = KernelDef {
         ("wr_vertex_slot", "array<vec2<u32>>", Access::Read),
         ("wr_debug", "array<vec4<f32>>", Access::ReadWrite),
     ],
-    hash: None,
 };
-const KERNELS: [&KernelDef; 6] = [&GENERATE, &INSERT, &SCATTER, &REUSE, &SHADE, &DEBUG];
+const KERNELS: [(&KernelDef, Option<HashRole>); 6] = [
+    (&GENERATE, None),
+    (&INSERT, Some(HashRole::Table)),
+    (&SCATTER, None),
+    (&REUSE, Some(HashRole::Lookup)),
+    (&SHADE, None),
+    (&DEBUG, None),
+];
 
-impl KernelDef {
-    /// Group 3: the kernel's own buffers, then its gpu-hash role's as the block `wr_hash`.
-    fn bindings(&self) -> BindingSet {
-        let set = BindingSet::of_buffers(self.name, self.own);
-        match self.hash {
-            Some(HashRole::Table) => set.block("wr_hash", gpu_hash::bind_group_layout_entries),
-            Some(HashRole::Lookup) => {
-                set.block("wr_hash", gpu_hash::lookup_bind_group_layout_entries)
-            }
-            None => set,
-        }
+/// Group 3 of kernel `k`: its own buffers, then its gpu-hash role's as the block `wr_hash`.
+fn bindings(k: &KernelDef, hash: Option<HashRole>) -> BindingSet {
+    match hash {
+        Some(HashRole::Table) => k
+            .bindings()
+            .block("wr_hash", gpu_hash::bind_group_layout_entries),
+        Some(HashRole::Lookup) => k
+            .bindings()
+            .block("wr_hash", gpu_hash::lookup_bind_group_layout_entries),
+        None => k.bindings(),
     }
+}
 
-    /// The modules composed after the render library.
-    fn modules(&self) -> Vec<WgslModule> {
-        let at = gpu_hash::wgsl::BindAt {
-            group: GROUP,
-            first_binding: self.own.len() as u32,
-        };
-        let role = |r| (self.hash == Some(r)).then_some(at);
-        let hash = match self.hash {
-            Some(_) => gpu_hash::wgsl::compose(role(HashRole::Table), role(HashRole::Lookup)),
-            None => String::new(),
-        };
-        let tiles = self.own.iter().any(|(name, _, _)| *name == "light_tiles");
-        let mut modules = vec![
-            WgslModule::new("wr-constants", &[], constants_wgsl()),
-            WgslModule::new("wr-bindings", &[], self.bindings().wgsl(GROUP)),
-            WgslModule::new("gpu-hash", &[], hash),
-            WgslModule::new(
-                "world-restir",
-                &["render", "reservoir", "wr-constants"],
-                WGSL,
-            ),
-            WgslModule::new(
-                self.name,
-                &["world-restir", "wr-bindings", "gpu-hash", "workgroup"],
-                self.source,
-            ),
-        ];
-        modules.extend(tiles.then(restir_di::light_tiles_module));
-        modules
-    }
+/// The modules of kernel `k`, composed after the render library.
+fn modules(k: &KernelDef, hash: Option<HashRole>) -> Vec<WgslModule> {
+    let at = gpu_hash::wgsl::BindAt {
+        group: GROUP,
+        first_binding: k.own.len() as u32,
+    };
+    let role = |r| (hash == Some(r)).then_some(at);
+    let hash_wgsl = match hash {
+        Some(_) => gpu_hash::wgsl::compose(role(HashRole::Table), role(HashRole::Lookup)),
+        None => String::new(),
+    };
+    let mut modules = vec![
+        WgslModule::new("wr-constants", &[], constants_wgsl()),
+        WgslModule::new("wr-bindings", &[], bindings(k, hash).wgsl(GROUP)),
+        WgslModule::new("gpu-hash", &[], hash_wgsl),
+        WgslModule::new(
+            "world-restir",
+            &["render", "reservoir", "wr-constants"],
+            WGSL,
+        ),
+        WgslModule::new(
+            k.name,
+            &["world-restir", "wr-bindings", "gpu-hash", "workgroup"],
+            k.source,
+        ),
+    ];
+    modules.extend(k.binds("light_tiles").then(light_tiles::reader_module));
+    modules
+}
+
+/// Every kernel of world-space ReSTIR, composed as used, with its binding sets.
+pub fn kernels() -> Vec<ComposedKernel> {
+    KERNELS
+        .iter()
+        .map(|(k, hash)| {
+            let source = render::compose_with_library(Tracer::Bvh, modules(k, *hash));
+            let name = format!("restir-world/world_restir/{}", k.name);
+            ComposedKernel::stage(name, source, bindings(k, *hash))
+        })
+        .collect()
 }
 
 /// Every WGSL module of world-space ReSTIR, composed as used.
 pub fn wgsl_modules() -> Vec<(String, String)> {
-    KERNELS
-        .iter()
-        .map(|k| {
-            (
-                format!("restir-world/world_restir/{}", k.name),
-                render::compose_with_library(Tracer::Bvh, k.modules()),
-            )
-        })
-        .collect()
+    kernels().into_iter().map(|k| (k.name, k.source)).collect()
 }
 
 /// World-space ReSTIR's buffers besides the hash tables.
@@ -655,18 +468,11 @@ impl WrBuffers {
         let zeroed = |label: &str, size: u64| buffers::storage_zeroed(&ctx.device, label, size);
         let pair = |label: &str, size: u64| [0, 1].map(|p| zeroed(&format!("{label} {p}"), size));
         let wr_params = WrParams {
-            candidates: config.candidates,
-            max_count: config.max_count,
-            normal_threshold: config.normal_threshold,
-            temporal_m_cap: config.temporal_m_cap.saturating_mul(config.candidates),
-            jitter: u32::from(config.jitter),
-            combine: config.combine as u32,
-            gi_stride: config.gi_stride,
+            knobs: config.gpu_words(),
             debug_view: 0,
             items: config.items(pixels),
             tiles: tiles.map_or(0, |t| t.0),
             tile_size: tiles.map_or(0, |t| t.1),
-            ..Default::default()
         };
         Ok(Self {
             params: buffers::with_usage(
@@ -682,8 +488,22 @@ impl WrBuffers {
             prev_reservoirs: zeroed("wr prev reservoirs", res_bytes),
             prev_vertices: zeroed("wr prev vertices", vertex_bytes),
             debug: zeroed("wr debug", px * 16),
-            no_tiles: zeroed("wr no light tiles", restir_di::LIGHT_SAMPLE_BYTES),
+            no_tiles: zeroed("wr no light tiles", light_tiles::LIGHT_SAMPLE_BYTES),
         })
+    }
+}
+
+/// The created kernels, in [`KERNELS`] order.
+struct WrKernels([OwnKernel; 6]);
+
+impl WrKernels {
+    fn new(ctx: &GpuContext, shared: &SharedGroups) -> Result<Self, GpuError> {
+        let kernel = |(k, hash): (&KernelDef, Option<HashRole>)| {
+            let name = format!("world-restir {}", k.name);
+            shared.own_kernel(ctx, &name, &bindings(k, hash), modules(k, hash), k.entries)
+        };
+        let [a, b, c, d, e, f] = KERNELS.map(kernel);
+        Ok(Self([a?, b?, c?, d?, e?, f?]))
     }
 }
 
@@ -704,151 +524,172 @@ struct WrPasses {
     final_index: usize,
 }
 
-impl WrPasses {
-    /// Binds every pass. Reservoir chain: generate -> R0; temporal R0 -> R1; spatial
-    /// ping-pong; shade reads the last.
-    fn new(
-        ctx: &GpuContext,
-        shared: &SharedGroups,
-        b: &WrBuffers,
-        tables: &[HashTable; 2],
+/// What binding a pass needs: the buffers, tables and kernels of one world-restir stage.
+struct Binder<'a> {
+    ctx: &'a GpuContext,
+    shared: &'a SharedGroups,
+    b: &'a WrBuffers,
+    tables: &'a [HashTable; 2],
+    k: WrKernels,
+    items: u32,
+}
+
+impl Binder<'_> {
+    fn params(&self) -> (&'static str, Resource<'_>) {
+        ("wr_params", (&self.b.params).into())
+    }
+
+    /// A pass of kernel `i` over the grid items (`over_items`) or the pixels.
+    fn pass(
+        &self,
+        i: usize,
+        entry: &str,
+        res: Vec<(&str, Resource)>,
+        over_items: bool,
+    ) -> Result<Pass, GpuError> {
+        let items = over_items.then_some(self.items);
+        self.shared
+            .bound_pass(&self.ctx.device, &self.k.0[i], entry, res, items)
+    }
+
+    fn insert(&self, p: usize) -> Result<Pass, GpuError> {
+        let hash = Resource::Block(self.tables[p].bind_group_entries(INSERT.own.len() as u32));
+        let res = vec![
+            self.params(),
+            ("wr_vertex_slot", (&self.b.vertex_slot).into()),
+            ("wr_hash", hash),
+        ];
+        self.pass(1, "wr_insert", res, true)
+    }
+
+    fn scatter(&self, entry: &str, p: usize) -> Result<Pass, GpuError> {
+        let res = vec![
+            self.params(),
+            ("wr_vertex_slot", (&self.b.vertex_slot).into()),
+            ("wr_offsets", (&self.b.offsets[p]).into()),
+            ("wr_counters", self.tables[p].counters().into()),
+            ("wr_cells", (&self.b.cells[p]).into()),
+        ];
+        self.pass(2, entry, res, true)
+    }
+
+    /// One reuse pass: reads `src` (and `own` for the receiver), writes `out`, looks up the
+    /// grid of parity `grid`.
+    fn reuse(
+        &self,
+        index: u32,
+        temporal: bool,
+        [src, own, out]: [&wgpu::Buffer; 3],
+        grid: usize,
+    ) -> Result<Pass, GpuError> {
+        let u = WrPass {
+            pass_index: index,
+            temporal: u32::from(temporal),
+            ..Default::default()
+        };
+        let u = buffers::with_usage(
+            &self.ctx.device,
+            "wr pass",
+            &[u],
+            wgpu::BufferUsages::STORAGE,
+        );
+        let hash = self.tables[grid].lookup_bind_group_entries(REUSE.own.len() as u32);
+        let b = self.b;
+        let res = vec![
+            self.params(),
+            ("wr_pass", (&u).into()),
+            ("wr_src", src.into()),
+            ("wr_self", own.into()),
+            ("wr_out", out.into()),
+            ("wr_lookup_offsets", (&b.offsets[grid]).into()),
+            ("wr_lookup_cells", (&b.cells[grid]).into()),
+            ("wr_prev_vertices", (&b.prev_vertices).into()),
+            ("wr_hash", Resource::Block(hash)),
+        ];
+        self.pass(3, "wr_reuse", res, true)
+    }
+
+    fn both(&self, f: impl Fn(usize) -> Result<Pass, GpuError>) -> Result<[Pass; 2], GpuError> {
+        Ok([f(0)?, f(1)?])
+    }
+
+    /// The reuse chain: generate -> R0; temporal R0 (+ last frame's) -> R1; spatial ping-pong.
+    /// Returns (temporal, spatial, the index of the final reservoirs).
+    #[allow(clippy::type_complexity)]
+    fn reuse_chain(
+        &self,
         config: &WorldRestirConfig,
-        tiles: Option<&wgpu::Buffer>,
-    ) -> Result<Self, WorldRestirError> {
-        let device = &ctx.device;
-        let kernel = |k: &KernelDef| {
-            let name = format!("world-restir {}", k.name);
-            shared.own_kernel(ctx, &name, &k.bindings(), k.modules(), k.entries)
-        };
-        let [generate, insert, scatter, reuse, shade, debug] = KERNELS.map(kernel);
-        let (generate, insert, scatter) = (generate?, insert?, scatter?);
-        let (reuse, shade, debug) = (reuse?, shade?, debug?);
-        // A pass over the grid items (secondary vertices, + primary ones when unified), or
-        // over the pixels.
-        let items = config.items(shared.pixels);
-        let item_pass =
-            |(k, layout): &(Kernel, BindGroupLayout), entry: &str, res: Vec<(&str, Resource)>| {
-                let group = layout.bind(device, res)?;
-                Ok::<Pass, GpuError>(shared.pass_over(device, k, entry, Some(&group), items))
-            };
-        let pass =
-            |(k, layout): &(Kernel, BindGroupLayout), entry: &str, res: Vec<(&str, Resource)>| {
-                let group = layout.bind(device, res)?;
-                Ok::<Pass, GpuError>(shared.pass(device, k, entry, Some(&group)))
-            };
-        let params = || ("wr_params", Resource::from(&b.params));
-        let both = |f: &dyn Fn(usize) -> Result<Pass, GpuError>| -> Result<[Pass; 2], GpuError> {
-            Ok([f(0)?, f(1)?])
-        };
-        let insert_p = |p: usize| {
-            let hash = Resource::Block(tables[p].bind_group_entries(INSERT.own.len() as u32));
-            let res = vec![
-                params(),
-                ("wr_vertex_slot", (&b.vertex_slot).into()),
-                ("wr_hash", hash),
-            ];
-            item_pass(&insert, "wr_insert", res)
-        };
-        let scatter_p = |entry: &str, p: usize| {
-            let res = vec![
-                params(),
-                ("wr_vertex_slot", (&b.vertex_slot).into()),
-                ("wr_offsets", (&b.offsets[p]).into()),
-                ("wr_counters", tables[p].counters().into()),
-                ("wr_cells", (&b.cells[p]).into()),
-            ];
-            item_pass(&scatter, entry, res)
-        };
-        // One reuse pass: reads `src` (and `own` for the receiver), writes `out`, looks up the
-        // grid of parity `grid`.
-        let reuse_pass =
-            |index: u32, temporal: bool, [src, own, out]: [&wgpu::Buffer; 3], grid: usize| {
-                let u = WrPass {
-                    pass_index: index,
-                    temporal: u32::from(temporal),
-                    ..Default::default()
-                };
-                let u = buffers::with_usage(device, "wr pass", &[u], wgpu::BufferUsages::STORAGE);
-                let hash = tables[grid].lookup_bind_group_entries(REUSE.own.len() as u32);
-                let res = vec![
-                    params(),
-                    ("wr_pass", (&u).into()),
-                    ("wr_src", src.into()),
-                    ("wr_self", own.into()),
-                    ("wr_out", out.into()),
-                    ("wr_lookup_offsets", (&b.offsets[grid]).into()),
-                    ("wr_lookup_cells", (&b.cells[grid]).into()),
-                    ("wr_prev_vertices", (&b.prev_vertices).into()),
-                    ("wr_hash", Resource::Block(hash)),
-                ];
-                item_pass(&reuse, "wr_reuse", res)
-            };
-        let r = &b.reservoirs;
+    ) -> Result<(Option<[Pass; 2]>, [Vec<Pass>; 2], usize), GpuError> {
+        let r = &self.b.reservoirs;
         let mut cur = 0;
         let temporal = match config.temporal {
             true => {
                 cur = 1;
-                let src = [&b.prev_reservoirs, &r[0], &r[1]];
-                Some(both(&|p| reuse_pass(0, true, src, 1 - p))?)
+                let src = [&self.b.prev_reservoirs, &r[0], &r[1]];
+                Some(self.both(|p| self.reuse(0, true, src, 1 - p))?)
             }
             false => None,
         };
         let mut spatial: [Vec<Pass>; 2] = [Vec::new(), Vec::new()];
         for j in 0..config.spatial_passes {
             for (p, list) in spatial.iter_mut().enumerate() {
-                list.push(reuse_pass(j, false, [&r[cur], &r[cur], &r[1 - cur]], p)?);
+                list.push(self.reuse(j, false, [&r[cur], &r[cur], &r[1 - cur]], p)?);
             }
             cur = 1 - cur;
         }
-        let last = ("wr_final", Resource::from(&r[cur]));
+        Ok((temporal, spatial, cur))
+    }
+}
+
+impl WrPasses {
+    /// Binds every pass; shade reads the last reservoirs of the reuse chain.
+    fn new(
+        binder: &Binder,
+        config: &WorldRestirConfig,
+        tiles: Option<&wgpu::Buffer>,
+    ) -> Result<Self, GpuError> {
+        let (b, params) = (binder.b, || binder.params());
+        let (temporal, spatial, cur) = binder.reuse_chain(config)?;
+        let last = || ("wr_final", Resource::from(&b.reservoirs[cur]));
+        let generate_res = vec![
+            params(),
+            ("wr_out", (&b.reservoirs[0]).into()),
+            ("light_tiles", tiles.unwrap_or(&b.no_tiles).into()),
+        ];
         let debug_res = vec![
             params(),
-            last,
+            last(),
             ("wr_vertex_slot", (&b.vertex_slot).into()),
             ("wr_debug", (&b.debug).into()),
         ];
         Ok(Self {
-            generate: item_pass(
-                &generate,
-                "wr_generate",
-                vec![
-                    params(),
-                    ("wr_out", (&r[0]).into()),
-                    ("light_tiles", tiles.unwrap_or(&b.no_tiles).into()),
-                ],
-            )?,
-            insert: both(&insert_p)?,
-            scatter: both(&|p| scatter_p("wr_scatter", p))?,
+            generate: binder.pass(0, "wr_generate", generate_res, true)?,
+            insert: binder.both(|p| binder.insert(p))?,
+            scatter: binder.both(|p| binder.scatter("wr_scatter", p))?,
             sort: match config.sort_cells {
-                true => Some(both(&|p| scatter_p("wr_sort_cells", p))?),
+                true => Some(binder.both(|p| binder.scatter("wr_sort_cells", p))?),
                 false => None,
             },
             temporal,
             spatial,
-            shade: pass(
-                &shade,
-                "wr_shade",
-                vec![params(), ("wr_final", (&r[cur]).into())],
-            )?,
+            shade: binder.pass(4, "wr_shade", vec![params(), last()], false)?,
             shade_direct: match config.unified {
-                true => Some(pass(
-                    &shade,
-                    "wr_shade_direct",
-                    vec![params(), ("wr_final", (&r[cur]).into())],
-                )?),
+                true => Some(binder.pass(4, "wr_shade_direct", vec![params(), last()], false)?),
                 false => None,
             },
-            debug: pass(&debug, "wr_debug_view", debug_res)?,
+            debug: binder.pass(5, "wr_debug_view", debug_res, false)?,
             final_index: cur,
         })
     }
 }
 
-/// World-space ReSTIR GI on top of a [`Renderer`] (which it owns and drives).
+/// The world-space ReSTIR stage of a frame: built on a [`Renderer`]'s shared groups, it
+/// records the indirect image (and with [`WorldRestirConfig::unified`] the direct one) in
+/// place of the renderer's shading.
 #[derive(Debug)]
 pub struct WorldRestir {
-    renderer: Renderer,
     config: WorldRestirConfig,
+    pixels: u32,
     grid_params: HashGridParams,
     tables: [HashTable; 2],
     buffers: WrBuffers,
@@ -857,78 +698,51 @@ pub struct WorldRestir {
     scan_bindings: [ScanBinding; 2],
     passes: WrPasses,
     parity: usize,
-    /// ReSTIR DI for the direct light at the primary vertex (`world-restir+restir-di`);
-    /// `None`: the `ris` baseline's.
-    direct: Option<RestirDi>,
 }
 
 impl WorldRestir {
-    /// A renderer for `scene` seen by `camera` whose indirect light uses world-space ReSTIR
-    /// with `config`; direct light at the primary is the `ris` baseline's (RIS over
-    /// `render::DEFAULT_CANDIDATES` + one shadow ray), whatever `config.candidates` (the GI
-    /// vertices' candidates) is, so that direct light compares equal with `ris`; with
-    /// `config.unified` it comes from the primary vertices' reservoirs in the same grid.
+    /// The stage for `renderer`'s scene and image with `config`; its generate pass draws its
+    /// candidates from `tiles` when given (filled by their owner every frame before
+    /// [`WorldRestir::encode`]), else from the light table.
     pub fn new(
         ctx: &GpuContext,
-        scene: &Scene,
-        camera: &Camera,
+        renderer: &Renderer,
         config: WorldRestirConfig,
-        seed: u32,
-    ) -> Result<Self, WorldRestirError> {
-        Self::with_direct(ctx, scene, camera, config, None, seed)
-    }
-
-    /// [`WorldRestir::new`] whose direct light at the primary vertex is ReSTIR DI with
-    /// `direct` (when given) instead of the `ris` baseline's.
-    pub fn with_direct(
-        ctx: &GpuContext,
-        scene: &Scene,
-        camera: &Camera,
-        config: WorldRestirConfig,
-        direct: Option<RestirDiConfig>,
-        seed: u32,
+        tiles: Option<&LightTiles>,
     ) -> Result<Self, WorldRestirError> {
         config.validate()?;
-        if config.unified && direct.is_some() {
-            return Err(WorldRestirError::Config(
-                "unified and restir-di both light the direct image: use one".into(),
-            ));
-        }
-        let renderer = Renderer::new(ctx, scene, camera, render::ris(), seed)?;
-        let direct = match direct {
-            Some(c) => Some(RestirDi::new(ctx, &renderer, c)?),
-            None => None,
-        };
-        let device = &ctx.device;
+        let (device, camera) = (&ctx.device, renderer.camera());
         let table = config.table(camera.width, camera.height);
         let grid_params = HashGridParams::new(&table, &config.sizing(camera), camera.eye)?;
-        let tables = [0, 1].map(|_| HashTable::new(device, &ctx.queue, &grid_params));
-        let [t0, t1] = tables;
+        let [t0, t1] = [0, 1].map(|_| HashTable::new(device, &ctx.queue, &grid_params));
         let tables = [t0?, t1?];
         let slots = u32::try_from(table.num_slots()).map_err(|_| {
             WorldRestirError::Config(format!("{} slots do not fit u32", table.num_slots()))
         })?;
-        // restir-di's light tiles, when they feed the generate pass too.
-        let gi_tiles = direct.as_ref().filter(|d| d.config().gi_tiles);
-        let tile_dims = gi_tiles.map(|d| (d.config().tiles, d.config().tile_size));
-        let buffers = WrBuffers::new(
-            ctx,
-            &config,
-            renderer.pixels(),
-            table.num_slots(),
-            tile_dims,
-        )?;
+        let pixels = renderer.pixels();
+        let dims = tiles.map(LightTiles::dims);
+        let buffers = WrBuffers::new(ctx, &config, pixels, table.num_slots(), dims)?;
         let scan = Scan::new(device, &ScanDescriptor::for_device(device, slots.max(1)))?;
         let bind_scan = |p: usize| {
             let (counters, offsets) = (tables[p].counters(), &buffers.offsets[p]);
             scan.bind(device, counters, offsets, slots, ScanKind::Exclusive, None)
         };
         let scan_bindings = [bind_scan(0)?, bind_scan(1)?];
-        let tiles = gi_tiles.map(RestirDi::tiles);
-        let passes = WrPasses::new(ctx, &renderer.shared, &buffers, &tables, &config, tiles)?;
+        let shared = &renderer.shared;
+        let k = WrKernels::new(ctx, shared)?;
+        let items = config.items(pixels);
+        let binder = Binder {
+            ctx,
+            shared,
+            b: &buffers,
+            tables: &tables,
+            k,
+            items,
+        };
+        let passes = WrPasses::new(&binder, &config, tiles.map(LightTiles::buffer))?;
         Ok(Self {
-            renderer,
             config,
+            pixels,
             grid_params,
             tables,
             buffers,
@@ -936,7 +750,6 @@ impl WorldRestir {
             scan_bindings,
             passes,
             parity: 0,
-            direct,
         })
     }
 
@@ -944,32 +757,22 @@ impl WorldRestir {
         &self.config
     }
 
-    /// The ReSTIR DI stage of the direct light, when it has one.
-    pub fn direct(&self) -> Option<&RestirDi> {
-        self.direct.as_ref()
+    /// Whether the stage also lights the direct image (the unified cache).
+    pub fn lights_direct(&self) -> bool {
+        self.config.unified
     }
 
-    /// The renderer underneath (camera, frame counters).
-    pub fn renderer(&self) -> &Renderer {
-        &self.renderer
-    }
-
-    /// Moves the camera from the next recorded frame on (the grid of the last frame keeps its
-    /// own eye for the temporal lookup of the next).
-    pub fn set_camera(&mut self, camera: &Camera) -> Result<(), WorldRestirError> {
-        self.renderer.set_camera(camera)?;
-        Ok(())
-    }
-
-    /// Records one whole frame.
-    pub fn encode_frame(&mut self, f: &mut FrameEncoder) -> Result<(), WorldRestirError> {
+    /// Records the stage for the frame whose camera is `renderer`'s (after its primary and GI
+    /// passes): generate, build, temporal, spatial, shade (and the unified cache's direct
+    /// light), and keeps this frame's reservoirs and vertices for the next.
+    pub fn encode(
+        &mut self,
+        f: &mut FrameEncoder,
+        renderer: &Renderer,
+    ) -> Result<(), WorldRestirError> {
         let (p, passes) = (self.parity, &self.passes);
-        let grid = self.grid_params.with_eye(self.renderer.camera().eye)?;
+        let grid = self.grid_params.with_eye(renderer.camera().eye)?;
         f.upload(self.tables[p].params(), 0, &grid);
-        self.renderer.encode_primary_and_gi(f);
-        if let Some(di) = self.direct.as_ref().filter(|d| d.config().gi_tiles) {
-            di.encode_tiles(f);
-        }
         f.span("generate", |f| f.dispatch(&passes.generate));
         f.span("build", |f| self.encode_build(f, p))?;
         if let Some(temporal) = &passes.temporal {
@@ -981,15 +784,12 @@ impl WorldRestir {
             });
         }
         f.span("shade", |f| f.dispatch(&passes.shade));
-        match (&passes.shade_direct, self.direct.as_mut()) {
-            (Some(unified), _) => f.span("shade_direct", |f| f.dispatch(unified)),
-            (None, Some(di)) => di.encode(f, &self.renderer),
-            (None, None) => self.renderer.encode_shade_direct(f),
+        if let Some(direct) = &passes.shade_direct {
+            f.span("shade_direct", |f| f.dispatch(direct));
         }
         if self.config.temporal {
-            f.span("persist", |f| self.encode_persist(f));
+            f.span("persist", |f| self.encode_persist(f, renderer));
         }
-        self.renderer.encode_accumulate(f);
         self.parity = 1 - p;
         Ok(())
     }
@@ -1009,8 +809,8 @@ impl WorldRestir {
 
     /// Keeps this frame's final reservoirs and grid items' vertices (secondary, then primary
     /// when unified) for the next temporal pass.
-    fn encode_persist(&self, f: &mut FrameEncoder) {
-        let (b, r) = (&self.buffers, &self.renderer.buffers);
+    fn encode_persist(&self, f: &mut FrameEncoder, renderer: &Renderer) {
+        let (b, r) = (&self.buffers, &renderer.buffers);
         f.copy(&b.reservoirs[self.passes.final_index], &b.prev_reservoirs);
         f.copy(&r.secondary, &b.prev_vertices);
         if self.config.unified {
@@ -1024,11 +824,6 @@ impl WorldRestir {
         }
     }
 
-    /// Clears the accumulated images (the temporal history stays).
-    pub fn restart_accumulation(&mut self, f: &mut FrameEncoder) {
-        self.renderer.restart_accumulation(f);
-    }
-
     /// Statistics of the last built grid (overflows = vertices left out of it).
     pub fn grid_stats(&self, ctx: &GpuContext) -> Result<HashStats, GpuError> {
         let t = &self.tables[1 - self.parity];
@@ -1040,7 +835,7 @@ impl WorldRestir {
     pub fn reservoirs(&self, ctx: &GpuContext) -> Result<Vec<render::StoredReservoir>, GpuError> {
         let last = &self.buffers.reservoirs[self.passes.final_index];
         let mut v: Vec<render::StoredReservoir> = buffers::read(ctx, last)?;
-        v.truncate(self.renderer.pixels() as usize);
+        v.truncate(self.pixels as usize);
         Ok(v)
     }
 
@@ -1048,7 +843,7 @@ impl WorldRestir {
     /// not in the grid), per slot counts and exclusive offsets, and the compact cell storage.
     pub fn grid(&self, ctx: &GpuContext) -> Result<GridReadback, GpuError> {
         let p = 1 - self.parity;
-        let n = self.renderer.pixels() as usize;
+        let n = self.pixels as usize;
         let mut vertex_slot: Vec<[u32; 2]> = buffers::read(ctx, &self.buffers.vertex_slot)?;
         vertex_slot.truncate(n);
         let mut cells: Vec<u32> = buffers::read(ctx, &self.buffers.cells[p])?;
@@ -1075,7 +870,7 @@ impl WorldRestir {
         let mut encoder = ctx.device.create_command_encoder(&Default::default());
         self.passes.debug.record(&mut encoder);
         ctx.queue.submit([encoder.finish()]);
-        self.renderer.read_rgb(ctx, &self.buffers.debug, 1.0)
+        render::read_rgb(ctx, &self.buffers.debug, self.pixels, 1.0)
     }
 }
 
@@ -1096,10 +891,7 @@ mod tests {
     fn defaults_are_the_papers_but_measured_ones() {
         let c = WorldRestirConfig::default();
         assert_eq!((c.buckets, c.slots, c.candidates), (None, 32, 16));
-        assert_eq!(c.combine, Combine::Pairwise);
-        for (mode, name) in Combine::ALL {
-            assert_eq!(name.parse::<Combine>(), Ok(mode));
-        }
+        assert_eq!(c.combine, Combination::Pairwise);
         assert_eq!(
             (c.max_count, c.spatial_passes, c.temporal_m_cap),
             (4, 2, 20)
@@ -1172,7 +964,7 @@ mod tests {
                 adaptive_cell_size: false,
                 normal_threshold: 0.5,
                 gi_stride: 2,
-                combine: Combine::OneOverZ,
+                combine: Combination::OneOverZ,
                 sort_cells: false,
                 unified: true,
             }

@@ -7,20 +7,8 @@
 // generating normal differs from the receiver's beyond normal_threshold (cosine) are skipped.
 // Writes wr_out; the stored M is always the sum of the merged (capped) M.
 //
-// Combination weights (wr_params.combine):
-// - WR_COMBINE_BIASED, the paper's: W = w_sum / (M p_hat(y)). A neighbour whose own target is 0
-//   at a sample the receiver can use (a light behind its tangent plane) could never have
-//   produced it, so 1/M darkens, and chained passes with temporal feedback compound it.
-// - WR_COMBINE_ONE_OVER_Z (Bitterli et al. 2020): W = w_sum / (Z p_hat(y)), Z = the M of the
-//   merged reservoirs whose own vertex has a non-zero target at the selected y. Unbiased, but a
-//   neighbour's sample whose target is far larger here than where it was drawn (1/d^2 next to
-//   a small light) keeps a large weight: rare, persistent fireflies.
-// - WR_COMBINE_PAIRWISE (pairwise MIS with confidence weights, Bitterli 2022 / Wyman et al.
-//   2023): each merged neighbour i shares a fraction s_i = (M_i + M_c/k) / T of the unit MIS
-//   mass with the canonical reservoir c by a two-strategy balance heuristic with confidences
-//   M_i and M_c/k (k neighbours, T = M_c + sum M_i). The weights sum to 1 everywhere the
-//   canonical's target is non-zero: unbiased, and a neighbour's sample is weighted by how well
-//   it could have been drawn there. W = w_sum / p_hat(y).
+// Combination (wr_params.knobs.combine): the reservoir crate's reuse_* (1/M, 1/Z or pairwise MIS);
+// light samples need no shift, so every Jacobian is 1. The target is render_light_target.
 
 // The vertex that generated source reservoir j (last frame's for the temporal pass).
 fn wr_source_vertex(j: u32, temporal: bool) -> GVertex {
@@ -44,20 +32,21 @@ fn wr_visit(v: GVertex, rng: ptr<function, u32>) -> WrVisit {
     var s = WrVisit(0u, 0u, 1u, 0u, 0u);
     var pos = v.position;
     let u = vec2<f32>(rng_next_f32(rng), rng_next_f32(rng));
-    if wr_params.jitter != 0u {
+    if wr_params.knobs.jitter != 0u {
         pos = hash_jitter(pos, v.normal, u, hash_cell_size(hash_lookup_params, pos));
     }
     let slot = hash_lookup_position(pos);
     if hash_lookup_is_slot(slot) {
         s.count = hash_lookup_slot_count(slot);
         s.start = wr_lookup_offsets[slot];
-        let max_count = max(wr_params.max_count, 1u);
+        let max_count = max(wr_params.knobs.max_count, 1u);
         s.increment = max((s.count + max_count - 1u) / max_count, 1u);
         s.offset = rng_next_u32(rng) % s.increment;
         // Temporal: the M taken from last frame is capped at temporal_m_cap in total, split
         // over the (at most max_count) reservoirs this lookup visits.
         let visited = (s.count + s.increment - 1u) / s.increment;
-        s.cap = max(wr_params.temporal_m_cap / max(visited, 1u), 1u);
+        let cap = wr_params.knobs.temporal_m_cap * wr_params.knobs.candidates;
+        s.cap = max(cap / max(visited, 1u), 1u);
     }
     return s;
 }
@@ -72,10 +61,10 @@ fn wr_visited(s: WrVisit, k: u32) -> u32 {
 fn wr_merged_m(i: u32, j: u32, v: GVertex, temporal: bool, cap: u32) -> u32 {
     let m = wr_src[j].m;
     if (!temporal && j == i) || m == 0u
-        || dot(wr_source_vertex(j, temporal).shading, v.shading) < wr_params.normal_threshold {
+        || dot(wr_source_vertex(j, temporal).shading, v.shading) < wr_params.knobs.normal_threshold {
         return 0u;
     }
-    return select(m, min(m, cap), temporal);
+    return select(m, reuse_cap_m(m, cap), temporal);
 }
 
 @compute @workgroup_size(WORKGROUP_SIZE)
@@ -89,10 +78,10 @@ fn wr_reuse(id: Invocation) {
     }
     let v = wr_vertex(i);
     let temporal = wr_pass.temporal != 0u;
-    var rng = wr_rng(i, select(WR_PASS_SPATIAL, WR_PASS_TEMPORAL, temporal), wr_pass.pass_index);
+    var rng = render_rng_salted(i, select(STREAM_WR_SPATIAL, STREAM_WR_TEMPORAL, temporal), wr_pass.pass_index);
     let u_own = rng_next_f32(&rng);
     let own_sample = render_stored_sample(own);
-    let p_own = select(0.0, wr_target(v, own_sample), own.m > 0u);
+    let p_own = select(0.0, render_light_target(v, own_sample), own.m > 0u);
     let visit = wr_visit(v, &rng);
 
     // k merged neighbours and their total confidence.
@@ -103,79 +92,32 @@ fn wr_reuse(id: Invocation) {
         k += select(0u, 1u, m > 0u);
         m_neighbours = reservoir_add_m(m_neighbours, m);
     }
-    let m_total = reservoir_add_m(own.m, m_neighbours);
 
-    var r = reservoir_empty();
-    var chosen = own;
-    var chosen_p_hat = 0.0;
-    let pairwise = wr_params.combine == WR_COMBINE_PAIRWISE;
-    if pairwise {
-        let total = f32(m_total);
-        let m_c = f32(own.m) / f32(max(k, 1u));
-        var canonical = select(0.0, 1.0, k == 0u);
-        for (var n = 0u; n < visit.count; n += visit.increment) {
-            let j = wr_visited(visit, n);
-            let u_merge = rng_next_f32(&rng);
-            let m = wr_merged_m(i, j, v, temporal, visit.cap);
-            if m == 0u {
-                continue;
-            }
-            let src = wr_src[j];
-            let vj = wr_source_vertex(j, temporal);
-            let y = render_stored_sample(src);
-            let p_here = wr_target(v, y);
-            let w = render_pairwise_mis(f32(m), m_c, total, wr_target(vj, y), p_here,
-                                        wr_target(vj, own_sample), p_own);
-            canonical += w.y;
-            if reservoir_update(&r, w.x * p_here * src.ucw, u_merge) {
-                chosen = src;
-                chosen_p_hat = p_here;
-            }
+    var c = reuse_begin(wr_params.knobs.combine, PackedReservoir(own.ucw, own.m), p_own, k,
+                        m_neighbours, u_own);
+    var out = own;
+    for (var n = 0u; n < visit.count; n += visit.increment) {
+        let j = wr_visited(visit, n);
+        let u_merge = rng_next_f32(&rng);
+        let m = wr_merged_m(i, j, v, temporal, visit.cap);
+        if m == 0u {
+            continue;
         }
-        if reservoir_update(&r, canonical * p_own * own.ucw, u_own) {
-            chosen = own;
-            chosen_p_hat = p_own;
-        }
-        r.m = 1u;
-    } else {
-        if own.m > 0u {
-            reservoir_merge(&r, reservoir_unpack(PackedReservoir(own.ucw, own.m), i), p_own, u_own);
-            chosen_p_hat = p_own;
-        }
-        for (var n = 0u; n < visit.count; n += visit.increment) {
-            let j = wr_visited(visit, n);
-            let u_merge = rng_next_f32(&rng);
-            let m = wr_merged_m(i, j, v, temporal, visit.cap);
-            if m == 0u {
-                continue;
-            }
-            let src = wr_src[j];
-            let p_here = wr_target(v, render_stored_sample(src));
-            var other = reservoir_unpack(PackedReservoir(src.ucw, src.m), j);
-            other.m = m;
-            if reservoir_merge(&r, other, p_here, u_merge) {
-                chosen = src;
-                chosen_p_hat = p_here;
-            }
-        }
-        if wr_params.combine == WR_COMBINE_ONE_OVER_Z && chosen_p_hat > 0.0 {
-            // Z: the receiver (its target at y is chosen_p_hat > 0) and every merged
-            // reservoir whose own vertex could have produced y.
-            let y = render_stored_sample(chosen);
-            var z = own.m;
-            for (var n = 0u; n < visit.count; n += visit.increment) {
-                let j = wr_visited(visit, n);
-                let m = wr_merged_m(i, j, v, temporal, visit.cap);
-                if m > 0u && wr_target(wr_source_vertex(j, temporal), y) > 0.0 {
-                    z = reservoir_add_m(z, m);
-                }
-            }
-            r.m = z;
+        let src = wr_src[j];
+        if render_reuse_light(&c, j, src, m, v, wr_source_vertex(j, temporal), own_sample, u_merge) {
+            out = src;
         }
     }
-    reservoir_finalize(&r, chosen_p_hat);
-    var out = chosen;
-    out.ucw = reservoir_pack(r).ucw;
-    out.m = m_total;
-    wr_out[i] = out;
+    if wr_params.knobs.combine == REUSE_ONE_OVER_Z && c.p_hat > 0.0 {
+        // Z: the receiver and every merged reservoir whose own vertex could have produced y.
+        let y = render_stored_sample(out);
+        for (var n = 0u; n < visit.count; n += visit.increment) {
+            let j = wr_visited(visit, n);
+            let m = wr_merged_m(i, j, v, temporal, visit.cap);
+            if m > 0u {
+                reuse_count_z(&c, m, render_light_target(wr_source_vertex(j, temporal), y));
+            }
+        }
+    }
+    wr_out[i] = render_reuse_store(&c, own, out);
 }

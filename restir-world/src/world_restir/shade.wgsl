@@ -8,15 +8,7 @@ fn wr_shade(id: Invocation) {
     if i >= render_params.pixel_count { return; }
     var c = vec3<f32>(0.0);
     if wr_has_vertex(i) {
-        let res = wr_final[i];
-        if res.m > 0u && res.ucw > 0.0 {
-            let v = render_secondary[i];
-            let y = render_stored_sample(res);
-            let f = wr_contribution(v, y);
-            if any(f > vec3<f32>(0.0)) && render_visible_sample(v.position, v.normal, y) {
-                c = render_gbuffer[i].albedo * f * res.ucw;
-            }
-        }
+        c = render_shade_stored(render_secondary[i], wr_final[i], render_gbuffer[i].albedo);
     }
     render_indirect_frame[i] = vec4<f32>(c, 1.0);
 }
@@ -28,15 +20,6 @@ fn wr_shade(id: Invocation) {
 fn wr_shade_direct(id: Invocation) {
     let i = item_index(id);
     if i >= render_params.pixel_count { return; }
-    let g = render_gbuffer[i];
-    var c = g.emission;
-    let res = wr_final[render_params.pixel_count + i];
-    if g.prim != BVH_NO_HIT && res.m > 0u && res.ucw > 0.0 {
-        let y = render_stored_sample(res);
-        let f = wr_contribution(g, y);
-        if any(f > vec3<f32>(0.0)) && render_visible_sample(g.position, g.normal, y) {
-            c += f * res.ucw;
-        }
-    }
+    let c = render_direct_from_stored(render_gbuffer[i], wr_final[render_params.pixel_count + i]);
     render_direct_frame[i] = vec4<f32>(c, 1.0);
 }

@@ -4,20 +4,15 @@
 // lights, trace, rng), reservoir::wgsl() and the constants header
 // world_restir::constants_wgsl().
 
-// Knobs of a world-space ReSTIR renderer (Rust twin: world_restir::WrParams).
+// Knobs (WrKnobs, generated from world_restir::WorldRestirConfig) and the frame's layout
+// (Rust twin: world_restir::WrParams). items: grid items; tiles, tile_size: the light tiles
+// the generate pass draws from (0: the light table).
 struct WrParams {
-    candidates: u32,
-    max_count: u32,
-    normal_threshold: f32,
-    temporal_m_cap: u32,
-    jitter: u32,
-    combine: u32,
-    gi_stride: u32,
+    knobs: WrKnobs,
     debug_view: u32,
     items: u32,
     tiles: u32,
     tile_size: u32,
-    _pad0: u32,
 }
 
 // Per reuse pass: `pass_index` mixes into the random stream, `temporal` = 1 for the pass that
@@ -62,16 +57,3 @@ fn wr_is_active(i: u32, stride: u32) -> bool {
     return (i % w) % stride == phase % stride && (i / w) % stride == phase / stride;
 }
 
-// Unshadowed reflected radiance of the light sample at vertex v (the target's integrand).
-fn wr_contribution(v: GVertex, s: LightSample) -> vec3<f32> {
-    return render_light_contribution(v.position, v.normal, v.shading, v.albedo, s);
-}
-
-// Target function p_hat: luminance of the unshadowed reflected radiance.
-fn wr_target(v: GVertex, s: LightSample) -> f32 {
-    return render_luminance(wr_contribution(v, s));
-}
-
-fn wr_rng(i: u32, pass_id: u32, salt: u32) -> u32 {
-    return rng_seed(i, render_state.frame, (render_params.seed * RENDER_PASS_COUNT + pass_id) ^ (salt << 20u));
-}

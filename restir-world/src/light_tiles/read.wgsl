@@ -1,8 +1,8 @@
 // Presampled light tiles (Wyman & Panteleev 2021) as the passes that draw RIS candidates from
 // them read them: restir-di's di-initial, and world-restir's generate when the tiles feed it
-// too (restir-di's gi-tiles knob). light_tiles (bound by the kernel) holds tiles x tile_size
-// light samples drawn by power, each keeping its power pdf (restir-di's di-tiles pass fills
-// them once per frame). Needs the render library and LIGHT_TILES_PICK_PASS.
+// too. light_tiles (bound by the kernel) holds tiles x tile_size light samples drawn by power,
+// each keeping its power pdf (the light-tiles pass fills them once per frame). Needs the
+// render library.
 
 // The first entry of the tile that pixel's 8x8 block uses this frame: one random tile per
 // block per frame (coherent memory), the same for every pass that reads the tiles.
@@ -10,7 +10,7 @@ fn light_tiles_first(pixel: u32, tiles: u32, tile_size: u32) -> u32 {
     let w = render_params.camera.width;
     let blocks_x = (w + 7u) / 8u;
     let block = ((pixel / w) / 8u) * blocks_x + (pixel % w) / 8u;
-    var rng = rng_seed(block, render_state.frame, render_params.seed * RENDER_PASS_COUNT + LIGHT_TILES_PICK_PASS);
+    var rng = render_rng(block, STREAM_LIGHT_TILE_PICK);
     return (rng_next_u32(&rng) % tiles) * tile_size;
 }
 

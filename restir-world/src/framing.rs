@@ -12,8 +12,21 @@
 
 use glam::Vec3;
 
-use super::{Camera, Scene};
+use crate::scene::{Camera, Scene};
 use crate::trace::{Bvh, Ray};
+
+impl Scene {
+    /// The scene's camera, or a default framing at `width` x `height`: the whole bounding
+    /// sphere in a 45 degree vertical field of view, y up, from the side that shows the most of
+    /// the scene's inside (an open box from its open side; a planar scene across its plane,
+    /// never edge-on). See [`crate::framing`].
+    pub fn camera_or_default(&self, width: u32, height: u32) -> Camera {
+        if let Some(c) = self.camera {
+            return Camera { width, height, ..c };
+        }
+        default_camera(self, width, height)
+    }
+}
 
 /// Vertical field of view of the default framing, degrees.
 pub const DEFAULT_VFOV_DEG: f32 = 45.0;

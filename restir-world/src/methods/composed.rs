@@ -1,0 +1,163 @@
+//! [`Composed`]: a method made of the renderer and the stages that replace its shading, in the
+//! one order every method shares.
+
+use super::{FrameMethod, MethodError, MethodSettings};
+use crate::gpu::{FrameEncoder, GpuContext};
+use crate::light_tiles::LightTiles;
+use crate::render::{DebugView, Renderer};
+use crate::restir_di::{RestirDi, RestirDiConfig};
+use crate::scene::{Camera, Scene};
+use crate::world_restir::{WorldRestir, WorldRestirConfig};
+
+/// The renderer (primary and GI passes, the baselines' shading, accumulation) and the stages
+/// a method adds. Per frame:
+///
+/// 1. the renderer's `primary` and `gi` passes;
+/// 2. the light tiles, when a stage draws from them (`light-tiles`);
+/// 3. the indirect image: world-restir, or the renderer's NEE at the secondary vertex;
+/// 4. the direct image: world-restir's unified cache, ReSTIR DI, or the renderer's NEE;
+/// 5. accumulation.
+#[derive(Debug)]
+pub struct Composed {
+    renderer: Renderer,
+    tiles: Option<LightTiles>,
+    world: Option<WorldRestir>,
+    di: Option<RestirDi>,
+}
+
+impl Composed {
+    /// Builds `settings` for `scene` seen by `camera`.
+    pub fn new(
+        ctx: &GpuContext,
+        scene: &Scene,
+        camera: &Camera,
+        settings: &MethodSettings,
+        seed: u32,
+    ) -> Result<Self, MethodError> {
+        settings.validate()?;
+        let renderer = Renderer::new(ctx, scene, camera, settings.estimator, seed)?;
+        let tiles = match settings.di {
+            Some(d) => Some(LightTiles::new(
+                ctx,
+                &renderer.shared,
+                d.tiles,
+                d.tile_size,
+            )?),
+            None => None,
+        };
+        let gi_tiles = tiles
+            .as_ref()
+            .filter(|_| settings.di.is_some_and(|d| d.gi_tiles));
+        let world = match settings.world {
+            Some(w) => Some(WorldRestir::new(ctx, &renderer, w, gi_tiles)?),
+            None => None,
+        };
+        let di = match (settings.di, &tiles) {
+            (Some(d), Some(t)) => Some(RestirDi::new(ctx, &renderer, d, t)?),
+            _ => None,
+        };
+        Ok(Self {
+            renderer,
+            tiles,
+            world,
+            di,
+        })
+    }
+
+    /// `world-restir` with `config`.
+    pub fn world_restir(
+        ctx: &GpuContext,
+        scene: &Scene,
+        camera: &Camera,
+        config: WorldRestirConfig,
+        seed: u32,
+    ) -> Result<Self, MethodError> {
+        let settings = MethodSettings {
+            world: Some(config),
+            ..super::parse_spec("world-restir")?
+        };
+        Self::new(ctx, scene, camera, &settings, seed)
+    }
+
+    /// `restir-di` with `config`.
+    pub fn restir_di(
+        ctx: &GpuContext,
+        scene: &Scene,
+        camera: &Camera,
+        config: RestirDiConfig,
+        seed: u32,
+    ) -> Result<Self, MethodError> {
+        let settings = MethodSettings {
+            di: Some(config),
+            ..super::parse_spec("restir-di")?
+        };
+        Self::new(ctx, scene, camera, &settings, seed)
+    }
+
+    /// The world-restir stage, when the method has one.
+    pub fn world(&self) -> Option<&WorldRestir> {
+        self.world.as_ref()
+    }
+
+    /// The ReSTIR DI stage, when the method has one.
+    pub fn di(&self) -> Option<&RestirDi> {
+        self.di.as_ref()
+    }
+
+    /// The light tiles, when a stage draws from them.
+    pub fn tiles(&self) -> Option<&LightTiles> {
+        self.tiles.as_ref()
+    }
+}
+
+impl FrameMethod for Composed {
+    fn renderer(&self) -> &Renderer {
+        &self.renderer
+    }
+
+    fn encode_frame(&mut self, f: &mut FrameEncoder) -> Result<(), MethodError> {
+        let r = &mut self.renderer;
+        r.encode_primary_and_gi(f);
+        if let Some(t) = &self.tiles {
+            t.encode(f);
+        }
+        match self.world.as_mut() {
+            Some(w) => w.encode(f, r)?,
+            None => r.encode_shade_indirect(f),
+        }
+        let unified = self.world.as_ref().is_some_and(WorldRestir::lights_direct);
+        match self.di.as_mut() {
+            _ if unified => {}
+            Some(di) => di.encode(f, r),
+            None => r.encode_shade_direct(f),
+        }
+        r.encode_accumulate(f);
+        Ok(())
+    }
+
+    fn set_camera(&mut self, camera: &Camera) -> Result<(), MethodError> {
+        Ok(self.renderer.set_camera(camera)?)
+    }
+
+    fn restart_accumulation(&mut self, f: &mut FrameEncoder) {
+        self.renderer.restart_accumulation(f);
+    }
+
+    fn grid_overflows(&self, ctx: &GpuContext) -> Result<Option<u32>, MethodError> {
+        match &self.world {
+            Some(w) => Ok(Some(w.grid_stats(ctx)?.overflows)),
+            None => Ok(None),
+        }
+    }
+
+    fn debug_image(
+        &self,
+        ctx: &GpuContext,
+        view: DebugView,
+    ) -> Result<Option<Vec<[f32; 3]>>, MethodError> {
+        match &self.world {
+            Some(w) => Ok(Some(w.debug_image(ctx, view)?)),
+            None => Ok(None),
+        }
+    }
+}

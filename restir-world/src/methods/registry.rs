@@ -1,0 +1,427 @@
+//! The registry: every method as one [`MethodEntry`] (its name, its stages, the stage its
+//! variant configures and that stage's named variants), and [`MethodSettings`], the
+//! composition a spec parses to and prints back as ([`MethodSettings::spec`]).
+
+use std::fmt;
+
+use super::{Composed, FrameMethod, MethodError};
+use crate::gpu::GpuContext;
+use crate::knobs::{Knob, Knobs, Variant, parse_config};
+use crate::render;
+use crate::restir_di::{self, RestirDiConfig};
+use crate::sampling::Estimator;
+use crate::scene::{Camera, Scene};
+use crate::world_restir::{self, WorldRestirConfig};
+
+/// Which part of a method its variant text configures.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum VariantOf {
+    /// None: the method has no variants.
+    Nothing,
+    /// The `ris` baseline's candidate count (`ris:K`).
+    RisCandidates,
+    /// world-restir's knobs.
+    WorldRestir,
+    /// ReSTIR DI's knobs.
+    RestirDi,
+}
+
+/// One registered method.
+#[derive(Clone, Copy)]
+pub struct MethodEntry {
+    /// Name on the command line.
+    pub name: &'static str,
+    /// One line for `--help` and reports.
+    pub about: &'static str,
+    /// Its stages: world-restir for the indirect light, ReSTIR DI for the direct light (the
+    /// renderer's RIS lights what no stage does).
+    pub world_restir: bool,
+    pub restir_di: bool,
+    /// What its variant text configures.
+    pub variant_of: VariantOf,
+    /// Whether this is the method that equal-time comparisons are measured against when the
+    /// run includes it (world-space ReSTIR).
+    pub equal_time_target: bool,
+}
+
+impl fmt::Debug for MethodEntry {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.debug_struct("MethodEntry")
+            .field("name", &self.name)
+            .finish_non_exhaustive()
+    }
+}
+
+impl MethodEntry {
+    /// The named variants of the stage its variant configures.
+    pub fn variants(&self) -> &'static [Variant] {
+        match self.variant_of {
+            VariantOf::WorldRestir => world_restir::VARIANTS,
+            VariantOf::RestirDi => restir_di::VARIANTS,
+            VariantOf::Nothing | VariantOf::RisCandidates => &[],
+        }
+    }
+
+    /// What `name:` accepts, for `--help`: the named variants, or the knobs.
+    pub fn variants_help(&self) -> String {
+        let knobs = |k: &[Knob]| k.iter().map(|k| k.name).collect::<Vec<_>>().join(", ");
+        match self.variant_of {
+            VariantOf::Nothing => "none".into(),
+            VariantOf::RisCandidates => "K (candidate count)".into(),
+            VariantOf::WorldRestir | VariantOf::RestirDi => {
+                let names: Vec<&str> = self.variants().iter().map(|v| v.name).collect();
+                let all = match self.variant_of {
+                    VariantOf::WorldRestir => WorldRestirConfig::KNOBS,
+                    _ => RestirDiConfig::KNOBS,
+                };
+                format!(
+                    "{}, or knobs key=value ({}), joined by +",
+                    names.join(", "),
+                    knobs(all)
+                )
+            }
+        }
+    }
+
+    fn bad(&self, msg: impl Into<String>) -> MethodError {
+        MethodError::Variant {
+            method: self.name.into(),
+            msg: msg.into(),
+        }
+    }
+
+    /// The settings of this method with `variant` (`None`: the default).
+    pub fn settings(&'static self, variant: Option<&str>) -> Result<MethodSettings, MethodError> {
+        let mut s = MethodSettings {
+            entry: self,
+            estimator: render::ris(),
+            world: self.world_restir.then(WorldRestirConfig::default),
+            di: self.restir_di.then(RestirDiConfig::default),
+        };
+        match (self.variant_of, variant) {
+            (VariantOf::Nothing, None) => s.estimator = Estimator::Nee,
+            (VariantOf::Nothing, Some(v)) => {
+                return Err(self.bad(format!("has no variants (got {v:?})")));
+            }
+            (VariantOf::RisCandidates, v) => {
+                let candidates = match v {
+                    None => render::DEFAULT_CANDIDATES,
+                    Some(v) => v.parse().map_err(|_| {
+                        self.bad(format!("ris:<candidates> wants a number, got {v:?}"))
+                    })?,
+                };
+                render::check_candidates(candidates).map_err(|e| self.bad(e))?;
+                s.estimator = Estimator::Ris { candidates };
+            }
+            (VariantOf::WorldRestir, v) => {
+                s.world = Some(parse_config(world_restir::VARIANTS, v).map_err(|e| self.bad(e))?);
+            }
+            (VariantOf::RestirDi, v) => {
+                s.di = Some(parse_config(restir_di::VARIANTS, v).map_err(|e| self.bad(e))?);
+            }
+        }
+        s.validate()?;
+        Ok(s)
+    }
+}
+
+/// What a method spec parses to: the registry entry, the renderer's light estimator (for the
+/// images no stage lights) and the configuration of each of its stages.
+#[derive(Debug, Clone, Copy)]
+pub struct MethodSettings {
+    pub entry: &'static MethodEntry,
+    pub estimator: Estimator,
+    pub world: Option<WorldRestirConfig>,
+    pub di: Option<RestirDiConfig>,
+}
+
+impl PartialEq for MethodSettings {
+    fn eq(&self, other: &Self) -> bool {
+        self.entry.name == other.entry.name
+            && (self.estimator, self.world, self.di) == (other.estimator, other.world, other.di)
+    }
+}
+
+impl MethodSettings {
+    /// Checks each stage's knobs and how they compose.
+    pub fn validate(&self) -> Result<(), MethodError> {
+        let bad = |msg: &str| Err(self.entry.bad(msg));
+        if let Some(w) = &self.world {
+            w.validate()?;
+        }
+        if let Some(d) = &self.di {
+            d.validate().map_err(|e| self.entry.bad(e.to_string()))?;
+            if d.gi_tiles && self.world.is_none() {
+                return bad(
+                    "gi-tiles feeds world-restir's generate pass: use world-restir+restir-di",
+                );
+            }
+        }
+        if self.world.is_some_and(|w| w.unified) && self.di.is_some() {
+            return bad("unified and restir-di both light the direct image: use one");
+        }
+        Ok(())
+    }
+
+    /// The spec that rebuilds these settings (`name` or `name:knobs`).
+    pub fn spec(&self) -> String {
+        let knobs = match self.entry.variant_of {
+            VariantOf::Nothing => String::new(),
+            VariantOf::RisCandidates => match self.estimator {
+                Estimator::Ris { candidates } if candidates != render::DEFAULT_CANDIDATES => {
+                    candidates.to_string()
+                }
+                _ => String::new(),
+            },
+            VariantOf::WorldRestir => self.world.map(|c| c.knobs_spec()).unwrap_or_default(),
+            VariantOf::RestirDi => self.di.map(|c| c.knobs_spec()).unwrap_or_default(),
+        };
+        match knobs.is_empty() {
+            true => self.entry.name.to_owned(),
+            false => format!("{}:{knobs}", self.entry.name),
+        }
+    }
+
+    /// The knobs the variant configures, with their current values (empty for methods
+    /// without knobs): what a knob panel shows.
+    pub fn knobs(&self) -> Vec<(Knob, String)> {
+        fn values<C: Knobs>(c: &C) -> Vec<(Knob, String)> {
+            C::KNOBS
+                .iter()
+                .map(|k| (*k, c.get(k.name).unwrap_or_default()))
+                .collect()
+        }
+        match (self.entry.variant_of, &self.world, &self.di) {
+            (VariantOf::WorldRestir, Some(w), _) => values(w),
+            (VariantOf::RestirDi, _, Some(d)) => values(d),
+            _ => Vec::new(),
+        }
+    }
+
+    /// These settings with one knob of the variant changed, checked.
+    pub fn with_knob(&self, key: &str, value: &str) -> Result<MethodSettings, MethodError> {
+        let mut next = *self;
+        let set = match (self.entry.variant_of, &mut next.world, &mut next.di) {
+            (VariantOf::WorldRestir, Some(w), _) => w.set(key, value),
+            (VariantOf::RestirDi, _, Some(d)) => d.set(key, value),
+            _ => Err(format!("{} has no knobs", self.entry.name)),
+        };
+        set.map_err(|e| self.entry.bad(e))?;
+        next.validate()?;
+        Ok(next)
+    }
+
+    /// Builds the method.
+    pub fn build(
+        &self,
+        ctx: &GpuContext,
+        scene: &Scene,
+        camera: &Camera,
+        seed: u32,
+    ) -> Result<Box<dyn FrameMethod>, MethodError> {
+        Ok(Box::new(Composed::new(ctx, scene, camera, self, seed)?))
+    }
+}
+
+/// Every registered method, in display order.
+pub fn registry() -> &'static [MethodEntry] {
+    const fn entry(name: &'static str, about: &'static str, variant_of: VariantOf) -> MethodEntry {
+        MethodEntry {
+            name,
+            about,
+            world_restir: false,
+            restir_di: false,
+            variant_of,
+            equal_time_target: false,
+        }
+    }
+    const REGISTRY: &[MethodEntry] = &[
+        entry(
+            "nee",
+            "one light sample + one shadow ray at each vertex",
+            VariantOf::Nothing,
+        ),
+        entry(
+            "ris",
+            "RIS over 16 light candidates (ris:K for K), one shadow ray, no reuse",
+            VariantOf::RisCandidates,
+        ),
+        MethodEntry {
+            world_restir: true,
+            equal_time_target: true,
+            ..entry(
+                "world-restir",
+                "world-space ReSTIR GI: RIS + hash-grid temporal and spatial reuse",
+                VariantOf::WorldRestir,
+            )
+        },
+        MethodEntry {
+            restir_di: true,
+            ..entry(
+                "restir-di",
+                "ris with screen-space ReSTIR DI (light tiles, temporal + spatial reuse) for \
+                 the direct light",
+                VariantOf::RestirDi,
+            )
+        },
+        MethodEntry {
+            world_restir: true,
+            restir_di: true,
+            ..entry(
+                "world-restir+restir-di",
+                "world-space ReSTIR GI for the indirect light (its defaults), ReSTIR DI for the \
+                 direct light (its variants)",
+                VariantOf::RestirDi,
+            )
+        },
+    ];
+    REGISTRY
+}
+
+/// The registry entry of `spec` (`name` or `name:variant`).
+pub fn entry(spec: &str) -> Result<&'static MethodEntry, MethodError> {
+    let name = spec.split_once(':').map_or(spec, |(n, _)| n);
+    registry().iter().find(|e| e.name == name).ok_or_else(|| {
+        let names: Vec<&str> = registry().iter().map(|e| e.name).collect();
+        MethodError::Unknown {
+            name: name.into(),
+            known: names.join(", "),
+        }
+    })
+}
+
+/// Parses a method spec (`name` or `name:variant`) without a GPU: the name is registered and
+/// its variant parses. Tools call it before any expensive work.
+pub fn parse_spec(spec: &str) -> Result<MethodSettings, MethodError> {
+    entry(spec)?.settings(spec.split_once(':').map(|(_, v)| v))
+}
+
+/// [`parse_spec`], for its errors only.
+pub fn check_spec(spec: &str) -> Result<(), MethodError> {
+    parse_spec(spec).map(drop)
+}
+
+/// Builds the method named by `spec` (`name` or `name:variant`).
+pub fn build_method(
+    spec: &str,
+    ctx: &GpuContext,
+    scene: &Scene,
+    camera: &Camera,
+    seed: u32,
+) -> Result<Box<dyn FrameMethod>, MethodError> {
+    parse_spec(spec)?.build(ctx, scene, camera, seed)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use reservoir::reuse::Combination;
+
+    #[test]
+    fn names_are_unique_and_found() {
+        let r = registry();
+        for (i, a) in r.iter().enumerate() {
+            assert!(r[i + 1..].iter().all(|b| b.name != a.name));
+            assert_eq!(entry(a.name).unwrap().name, a.name);
+        }
+        assert_eq!(entry("ris:4").unwrap().name, "ris");
+        assert!(entry("nope").is_err());
+        for good in [
+            "nee",
+            "ris",
+            "ris:4",
+            "ris:65535",
+            "world-restir:biased+spatial-passes=2",
+            "world-restir:unified",
+            "restir-di",
+            "restir-di:no-reuse",
+            "restir-di:biased+spatial-k=2",
+            "restir-di:combine=one-over-z",
+            "world-restir+restir-di:spatial-k=4",
+            "world-restir+restir-di:gi-tiles",
+        ] {
+            check_spec(good).unwrap_or_else(|e| panic!("{good}: {e}"));
+        }
+        for bad in [
+            "nee:1",
+            "ris:0",
+            "ris:65536",
+            "ris:x",
+            "world-restir:bogus",
+            "restir-di:bogus",
+            "restir-di:spatial-k=99",
+            "restir-di:tiles=0",
+            "restir-di:gi-tiles",
+            "world-restir+restir-di:combine=x",
+            "nope",
+        ] {
+            assert!(check_spec(bad).is_err(), "{bad}");
+        }
+    }
+
+    /// Every named variant of every entry parses, and its spec rebuilds the same settings.
+    #[test]
+    fn every_variant_round_trips_through_its_spec() {
+        for e in registry() {
+            let mut specs = vec![e.name.to_owned()];
+            specs.extend(
+                e.variants()
+                    .iter()
+                    .map(|v| format!("{}:{}", e.name, v.name)),
+            );
+            if e.variant_of == VariantOf::RisCandidates {
+                specs.push("ris:4".into());
+            }
+            for spec in specs {
+                let Ok(s) = parse_spec(&spec) else {
+                    // gi-tiles is world-restir+restir-di's only.
+                    assert!(spec == "restir-di:gi-tiles", "{spec}");
+                    continue;
+                };
+                let again = parse_spec(&s.spec()).unwrap_or_else(|e| panic!("{spec}: {e}"));
+                assert_eq!(again, s, "{spec} -> {}", s.spec());
+            }
+        }
+        let b = parse_spec("world-restir:biased+spatial-passes=3").unwrap();
+        assert_eq!(b.spec(), "world-restir:spatial-passes=3+combine=biased");
+        assert_eq!(parse_spec("ris:16").unwrap().spec(), "ris");
+    }
+
+    #[test]
+    fn knobs_change_the_variant_stage_only() {
+        let s = parse_spec("world-restir+restir-di").unwrap();
+        assert_eq!(s.knobs().len(), RestirDiConfig::KNOBS.len());
+        let next = s.with_knob("spatial-k", "2").unwrap();
+        assert_eq!(next.spec(), "world-restir+restir-di:spatial-k=2");
+        assert_eq!(next.world, s.world);
+        let err = s.with_knob("spatial-k", "99").unwrap_err().to_string();
+        assert!(err.contains("spatial-k"), "{err}");
+        assert!(parse_spec("ris").unwrap().knobs().is_empty());
+        let k = parse_spec("restir-di:biased+spatial-k=2")
+            .unwrap()
+            .di
+            .unwrap();
+        assert_eq!((k.combine, k.spatial_k), (Combination::OneOverM, 2));
+        let w = parse_spec("world-restir:biased+spatial-passes=2+max_count=8").unwrap();
+        let w = w.world.unwrap();
+        assert_eq!(
+            (w.combine, w.spatial_passes, w.max_count),
+            (Combination::OneOverM, 2, 8)
+        );
+        for (bad, knob) in [
+            ("restir-di:spatial-k=x", "spatial-k"),
+            ("restir-di:tiles=0", "tiles"),
+            ("restir-di:bogus", "bogus"),
+            ("world-restir:nosuch=1", "nosuch"),
+        ] {
+            let e = check_spec(bad).unwrap_err().to_string();
+            assert!(e.contains(knob), "{bad}: {e}");
+        }
+        let unified = parse_spec("world-restir:unified").unwrap();
+        let both = MethodSettings {
+            di: Some(RestirDiConfig::default()),
+            ..unified
+        };
+        assert!(both.validate().is_err());
+    }
+}

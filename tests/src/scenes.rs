@@ -1,0 +1,24 @@
+//! Small scenes the GPU tests share.
+
+use glam::Vec3;
+use restir_world::scene::{Material, Scene};
+
+/// A 4 x 4 slab of albedo 0.6 with a 1 x 1 x 1 block on it and a 0.3 x 0.3 emissive quad of
+/// radiance `lamp` above one corner: shadows from every light a test adds.
+pub fn lit_slab(lamp: [f32; 3]) -> Scene {
+    let mut s = Scene::default();
+    let m = s.add_material(Material::new([0.6; 3], [0.0; 3]));
+    let lamp = s.add_material(Material::new([0.0; 3], lamp));
+    s.push_box(Vec3::new(-2.0, -1.0, -2.0), Vec3::new(2.0, -0.8, 2.0), m);
+    s.push_box(Vec3::new(-0.5, -0.8, -0.5), Vec3::new(0.5, 0.2, 0.5), m);
+    s.push_quad(
+        [
+            Vec3::new(1.5, 0.5, -1.5),
+            Vec3::new(1.8, 0.5, -1.5),
+            Vec3::new(1.8, 0.5, -1.2),
+            Vec3::new(1.5, 0.5, -1.2),
+        ],
+        lamp,
+    );
+    s
+}
