@@ -561,6 +561,21 @@ pub fn check_spec(spec: &str) -> Result<(), MethodError> {
     parse_spec(spec).map(drop)
 }
 
+/// Checks without a GPU what the method needs of the camera (before any GPU work): world-restir
+/// sizes its hash grid's cells from the image size and the field of view, and a tiny image
+/// (1x1, 4x4) cannot be sized.
+pub fn check_camera(spec: &str, camera: &Camera) -> Result<(), MethodError> {
+    let config = match parse_spec(spec)? {
+        MethodSettings::WorldRestir(c) | MethodSettings::WorldRestirDi(c, _) => c,
+        MethodSettings::Baseline(_) | MethodSettings::RestirDi(_) => return Ok(()),
+    };
+    config.validate()?;
+    let table = config.table(camera.width, camera.height);
+    gpu_hash::HashGridParams::new(&table, &config.sizing(camera), camera.eye)
+        .map_err(WorldRestirError::from)?;
+    Ok(())
+}
+
 /// Every registered method, in display order.
 pub fn registry() -> &'static [MethodEntry] {
     const REGISTRY: &[MethodEntry] = &[
