@@ -154,7 +154,10 @@ fn accessor_problem(
         return Some(format!("is {:?}, not {dims:?}", acc.dimensions()));
     }
     if !types.contains(&acc.data_type()) {
-        let allowed: Vec<&str> = types.iter().map(|t| component_name(*t)).collect();
+        let allowed: Vec<&str> = match types {
+            [T::F32] => vec!["32-bit float (FLOAT)"],
+            _ => types.iter().map(|t| component_name(*t)).collect(),
+        };
         return Some(format!(
             "has {} components, not {} (quantized vertex data, KHR_mesh_quantization, is not \
              read)",
