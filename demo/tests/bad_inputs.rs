@@ -36,6 +36,11 @@ fn corpus(name: &str) -> String {
         .to_string()
 }
 
+/// What a case does before its run: given the run's process id and output directory.
+type Before = Box<dyn Fn(u32, &Path)>;
+/// What a case checks after its run, given the output directory.
+type After = Box<dyn Fn(&Path) -> Result<(), String>>;
+
 /// One row of the table.
 struct Case {
     name: &'static str,
@@ -47,9 +52,9 @@ struct Case {
     needle: String,
     /// Runs before the command starts, with its process id (the command is held until this
     /// returns) and its output directory: plants links, directories or damaged files.
-    before: Option<Box<dyn Fn(u32, &Path)>>,
+    before: Option<Before>,
     /// Checks after the run (with the output directory): what is wrong, if anything.
-    after: Option<Box<dyn Fn(&Path) -> Result<(), String>>>,
+    after: Option<After>,
     /// Address-space limit of the run in MiB: an unbounded allocation aborts it.
     mem_mib: Option<u64>,
     /// Do not add `--out` (commands without one).
