@@ -322,6 +322,28 @@ mod tests {
         std::fs::remove_dir_all(&d).unwrap();
     }
 
+    /// Issue 27, 2: a link at the output path is replaced, never written through; a link at
+    /// a name `create_new` is asked for fails it.
+    #[cfg(unix)]
+    #[test]
+    fn links_are_never_written_through() {
+        let d = temp_dir("links");
+        let victim = d.join("victim");
+        std::fs::write(&victim, b"keep").unwrap();
+        let out = d.join("out.bin");
+        std::os::unix::fs::symlink(&victim, &out).unwrap();
+        write_bytes(&out, b"new").unwrap();
+        assert_eq!(std::fs::read(&victim).unwrap(), b"keep");
+        assert!(!std::fs::symlink_metadata(&out).unwrap().is_symlink());
+        assert_eq!(std::fs::read(&out).unwrap(), b"new");
+        let planted = d.join("planted");
+        std::os::unix::fs::symlink(&victim, &planted).unwrap();
+        assert!(create_new(&planted).is_err());
+        assert_eq!(std::fs::read(&victim).unwrap(), b"keep");
+        assert_ne!(unique_suffix(), unique_suffix());
+        std::fs::remove_dir_all(&d).unwrap();
+    }
+
     #[test]
     fn tone_map_is_monotonic_and_safe() {
         assert_eq!(tone_map([0.0, 1.0, 2.0], 1.0), [0, 255, 255]);
