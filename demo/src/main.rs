@@ -220,6 +220,9 @@ struct RenderArgs {
     /// Worker threads of the CPU reference (0 = all cores).
     #[arg(long, default_value_t = 0)]
     threads: usize,
+    /// No progress bar (it is drawn only on a terminal anyway).
+    #[arg(long)]
+    quiet: bool,
     #[command(flatten)]
     anim: render_cmd::AnimArgs,
 }
@@ -274,30 +277,81 @@ fn main() -> ExitCode {
 }
 
 /// Creates the output directory and checks that files can be written into it, before any
-/// expensive work. Returns whether it already existed.
-fn prepare_out_dir(out: &Path) -> Result<bool> {
-    let existed = out.is_dir();
-    std::fs::create_dir_all(out)
-        .with_context(|| format!("cannot create the output directory {}", out.display()))?;
-    let probe = out.join(format!(".restir-demo-probe-{}", std::process::id()));
-    let written = std::fs::write(&probe, b"")
-        .with_context(|| format!("cannot write into the output directory {}", out.display()));
-    let _ = std::fs::remove_file(&probe);
-    if written.is_err() && !existed {
-        let _ = std::fs::remove_dir(out);
-    }
-    written.map(|()| existed)
+/// expensive work. Returns the directories it created (outermost first; empty when `out`
+/// already existed), which a failed run removes again ([`remove_created`]).
+fn prepare_out_dir(out: &Path) -> Result<Vec<PathBuf>> {
+    prepare_dir(out, "the output directory")
 }
 
-/// Runs `work` with `out` prepared; a failed run removes `out` again when it created it and
-/// left it empty.
+/// [`prepare_out_dir`] for any directory, named `what` in messages. The probe file has a
+/// random name and is created new: a link planted at some name is never followed.
+pub(crate) fn prepare_dir(dir: &Path, what: &str) -> Result<Vec<PathBuf>> {
+    let created = missing_ancestors(dir);
+    std::fs::create_dir_all(dir)
+        .with_context(|| format!("cannot create {what} {}", dir.display()))?;
+    let probe = dir.join(format!(".restir-demo-probe-{}", image_io::unique_suffix()));
+    let written = image_io::create_new(&probe)
+        .map(drop)
+        .with_context(|| format!("cannot write into {what} {}", dir.display()));
+    if written.is_ok() {
+        let _ = std::fs::remove_file(&probe);
+    }
+    match written {
+        Ok(()) => Ok(created),
+        Err(e) => {
+            remove_created(&created);
+            Err(e)
+        }
+    }
+}
+
+/// `dir` and its ancestors that do not exist yet, outermost first.
+fn missing_ancestors(dir: &Path) -> Vec<PathBuf> {
+    let mut v: Vec<PathBuf> = dir
+        .ancestors()
+        .filter(|a| !a.as_os_str().is_empty())
+        .take_while(|a| std::fs::symlink_metadata(a).is_err())
+        .map(Path::to_path_buf)
+        .collect();
+    v.reverse();
+    v
+}
+
+/// Removes directories [`prepare_dir`] created, innermost first, as long as they are empty.
+pub(crate) fn remove_created(created: &[PathBuf]) {
+    for d in created.iter().rev() {
+        if std::fs::remove_dir(d).is_err() {
+            break;
+        }
+    }
+}
+
+/// Runs `work` with `out` prepared; a failed run removes the directories it created again
+/// when it left them empty.
 pub(crate) fn with_out_dir<T>(out: &Path, work: impl FnOnce() -> Result<T>) -> Result<T> {
-    let existed = prepare_out_dir(out)?;
+    let created = prepare_out_dir(out)?;
     let result = work();
-    if result.is_err() && !existed {
-        let _ = std::fs::remove_dir(out);
+    if result.is_err() {
+        remove_created(&created);
     }
     result
+}
+
+/// Writes a set of files all or none: each through `write`, and when one fails, removes those
+/// already written before returning the error.
+pub(crate) fn write_all_or_none(
+    files: &[PathBuf],
+    mut write: impl FnMut(usize, &Path) -> Result<()>,
+) -> Result<()> {
+    for (i, f) in files.iter().enumerate() {
+        if let Err(e) = write(i, f) {
+            for done in &files[..i] {
+                let _ = std::fs::remove_file(done);
+            }
+            return Err(e);
+        }
+    }
+    Ok(())
 }
 
 fn info(scene_name: Option<&str>, opts: &scenes::SceneArgs) -> Result<()> {
@@ -383,8 +437,18 @@ fn info(scene_name: Option<&str>, opts: &scenes::SceneArgs) -> Result<()> {
     Ok(())
 }
 
+/// `--quiet`: no progress bars.
+static QUIET: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
+
+/// A progress bar of `len` steps on stderr (done, elapsed, estimated remaining): drawn only on
+/// a terminal (indicatif hides it when stderr is a file or a pipe, as in logs), never under
+/// `--quiet`; it ticks by itself so that a long first step (pipeline compilation) shows.
 fn progress_bar(len: u64, what: &str) -> ProgressBar {
+    if QUIET.load(std::sync::atomic::Ordering::Relaxed) {
+        return ProgressBar::hidden();
+    }
     let pb = ProgressBar::new(len);
+    pb.enable_steady_tick(std::time::Duration::from_millis(500));
     pb.set_style(
         ProgressStyle::with_template("{msg} [{bar:40}] {pos}/{len} {elapsed_precise} eta {eta}")
             .unwrap_or_else(|_| ProgressStyle::default_bar())
@@ -395,6 +459,7 @@ fn progress_bar(len: u64, what: &str) -> ProgressBar {
 }
 
 fn render(args: &RenderArgs) -> Result<()> {
+    QUIET.store(args.quiet, std::sync::atomic::Ordering::Relaxed);
     if args.spp == 0 || args.frames == 0 {
         anyhow::bail!("--spp and --frames must be at least 1");
     }
@@ -427,6 +492,12 @@ fn render(args: &RenderArgs) -> Result<()> {
     if args.method != CPU_REFERENCE {
         restir_world::methods::check_spec(&args.method)?;
         args.anim.validate()?;
+        restir_world::methods::check_camera(&args.method, &camera).with_context(|| {
+            format!(
+                "--size {}x{} (with --method {}): use a larger --size",
+                camera.width, camera.height, args.method
+            )
+        })?;
         if args.candidates.is_some() || args.reference_ris {
             anyhow::bail!(
                 "--candidates and --reference-ris are cpu-reference options (GPU methods: \
@@ -516,25 +587,42 @@ fn render_into(
             &format!("{scene_tag}-{method_tag}"),
         )?,
     };
-    for (kind, img) in [
+    write_images(args, &format!("{scene_tag}-{method_tag}"), &images)
+}
+
+/// Writes the direct, indirect and combined images of a render as `TAG-KIND.exr` and `.png`
+/// into `--out`: all six files or none (a failed write removes the ones before it).
+fn write_images(args: &RenderArgs, tag: &str, images: &reference::Rendered) -> Result<()> {
+    let sets = [
         ("direct", &images.direct),
         ("indirect", &images.indirect),
         ("combined", &images.combined),
-    ] {
+    ];
+    let (mut files, mut bases) = (Vec::new(), Vec::new());
+    for (kind, _) in &sets {
         // Appended, not `with_extension`: a stem with dots ("a.b") would lose its tail.
-        let base = args.out.join(format!("{scene_tag}-{method_tag}-{kind}"));
-        let with = |ext: &str| {
+        let base = args.out.join(format!("{tag}-{kind}"));
+        bases.push(base.clone());
+        for ext in ["exr", "png"] {
             let mut p = base.clone().into_os_string();
             p.push(".");
             p.push(ext);
-            PathBuf::from(p)
-        };
-        image_io::write_exr(&with("exr"), img)?;
-        image_io::write_png(&with("png"), img, args.exposure)?;
+            files.push(PathBuf::from(p));
+        }
+    }
+    write_all_or_none(&files, |i, f| {
+        let img = sets[i / 2].1;
+        match i % 2 {
+            0 => image_io::write_exr(f, img)?,
+            _ => image_io::write_png(f, img, args.exposure)?,
+        }
+        Ok(())
+    })?;
+    for (i, (_, img)) in sets.iter().enumerate() {
         let m = img.mean();
         println!(
             "wrote {}.{{exr,png}} (mean {:.4} {:.4} {:.4})",
-            base.display(),
+            bases[i].display(),
             m[0],
             m[1],
             m[2]

@@ -21,7 +21,7 @@ pub struct SceneArgs {
     pub scene_seed: u32,
     /// The scene file's camera to use, by name or index (`info --scene FILE` lists them).
     /// Default: the file's first camera; a file without one gets a default framing.
-    #[arg(long = "camera")]
+    #[arg(long = "camera", allow_hyphen_values = true)]
     pub camera: Option<String>,
     /// Place N small emissive quads on the scene's own surfaces (picked by area, half a quad
     /// above the surface, facing away from it; deterministic in --scene-seed): any scene
@@ -31,27 +31,33 @@ pub struct SceneArgs {
     pub add_lights: u32,
     /// --add-lights: power of each light in watts, both sides (default: together the lights
     /// emit pi/4 per unit of the scene's surface area).
-    #[arg(long, value_parser = positive_f32)]
+    #[arg(long, value_parser = positive_f32, allow_hyphen_values = true)]
     pub add_light_power: Option<f32>,
     /// --add-lights: side length of each quad in scene units (default: 0.5% of the scene's
     /// bounding-box diagonal).
-    #[arg(long, value_parser = positive_f32)]
+    #[arg(long, value_parser = positive_f32, allow_hyphen_values = true)]
     pub add_light_size: Option<f32>,
     /// A constant sky of linear radiance R,G,B (or one value for grey) lighting the scene from
     /// every direction rays escape in.
-    #[arg(long, value_name = "R,G,B", conflicts_with = "env")]
+    #[arg(
+        long,
+        value_name = "R,G,B",
+        conflicts_with = "env",
+        allow_hyphen_values = true
+    )]
     pub sky: Option<String>,
     /// An equirectangular environment map (.hdr or .exr, linear radiance; the map's top row
     /// is straight up, its left edge looks along -z) lighting the scene.
     #[arg(long, value_name = "FILE.hdr|FILE.exr")]
     pub env: Option<std::path::PathBuf>,
     /// Scale of --env's (or --sky's) radiance.
-    #[arg(long, value_name = "K")]
+    #[arg(long, value_name = "K", allow_hyphen_values = true)]
     pub env_intensity: Option<f32>,
     /// Scale of the scene file's punctual lights (KHR_lights_punctual intensities are candela
     /// and lux, rendered 1:1 as radiometric units: a 6830 lux sun outshines a surface of
     /// radiance 20 by far); 0 turns them off.
-    #[arg(long, value_name = "K", default_value_t = 1.0, value_parser = non_negative_f32)]
+    #[arg(long, value_name = "K", default_value_t = 1.0, value_parser = non_negative_f32,
+          allow_hyphen_values = true)]
     pub punctual_intensity: f32,
 }
 
@@ -130,8 +136,18 @@ fn prepare(s: &mut Scene, opts: &SceneArgs) -> Result<()> {
     if opts.punctual_intensity == 0.0 {
         s.lights.clear();
     }
+    // Checked after scaling: a product above the cap (or infinite) is refused, not dropped.
+    let k = opts.punctual_intensity;
     for l in &mut s.lights {
-        l.intensity *= opts.punctual_intensity;
+        let scaled = l.intensity * k;
+        l.intensity = scaled;
+        l.validate().map_err(|e| {
+            anyhow::anyhow!(
+                "--punctual-intensity {k:e}: light {:?}: {} x {k:e} = {scaled:e}: {e}",
+                l.name,
+                scaled / k
+            )
+        })?;
     }
     let k = opts.env_intensity;
     if let Some(k) = k {
@@ -142,10 +158,11 @@ fn prepare(s: &mut Scene, opts: &SceneArgs) -> Result<()> {
         s.environment =
             Some(scene::Environment::constant(rgb).with_context(|| format!("--sky {sky}"))?);
     } else if let Some(path) = &opts.env {
-        s.environment = Some(
-            scene::Environment::load(path, k.unwrap_or(1.0))
-                .with_context(|| format!("--env {}", path.display()))?,
-        );
+        let mut env = scene::Environment::load(path, k.unwrap_or(1.0))
+            .with_context(|| format!("--env {}", path.display()))?;
+        // Messages about the map (the GPU's binding limit) name the flag and the file.
+        env.source = format!("--env {}", path.display());
+        s.environment = Some(env);
     } else if k.is_some() {
         anyhow::bail!("--env-intensity scales --env or --sky: give one of them");
     }
@@ -163,7 +180,16 @@ fn prepare(s: &mut Scene, opts: &SceneArgs) -> Result<()> {
                 seed: opts.scene_seed,
             },
         )
-        .context("--add-lights")?;
+        .with_context(|| {
+            let mut flags = format!("--add-lights {}", opts.add_lights);
+            if let Some(p) = opts.add_light_power {
+                flags.push_str(&format!(" --add-light-power {p:e}"));
+            }
+            if let Some(z) = opts.add_light_size {
+                flags.push_str(&format!(" --add-light-size {z:e}"));
+            }
+            flags
+        })?;
         eprintln!(
             "added {} lights: {:.3e} x {:.3e} quads of {:.3e} W each",
             opts.add_lights, r.size, r.size, r.power
@@ -176,10 +202,15 @@ fn prepare(s: &mut Scene, opts: &SceneArgs) -> Result<()> {
 
 /// A scene without emitters renders black: say so.
 pub fn warn_if_dark(name: &str, s: &Scene) {
-    if restir_world::lights::Lights::build(s).is_empty() && s.environment.is_none() {
+    // A black sky (`--sky 0`, `--env-intensity 0`, a map of zeros) lights nothing either.
+    let sky = s
+        .environment
+        .as_ref()
+        .is_some_and(|e| e.pixels.iter().flatten().any(|&c| c > 0.0));
+    if restir_world::lights::Lights::build(s).is_empty() && !sky {
         eprintln!(
             "warning: {name}: the scene has no lights (no material emits, no punctual light, \
-             no --sky or --env): it renders black"
+             no --sky or --env that is not black): it renders black"
         );
     }
 }

@@ -136,9 +136,18 @@ struct Setup {
     speed: f32,
 }
 
-/// `restir-demo view`.
+/// `restir-demo view`. A failed run removes the directories --screenshot created.
 pub fn view(args: ViewArgs) -> Result<()> {
-    let setup = check(args)?;
+    let mut created = Vec::new();
+    let result = view_with(args, &mut created);
+    if result.is_err() {
+        crate::remove_created(&created);
+    }
+    result
+}
+
+fn view_with(args: ViewArgs, created: &mut Vec<PathBuf>) -> Result<()> {
+    let setup = check(args, created)?;
     check_display()?;
     let event_loop = EventLoop::new().map_err(|e| {
         anyhow::anyhow!(
@@ -195,7 +204,7 @@ fn check_display() -> Result<()> {
     Ok(())
 }
 
-fn check(args: ViewArgs) -> Result<Setup> {
+fn check(args: ViewArgs, created: &mut Vec<PathBuf>) -> Result<Setup> {
     if !(args.exposure.is_finite() && args.exposure > 0.0) {
         anyhow::bail!("--exposure must be a positive number");
     }
@@ -212,7 +221,7 @@ fn check(args: ViewArgs) -> Result<Setup> {
     let screenshot = args
         .screenshot
         .as_deref()
-        .map(screenshot_paths)
+        .map(|f| screenshot_paths(f, created))
         .transpose()?;
     let scene = scenes::load(&args.scene, &args.scene_opts, args.size)?;
     let base_size = args
@@ -248,7 +257,7 @@ fn scaled(n: u32, scale: f32) -> u32 {
 }
 
 /// FILE.png and FILE.exr of `--screenshot FILE[.png|.exr]`; the directory must be creatable.
-fn screenshot_paths(file: &Path) -> Result<(PathBuf, PathBuf)> {
+fn screenshot_paths(file: &Path, created: &mut Vec<PathBuf>) -> Result<(PathBuf, PathBuf)> {
     let stem = match file.extension().and_then(|e| e.to_str()) {
         Some("png" | "exr") => file.with_extension(""),
         _ => file.to_path_buf(),
@@ -257,7 +266,8 @@ fn screenshot_paths(file: &Path) -> Result<(PathBuf, PathBuf)> {
         anyhow::bail!("--screenshot {}: not a file name", file.display());
     }
     if let Some(dir) = stem.parent().filter(|d| !d.as_os_str().is_empty()) {
-        crate::prepare_out_dir(dir).with_context(|| format!("--screenshot {}", file.display()))?;
+        *created = crate::prepare_out_dir(dir)
+            .with_context(|| format!("--screenshot {}", file.display()))?;
     }
     let with = |ext: &str| {
         let mut p = stem.clone().into_os_string();

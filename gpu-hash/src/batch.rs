@@ -179,6 +179,30 @@ pub(crate) fn check_batch_limits(limits: &wgpu::Limits) -> Result<(), HashError>
     crate::check_limits(what, &checks)
 }
 
+/// The checks of [`HashBatch::bind`] on the caller's buffers that wgpu's validation would
+/// otherwise fail on (a panic under the default error handler).
+fn check_io(
+    table: &HashTable,
+    input: &wgpu::Buffer,
+    output: &wgpu::Buffer,
+) -> Result<(), HashError> {
+    for (which, b) in [("input", input), ("output", output)] {
+        if !b.usage().contains(wgpu::BufferUsages::STORAGE) {
+            return Err(HashError::MissingStorageUsage { which });
+        }
+    }
+    if input == output {
+        return Err(HashError::Aliasing("input", "output"));
+    }
+    let t = table.buffers();
+    for (which, b) in [("input", input), ("output", output)] {
+        if [t.params, t.checksums, t.counters, t.stats].contains(&b) {
+            return Err(HashError::Aliasing(which, "table"));
+        }
+    }
+    Ok(())
+}
+
 impl HashBatch {
     /// Builds the batch pipelines, after checking the device limits they need
     /// ([`HashError::DeviceLimit`] otherwise).
@@ -263,10 +287,12 @@ impl HashBatch {
         })
     }
 
-    /// Binds `kernel` to `table` and the caller's `input` / `output` for `n` items: checks the
-    /// buffer sizes and that the exact ranges the kernel uses (`n * stride` bytes from 0) fit
-    /// one storage binding ([`HashError::BindingTooLarge`]), then creates the bind groups and
-    /// the parameter block, once.
+    /// Binds `kernel` to `table` and the caller's `input` / `output` for `n` items: checks
+    /// that both have `STORAGE` usage ([`HashError::MissingStorageUsage`]), that they are
+    /// neither the same buffer nor one of the table's ([`HashError::Aliasing`]), the buffer
+    /// sizes, and that the exact ranges the kernel uses (`n * stride` bytes from 0) fit one
+    /// storage binding ([`HashError::BindingTooLarge`]), then creates the bind groups and the
+    /// parameter block, once.
     pub fn bind(
         &self,
         device: &wgpu::Device,
@@ -276,6 +302,7 @@ impl HashBatch {
         output: &wgpu::Buffer,
         n: u32,
     ) -> Result<BatchBinding, HashError> {
+        check_io(table, input, output)?;
         let need_in = u64::from(n) * 16 * kernel.input_vec4s();
         if input.size() < need_in {
             return Err(HashError::BufferTooSmall {

@@ -113,6 +113,12 @@ pub enum HashError {
         bytes: u64,
         limit: u64,
     },
+    /// A caller's buffer lacks `BufferUsages::STORAGE` (wgpu would refuse to bind it).
+    #[error("the {which} buffer lacks BufferUsages::STORAGE")]
+    MissingStorageUsage { which: &'static str },
+    /// Two buffers that must differ are the same buffer (`"table"`: one of the table's own).
+    #[error("the {0} and {1} buffers must not alias")]
+    Aliasing(&'static str, &'static str),
     /// A [`BatchBinding`] made by another [`HashBatch`] was passed to [`HashBatch::encode`].
     #[error("the binding was made by another HashBatch")]
     ForeignBinding,

@@ -57,6 +57,9 @@ pub struct GpuReference {
     pub key: String,
     /// Whether it was read from the cache rather than rendered.
     pub from_cache: bool,
+    /// Why the cache entry under its key was not used although it was there (damaged: it was
+    /// dropped and the reference rendered again); `None` otherwise.
+    pub cache_note: Option<String>,
 }
 
 impl GpuReference {
@@ -274,6 +277,7 @@ pub fn render(
         self_rel_mse: Some(self_rel_mse),
         key: cache_key(scene, camera, settings),
         from_cache: false,
+        cache_note: None,
     })
 }
 
@@ -285,9 +289,16 @@ fn cache_paths(dir: &Path, key: &str) -> [PathBuf; 3] {
     ]
 }
 
-fn read_cached(dir: &Path, key: &str) -> Option<GpuReference> {
+/// The cache entry under `key`: `Ok(None)` when there is none, an error saying what is wrong
+/// when it is damaged (unreadable, a missing or bad line, images of another size than
+/// `camera`'s, NaN, infinite or negative values, a combined image of zeros): cache entries are
+/// checked like `--reference` files.
+fn read_cached(dir: &Path, key: &str, camera: &Camera) -> Result<Option<GpuReference>, String> {
     let [c, i, t] = cache_paths(dir, key);
-    let text = std::fs::read_to_string(&t).ok()?;
+    if [&c, &i, &t].iter().all(|p| !p.exists()) {
+        return Ok(None);
+    }
+    let text = std::fs::read_to_string(&t).map_err(|e| format!("{}: {e}", t.display()))?;
     let mut samples = None;
     let (mut rc, mut ri) = (None, None);
     for line in text.lines() {
@@ -299,21 +310,37 @@ fn read_cached(dir: &Path, key: &str) -> Option<GpuReference> {
             _ => {}
         }
     }
-    let combined = image_io::read_exr(&c).ok()?;
-    let indirect = image_io::read_exr(&i).ok()?;
-    if (combined.width, combined.height) != (indirect.width, indirect.height) {
-        return None;
-    }
-    Some(GpuReference {
+    let (Some(samples), Some(rc), Some(ri)) = (samples, rc, ri) else {
+        return Err(format!("{}: a line is missing or bad", t.display()));
+    };
+    let read = |p: &Path, combined: bool| -> Result<Image, String> {
+        let img = image_io::read_exr(p).map_err(|e| e.to_string())?;
+        if (img.width, img.height) != (camera.width, camera.height) {
+            return Err(format!(
+                "{}: is {}x{}, the render is {}x{}",
+                p.display(),
+                img.width,
+                img.height,
+                camera.width,
+                camera.height
+            ));
+        }
+        check_values(&img, p, combined).map_err(|e| e.to_string())?;
+        Ok(img)
+    };
+    let combined = read(&c, true)?;
+    let indirect = read(&i, false)?;
+    Ok(Some(GpuReference {
         width: combined.width,
         height: combined.height,
         combined: combined.pixels,
         indirect: Some(indirect.pixels),
-        samples: samples?,
-        self_rel_mse: Some((rc?, ri?)),
+        samples,
+        self_rel_mse: Some((rc, ri)),
         key: key.to_owned(),
         from_cache: true,
-    })
+        cache_note: None,
+    }))
 }
 
 /// Writes a rendered reference into the cache directory `dir` (created if needed).
@@ -336,10 +363,7 @@ pub fn write_cache(dir: &Path, r: &GpuReference) -> Result<(), ReferenceError> {
         r.samples,
         env!("CARGO_PKG_VERSION")
     );
-    std::fs::write(&t, text).map_err(|e| ReferenceError::Bad {
-        path: t.clone(),
-        msg: e.to_string(),
-    })?;
+    image_io::write_bytes(&t, text.as_bytes())?;
     Ok(())
 }
 
@@ -354,16 +378,29 @@ pub fn load_or_render(
     progress: impl FnMut(u32),
 ) -> Result<GpuReference, ReferenceError> {
     let key = cache_key(scene, camera, settings);
-    if let Some(dir) = cache_dir
-        && let Some(r) = read_cached(dir, &key)
-        && (r.width, r.height) == (camera.width, camera.height)
-    {
-        return Ok(r);
+    let mut note = None;
+    if let Some(dir) = cache_dir {
+        match read_cached(dir, &key, camera) {
+            Ok(Some(r)) => return Ok(r),
+            Ok(None) => {}
+            Err(why) => {
+                // Dropped: rendered again below and written over it.
+                for p in cache_paths(dir, &key) {
+                    let _ = std::fs::remove_file(p);
+                }
+                note = Some(format!(
+                    "the reference cache entry {key} in {} was damaged ({why}): dropped and \
+                     rendered again",
+                    dir.display()
+                ));
+            }
+        }
     }
-    let r = render(ctx, scene, camera, settings, progress)?;
+    let mut r = render(ctx, scene, camera, settings, progress)?;
     if let Some(dir) = cache_dir {
         write_cache(dir, &r)?;
     }
+    r.cache_note = note;
     Ok(r)
 }
 
@@ -438,6 +475,7 @@ pub fn external(
         self_rel_mse: None,
         key: String::new(),
         from_cache: false,
+        cache_note: None,
     })
 }
 

@@ -125,9 +125,10 @@ pub fn tone_map(p: [f32; 3], exposure: f32) -> [u8; 3] {
 /// Writes `img` as a linear 32-bit float RGB OpenEXR file, whole or not at all.
 pub fn write_exr(path: &Path, img: &Image) -> Result<(), ImageIoError> {
     let buf = img.to_rgb32f()?;
-    write_atomically(path, |tmp| {
-        buf.save_with_format(tmp, image::ImageFormat::OpenExr)
-    })
+    write_atomically(
+        path,
+        &encode(path, &buf.into(), image::ImageFormat::OpenExr)?,
+    )
 }
 
 /// Writes `img` tone-mapped ([`tone_map`] with `exposure`) as an 8-bit sRGB PNG, whole or not
@@ -145,22 +146,33 @@ pub fn write_png(path: &Path, img: &Image, exposure: f32) -> Result<(), ImageIoE
             height: img.height,
             len: img.pixels.len(),
         })?;
-    write_atomically(path, |tmp| {
-        buf.save_with_format(tmp, image::ImageFormat::Png)
-    })
+    write_atomically(path, &encode(path, &buf.into(), image::ImageFormat::Png)?)
 }
 
 /// Writes an 8-bit image (already tone-mapped) as a PNG, whole or not at all.
 pub fn write_png8(path: &Path, img: impl Into<image::DynamicImage>) -> Result<(), ImageIoError> {
-    let img = img.into();
-    write_atomically(path, |tmp| {
-        img.save_with_format(tmp, image::ImageFormat::Png)
-    })
+    write_atomically(path, &encode(path, &img.into(), image::ImageFormat::Png)?)
 }
 
 /// Writes `bytes` to `path`, whole or not at all (reports, plots).
 pub fn write_bytes(path: &Path, bytes: &[u8]) -> Result<(), ImageIoError> {
-    write_atomically(path, |tmp| Ok(std::fs::write(tmp, bytes)?))
+    write_atomically(path, bytes)
+}
+
+/// The file bytes of `img` in `format` (encoded in memory: the file is then written through
+/// [`write_atomically`]).
+fn encode(
+    path: &Path,
+    img: &image::DynamicImage,
+    format: image::ImageFormat,
+) -> Result<Vec<u8>, ImageIoError> {
+    let mut out = std::io::Cursor::new(Vec::new());
+    img.write_to(&mut out, format)
+        .map_err(|source| ImageIoError::Codec {
+            path: path.to_owned(),
+            source,
+        })?;
+    Ok(out.into_inner())
 }
 
 /// Reads an OpenEXR file as linear RGB (alpha dropped).
@@ -197,30 +209,55 @@ pub fn read_exr(path: &Path) -> Result<Image, ImageIoError> {
     Image::from_pixels(width, height, pixels)
 }
 
-/// Writes through a temporary file beside `path` and renames it into place; removes the
-/// temporary file on failure.
-fn write_atomically(
-    path: &Path,
-    write: impl FnOnce(&Path) -> image::ImageResult<()>,
-) -> Result<(), ImageIoError> {
+/// A name no one can have planted: the process id, a counter and the clock's nanoseconds,
+/// mixed (the file is then created with create-new semantics, so a guess only fails it).
+pub fn unique_suffix() -> String {
+    static COUNTER: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
+    let n = COUNTER.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+    let nanos = std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map_or(0, |d| d.as_nanos() as u64);
+    let mut h = 0xcbf2_9ce4_8422_2325u64;
+    for x in [u64::from(std::process::id()), n, nanos] {
+        for b in x.to_le_bytes() {
+            h = (h ^ u64::from(b)).wrapping_mul(0x0100_0000_01b3);
+        }
+    }
+    format!("{}-{h:016x}", std::process::id())
+}
+
+/// Creates a new file at `path`; fails if anything (a file, a link, even a dangling one)
+/// is there, so that no existing path is followed or truncated.
+pub fn create_new(path: &Path) -> std::io::Result<std::fs::File> {
+    std::fs::OpenOptions::new()
+        .write(true)
+        .create_new(true)
+        .open(path)
+}
+
+/// Writes `bytes` through a new temporary file beside `path` (a random name, created with
+/// create-new semantics: a link planted there is never followed) and renames it into place
+/// (which replaces a link at `path` itself, never its target); removes the temporary file on
+/// failure.
+fn write_atomically(path: &Path, bytes: &[u8]) -> Result<(), ImageIoError> {
+    use std::io::Write;
+    let io = |source| ImageIoError::Io {
+        path: path.to_owned(),
+        source,
+    };
     let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("out");
     let name = path
         .file_name()
         .map(|n| n.to_string_lossy().into_owned())
         .unwrap_or_default();
-    // Keep the real extension last: the encoder is chosen by format, but tools like to see it.
-    let tmp = path.with_file_name(format!(".{name}.tmp{}.{ext}", std::process::id()));
-    let result = write(&tmp)
-        .map_err(|source| ImageIoError::Codec {
-            path: path.to_owned(),
-            source,
-        })
-        .and_then(|()| {
-            std::fs::rename(&tmp, path).map_err(|source| ImageIoError::Io {
-                path: path.to_owned(),
-                source,
-            })
-        });
+    // Keep the real extension last: tools like to see it.
+    let tmp = path.with_file_name(format!(".{name}.tmp{}.{ext}", unique_suffix()));
+    let mut file = create_new(&tmp).map_err(io)?;
+    let result = file
+        .write_all(bytes)
+        .and_then(|()| file.sync_all())
+        .and_then(|()| std::fs::rename(&tmp, path))
+        .map_err(io);
     if result.is_err() {
         let _ = std::fs::remove_file(&tmp);
     }
@@ -282,6 +319,28 @@ mod tests {
                 .to_string()
                 .contains("junk.exr")
         );
+        std::fs::remove_dir_all(&d).unwrap();
+    }
+
+    /// Issue 27, 2: a link at the output path is replaced, never written through; a link at
+    /// a name `create_new` is asked for fails it.
+    #[cfg(unix)]
+    #[test]
+    fn links_are_never_written_through() {
+        let d = temp_dir("links");
+        let victim = d.join("victim");
+        std::fs::write(&victim, b"keep").unwrap();
+        let out = d.join("out.bin");
+        std::os::unix::fs::symlink(&victim, &out).unwrap();
+        write_bytes(&out, b"new").unwrap();
+        assert_eq!(std::fs::read(&victim).unwrap(), b"keep");
+        assert!(!std::fs::symlink_metadata(&out).unwrap().is_symlink());
+        assert_eq!(std::fs::read(&out).unwrap(), b"new");
+        let planted = d.join("planted");
+        std::os::unix::fs::symlink(&victim, &planted).unwrap();
+        assert!(create_new(&planted).is_err());
+        assert_eq!(std::fs::read(&victim).unwrap(), b"keep");
+        assert_ne!(unique_suffix(), unique_suffix());
         std::fs::remove_dir_all(&d).unwrap();
     }
 

@@ -158,6 +158,8 @@ pub struct Lights {
     pub env: Vec<EnvPixel>,
     pub env_width: u32,
     pub env_height: u32,
+    /// What the environment was made from (`Environment::source`), for messages.
+    pub env_source: String,
 }
 
 /// The sampling weight of an emitter: area x Rec. 709 luminance of its radiance (proportional
@@ -323,8 +325,10 @@ impl Lights {
             }
         };
         let (mut env, mut env_width, mut env_height) = (Vec::new(), 0, 0);
+        let mut env_source = String::new();
         if let Some(e) = &scene.environment {
             env = env_table(e);
+            env_source.clone_from(&e.source);
             (env_width, env_height) = (e.width, e.height);
             let w = 2.0 * pi * r * r * e.mean_luminance();
             push(
@@ -390,6 +394,7 @@ impl Lights {
             env,
             env_width,
             env_height,
+            env_source,
         }
     }
 
@@ -577,10 +582,12 @@ pub enum LightsError {
         limit: u64,
     },
     #[error(
-        "the environment map of {size} ({pixels} pixels) needs {bytes} bytes in one storage \
-         binding, above the adapter's limit of {limit}: resize it"
+        "{source_name}: the environment map of {size} ({pixels} pixels) needs {bytes} bytes in \
+         one storage binding, above the adapter's limit of {limit}: resize it"
     )]
     EnvTooLarge {
+        /// What the map was made from (a file, `--env FILE`).
+        source_name: String,
         size: String,
         pixels: usize,
         bytes: u64,
@@ -622,6 +629,7 @@ impl GpuLights {
         let env_bytes = (lights.env.len() as u64) * std::mem::size_of::<EnvPixel>() as u64;
         if env_bytes > limit {
             return Err(LightsError::EnvTooLarge {
+                source_name: lights.env_source.clone(),
                 size: format!("{}x{}", lights.env_width, lights.env_height),
                 pixels: lights.env.len(),
                 bytes: env_bytes,

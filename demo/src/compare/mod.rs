@@ -221,18 +221,36 @@ pub struct Report {
 
 // ---------------------------------------------------------------- running
 
-/// A scene of `--scene` with its label in the report (a file's stem).
-fn load_scene(name: &str, opts: &CompareOptions) -> Result<(String, Scene)> {
+/// A scene of `--scene` with its label in the report.
+fn load_scene(name: &str, label: String, opts: &CompareOptions) -> Result<(String, Scene)> {
     let s = crate::scenes::load(name, &opts.scene_opts, Some(opts.size))
         .with_context(|| format!("loading {name}"))?;
-    let label = match scene::BUILTIN_NAMES.contains(&name) {
-        true => name,
-        false => Path::new(name)
-            .file_stem()
-            .and_then(|s| s.to_str())
-            .unwrap_or("scene"),
+    Ok((label, s))
+}
+
+/// The labels of `--scene` in the report and the output names: a built-in scene's name, a
+/// file's stem; files whose stems repeat get their position in `--scene` appended (`tri-1`,
+/// `tri-2`), so that no scene's rows and reference overwrite another's.
+fn scene_labels(scenes: &[String]) -> Vec<String> {
+    let stem = |name: &str| -> String {
+        match scene::BUILTIN_NAMES.contains(&name) {
+            true => name.to_owned(),
+            false => Path::new(name)
+                .file_stem()
+                .and_then(|s| s.to_str())
+                .unwrap_or("scene")
+                .to_owned(),
+        }
     };
-    Ok((label.to_owned(), s))
+    let stems: Vec<String> = scenes.iter().map(|n| stem(n)).collect();
+    stems
+        .iter()
+        .enumerate()
+        .map(|(i, s)| match stems.iter().filter(|t| *t == s).count() {
+            1 => s.clone(),
+            _ => format!("{s}-{}", i + 1),
+        })
+        .collect()
 }
 
 /// Everything a method run needs to evaluate frames.
@@ -257,7 +275,7 @@ impl Refs {
 
 fn style(bar: &ProgressBar) {
     if let Ok(s) = ProgressStyle::with_template(
-        "{prefix:>12} [{elapsed_precise}] {wide_bar} {pos}/{len} {msg}",
+        "{prefix:>12} [{elapsed_precise}] {wide_bar} {pos}/{len} eta {eta} {msg}",
     ) {
         bar.set_style(s);
     }
@@ -604,6 +622,9 @@ fn make_references(
             opts.cache.as_deref(),
             |n| bar.inc(u64::from(n)),
         )?;
+        if let Some(note) = &r.cache_note {
+            bar.suspend(|| eprintln!("warning: {note}"));
+        }
         sources.push(r.from_cache);
         by_frame.push((f, r));
     }
@@ -668,8 +689,12 @@ fn compare_scene(
     strip: &mut Vec<output::StripRow>,
 ) -> Result<SceneReport> {
     let base = scene.camera_or_default(opts.size.0, opts.size.1);
+    // On a terminal only (indicatif hides it in logs); it ticks by itself so that the
+    // reference's first frames (pipeline compilation) show.
     let bar = if opts.progress {
-        ProgressBar::new(0)
+        let b = ProgressBar::new(0);
+        b.enable_steady_tick(std::time::Duration::from_millis(500));
+        b
     } else {
         ProgressBar::hidden()
     };
@@ -871,11 +896,25 @@ pub fn check(opts: &CompareOptions) -> Result<()> {
     if opts.scenes.is_empty() {
         bail!("--scene is empty");
     }
-    for (i, m) in opts.methods.iter().enumerate() {
-        methods::check_spec(m).with_context(|| format!("--methods {m}"))?;
-        if opts.methods[..i].contains(m) {
-            bail!("--methods lists {m:?} twice (a method compared with itself)");
+    // Compared by their parsed settings (`world-restir` is `world-restir:both`); a method
+    // with a planted bias is a negative control and may repeat another's settings.
+    let mut parsed: Vec<(&String, methods::MethodSettings)> = Vec::new();
+    for m in &opts.methods {
+        let settings = methods::parse_spec(m).with_context(|| format!("--methods {m}"))?;
+        let planted = |name: &String| opts.plant_bias.iter().any(|(p, _)| p == name);
+        if let Some((first, _)) = parsed
+            .iter()
+            .find(|(n, s)| *s == settings && (*n == m || !(planted(n) || planted(m))))
+        {
+            if *first == m {
+                bail!("--methods lists {m:?} twice (a method compared with itself)");
+            }
+            bail!(
+                "--methods lists {first:?} and {m:?}, the same configuration (a method compared \
+                 with itself)"
+            );
         }
+        parsed.push((m, settings));
     }
     for (i, sc) in opts.scenes.iter().enumerate() {
         if opts.scenes[..i].contains(sc) {
@@ -901,6 +940,7 @@ pub fn check(opts: &CompareOptions) -> Result<()> {
             opts.reference_spp
         );
     }
+    check_out_and_cache(opts)?;
     for p in opts.reference.iter().chain(&opts.reference_indirect) {
         let exr = p
             .extension()
@@ -920,15 +960,65 @@ pub fn check(opts: &CompareOptions) -> Result<()> {
     Ok(())
 }
 
+/// `--out` must not be a scene file's directory (report.md, strip.png, ... would overwrite
+/// files next to the scene, its textures among them); `--cache` must be a directory that can
+/// be created and written (checked by creating it, then removing what was created).
+fn check_out_and_cache(opts: &CompareOptions) -> Result<()> {
+    if let Ok(out) = opts.out.canonicalize() {
+        for sc in opts
+            .scenes
+            .iter()
+            .filter(|s| !scene::BUILTIN_NAMES.contains(&s.as_str()))
+        {
+            let dir = Path::new(sc).parent().filter(|d| !d.as_os_str().is_empty());
+            let dir = dir.unwrap_or(Path::new("."));
+            if dir.canonicalize().is_ok_and(|d| d == out) {
+                bail!(
+                    "--out {}: is the directory of the scene file {sc}: the outputs (report.md, \
+                     strip.png, reference EXRs) would overwrite files next to it (its \
+                     textures); choose another directory",
+                    opts.out.display()
+                );
+            }
+        }
+    }
+    if let Some(cache) = &opts.cache {
+        let created = crate::prepare_dir(cache, "--cache")?;
+        crate::remove_created(&created);
+    }
+    Ok(())
+}
+
 /// Runs the whole comparison and writes every output into `opts.out`; returns the report.
 pub fn run(ctx: &GpuContext, opts: &CompareOptions, command: String) -> Result<Report> {
     check(opts)?;
-    // Every scene loads before anything is rendered or written.
+    if opts.frames <= TIMING_WARMUP_FRAMES {
+        eprintln!(
+            "warning: --frames {} is not above the {TIMING_WARMUP_FRAMES} warm-up frames GPU \
+             times leave out: this run's times include them (pipeline compilation, first-use \
+             costs); report.md says so",
+            opts.frames
+        );
+    }
+    // Every scene loads, and is checked against every method, before anything is rendered
+    // or written.
     let loaded: Vec<(String, Scene)> = opts
         .scenes
         .iter()
-        .map(|name| load_scene(name, opts))
+        .zip(scene_labels(&opts.scenes))
+        .map(|(name, label)| load_scene(name, label, opts))
         .collect::<Result<_>>()?;
+    for (label, scene) in &loaded {
+        let base = scene.camera_or_default(opts.size.0, opts.size.1);
+        for spec in &opts.methods {
+            methods::check_camera(spec, &base).with_context(|| {
+                format!(
+                    "--size {}x{}: method {spec} on {label}: use a larger --size",
+                    opts.size.0, opts.size.1
+                )
+            })?;
+        }
+    }
     crate::with_out_dir(&opts.out, || run_scenes(ctx, opts, command, loaded))
 }
 

@@ -168,6 +168,20 @@ fn markdown(r: &Report, strip: &[StripRow]) -> String {
         r.rel_mse_eps,
         super::TIMING_WARMUP_FRAMES,
     );
+    if let Some(sc) = r
+        .scenes
+        .iter()
+        .find(|sc| sc.frames <= super::TIMING_WARMUP_FRAMES)
+    {
+        let _ = writeln!(
+            s,
+            "**This run has {} frames, not more than the {} warm-up frames: its GPU times \
+             include the warm-up frames (all but the first of them), so they hold pipeline \
+             compilation and first-use costs.** Run more --frames for times.\n",
+            sc.frames,
+            super::TIMING_WARMUP_FRAMES
+        );
+    }
     for sc in &r.scenes {
         let _ = writeln!(
             s,

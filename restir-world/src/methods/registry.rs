@@ -11,7 +11,7 @@ use crate::render;
 use crate::restir_di::{self, RestirDiConfig};
 use crate::sampling::Estimator;
 use crate::scene::{Camera, Scene};
-use crate::world_restir::{self, WorldRestirConfig};
+use crate::world_restir::{self, WorldRestirConfig, WorldRestirError};
 
 /// Which part of a method its variant text configures.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -163,6 +163,18 @@ impl MethodSettings {
         Ok(())
     }
 
+    /// Checks without a GPU what the method needs of the camera (before any GPU work):
+    /// world-restir sizes its hash grid's cells from the image size and the field of view, and
+    /// a tiny image (1x1, 4x4) cannot be sized.
+    pub fn check_camera(&self, camera: &Camera) -> Result<(), MethodError> {
+        if let Some(w) = &self.world {
+            let table = w.table(camera.width, camera.height);
+            gpu_hash::HashGridParams::new(&table, &w.sizing(camera), camera.eye)
+                .map_err(WorldRestirError::from)?;
+        }
+        Ok(())
+    }
+
     /// The spec that rebuilds these settings (`name` or `name:knobs`).
     pub fn spec(&self) -> String {
         let knobs = match self.entry.variant_of {
@@ -299,6 +311,11 @@ pub fn parse_spec(spec: &str) -> Result<MethodSettings, MethodError> {
 /// [`parse_spec`], for its errors only.
 pub fn check_spec(spec: &str) -> Result<(), MethodError> {
     parse_spec(spec).map(drop)
+}
+
+/// [`MethodSettings::check_camera`] of `spec`.
+pub fn check_camera(spec: &str, camera: &Camera) -> Result<(), MethodError> {
+    parse_spec(spec)?.check_camera(camera)
 }
 
 /// Builds the method named by `spec` (`name` or `name:variant`).

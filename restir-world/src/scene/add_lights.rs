@@ -6,6 +6,9 @@ use reservoir::rng::Rng;
 
 use super::{MAX_EMISSION, Material, Scene, SceneError};
 
+/// Smallest light size relative to the scene's largest coordinate (or extent).
+pub const MIN_RELATIVE_SIZE: f32 = 1e-5;
+
 /// Most lights [`add_lights`] places in one call.
 pub const MAX_ADDED_LIGHTS: u32 = 1_000_000;
 
@@ -45,7 +48,6 @@ pub struct AddedLights {
 /// lights on the walls of a room face into it). Deterministic in `opts.seed`; the scene's
 /// triangles before the call are unchanged. `count == 0` adds nothing.
 pub fn add_lights(scene: &mut Scene, opts: &AddLights) -> Result<AddedLights, SceneError> {
-    let bad = |m: String| Err(SceneError::BadOption(format!("add-lights: {m}")));
     if opts.count > MAX_ADDED_LIGHTS {
         return bad(format!(
             "{} lights is above the limit of {MAX_ADDED_LIGHTS}",
@@ -63,28 +65,8 @@ pub fn add_lights(scene: &mut Scene, opts: &AddLights) -> Result<AddedLights, Sc
         return bad("the scene has no triangles to place lights on".into());
     };
     let size = opts.size.unwrap_or(0.005 * (hi - lo).length());
-    if !(size.is_finite() && size > 0.0) {
-        return bad(format!("the light size {size} is not a positive number"));
-    }
-    // Area-proportional choice over the non-emissive triangles: cumulative areas (f64).
-    let emissive = |m: u32| {
-        scene
-            .materials
-            .get(m as usize)
-            .is_some_and(Material::is_emissive)
-    };
-    let mut cdf = Vec::with_capacity(scene.triangles.len());
-    let mut which = Vec::with_capacity(scene.triangles.len());
-    let mut total = 0.0f64;
-    for (i, t) in scene.triangles.iter().enumerate() {
-        let a = f64::from(t.area());
-        if emissive(t.material) || !(a.is_finite() && a > 0.0) {
-            continue;
-        }
-        total += a;
-        cdf.push(total);
-        which.push(i);
-    }
+    check_size(size, lo, hi)?;
+    let (cdf, which, total) = area_cdf(scene);
     if which.is_empty() {
         return bad("the scene has no non-emissive surface to place lights on".into());
     }
@@ -135,12 +117,86 @@ pub fn add_lights(scene: &mut Scene, opts: &AddLights) -> Result<AddedLights, Sc
             material,
         );
     }
+    check_added(scene, first_triangle, size)?;
     Ok(AddedLights {
         material,
         first_triangle,
         size,
         power,
     })
+}
+
+/// Area-proportional choice over the non-emissive triangles: cumulative areas (f64), the
+/// triangles they belong to, and the total.
+fn area_cdf(scene: &Scene) -> (Vec<f64>, Vec<usize>, f64) {
+    let emissive = |m: u32| {
+        scene
+            .materials
+            .get(m as usize)
+            .is_some_and(Material::is_emissive)
+    };
+    let mut cdf = Vec::with_capacity(scene.triangles.len());
+    let mut which = Vec::with_capacity(scene.triangles.len());
+    let mut total = 0.0f64;
+    for (i, t) in scene.triangles.iter().enumerate() {
+        let a = f64::from(t.area());
+        if emissive(t.material) || !(a.is_finite() && a > 0.0) {
+            continue;
+        }
+        total += a;
+        cdf.push(total);
+        which.push(i);
+    }
+    (cdf, which, total)
+}
+
+fn bad<T>(m: String) -> Result<T, SceneError> {
+    Err(SceneError::BadOption(format!("add-lights: {m}")))
+}
+
+/// A quad must be representable next to the scene's coordinates (smaller ones collapse to a
+/// point in 32-bit floats) and no larger than the scene (larger ones overflow their area, and
+/// the scene's extent).
+fn check_size(size: f32, lo: Vec3, hi: Vec3) -> Result<(), SceneError> {
+    if !(size.is_finite() && size > 0.0) {
+        return bad(format!("the light size {size} is not a positive number"));
+    }
+    let extent = (hi - lo).max_element();
+    let magnitude = lo.abs().max(hi.abs()).max_element().max(extent);
+    let (min_size, max_size) = (MIN_RELATIVE_SIZE * magnitude, extent);
+    if !(min_size..=max_size).contains(&size) {
+        return bad(format!(
+            "size {size:e} is outside [{min_size:e}, {max_size:e}] for this scene (from \
+             {MIN_RELATIVE_SIZE:e} times its coordinates, where 32-bit floats still resolve a \
+             quad, to its extent)"
+        ));
+    }
+    Ok(())
+}
+
+/// Every added quad has a finite, non-zero area (else the light table would leave it out) and
+/// the scene with them stays within [`super::SCENE_EXTENT_RANGE`].
+fn check_added(scene: &Scene, first_triangle: usize, size: f32) -> Result<(), SceneError> {
+    let added = &scene.triangles[first_triangle..];
+    if let Some(t) = added
+        .iter()
+        .find(|t| !(t.area().is_finite() && t.area() > 0.0))
+    {
+        return bad(format!(
+            "a {size:e} x {size:e} quad has an area of {:e} in 32-bit floats: change the size",
+            t.area()
+        ));
+    }
+    if let Some((lo, hi)) = scene.bounds() {
+        let extent = (hi - lo).max_element();
+        if !(super::SCENE_EXTENT_RANGE.0..=super::SCENE_EXTENT_RANGE.1).contains(&extent) {
+            return Err(SceneError::Scale {
+                what: "the scene with the added lights".into(),
+                extent,
+            });
+        }
+    }
+    Ok(())
 }
 
 #[cfg(test)]

@@ -131,17 +131,19 @@ impl Environment {
                 ));
             }
         };
-        let io = |source| SceneError::Io {
-            path: path.to_owned(),
-            source,
+        // The one file-opening path of the loaders: a regular file, capped, read bounded.
+        let open = || {
+            super::files::open_regular(path, super::files::MAX_SCENE_FILE_BYTES)
+                .map(std::io::BufReader::new)
         };
-        let file = std::fs::File::open(path).map_err(io)?;
-        let reader = image::ImageReader::with_format(std::io::BufReader::new(file), format);
+        if format == image::ImageFormat::Hdr {
+            check_hdr_header(&shown, open()?)?;
+        }
+        let reader = image::ImageReader::with_format(open()?, format);
         let decode = |e: image::ImageError| bad(&shown, format!("cannot decode the image: {e}"));
         let (width, height) = reader.into_dimensions().map_err(decode)?;
         check_size(&shown, width, height)?;
-        let file = std::fs::File::open(path).map_err(io)?;
-        let img = image::ImageReader::with_format(std::io::BufReader::new(file), format)
+        let img = image::ImageReader::with_format(open()?, format)
             .decode()
             .map_err(decode)?
             .into_rgb32f();
@@ -221,6 +223,35 @@ pub fn pixel_of(width: u32, height: u32, dir: Vec3) -> usize {
     let x = ((phi / tau * width as f32) as u32).min(width - 1);
     let y = ((theta / std::f32::consts::PI * height as f32) as u32).min(height - 1);
     (y * width + x) as usize
+}
+
+/// Longest Radiance header (its lines up to and with the resolution line) read: the decoder
+/// reads a header line whole, however long.
+pub const MAX_HDR_HEADER_BYTES: u64 = 64 << 10;
+
+/// Checks that a Radiance file's header ends (blank line, then the resolution line) within
+/// [`MAX_HDR_HEADER_BYTES`].
+fn check_hdr_header(what: &str, file: impl std::io::Read) -> Result<(), SceneError> {
+    use std::io::Read;
+    let mut head = Vec::new();
+    file.take(MAX_HDR_HEADER_BYTES)
+        .read_to_end(&mut head)
+        .map_err(|e| bad(what, format!("cannot read the header: {e}")))?;
+    let ends = head
+        .windows(2)
+        .position(|w| w == b"\n\n")
+        .is_some_and(|blank| head[blank + 2..].contains(&b'\n'));
+    if ends {
+        Ok(())
+    } else {
+        Err(bad(
+            what,
+            format!(
+                "cannot decode the image: its Radiance header does not end within the first \
+                 {MAX_HDR_HEADER_BYTES} bytes (a header line without end?)"
+            ),
+        ))
+    }
 }
 
 fn check_size(what: &str, width: u32, height: u32) -> Result<(), SceneError> {

@@ -14,6 +14,7 @@
 mod add_lights;
 pub mod builtin;
 pub mod environment;
+mod files;
 mod loaders;
 pub mod texture;
 
@@ -23,6 +24,7 @@ pub use builtin::{
     many_lights,
 };
 pub use environment::Environment;
+pub use files::{MAX_SCENE_FILE_BYTES, MAX_TEXTURE_FILE_BYTES};
 pub use loaders::{
     DEFAULT_ALBEDO, ExtensionPolicy, Loaded, extension_policy, load, load_gltf, load_obj,
 };
@@ -163,6 +165,11 @@ impl Triangle {
 /// larger one overflows 32-bit floats (infinite pixels). [`Scene::sanitize`] clamps to it.
 pub const MAX_EMISSION: f32 = 1e10;
 
+/// Largest intensity (candela, or lux for directional lights) a punctual light may have, for
+/// the same reason: the loader clamps a file's lights to it, and a scaled one above it is
+/// refused.
+pub const MAX_PUNCTUAL_INTENSITY: f32 = 1e10;
+
 /// A pinhole camera.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Camera {
@@ -294,9 +301,10 @@ impl PunctualLight {
         if !self.color.iter().all(|c| (0.0..=1.0).contains(c)) {
             return Err(format!("color {:?} must be in [0, 1]", self.color));
         }
-        if !(self.intensity.is_finite() && self.intensity >= 0.0) {
+        if !(self.intensity.is_finite() && (0.0..=MAX_PUNCTUAL_INTENSITY).contains(&self.intensity))
+        {
             return Err(format!(
-                "intensity {} must be finite and >= 0",
+                "intensity {:e} must be finite and in [0, {MAX_PUNCTUAL_INTENSITY:e}]",
                 self.intensity
             ));
         }
@@ -357,6 +365,9 @@ pub struct SanitizeReport {
     /// Triangles whose shading normals were non-finite or zero and were removed (the geometric
     /// normal is used instead).
     pub bad_normals: usize,
+    /// Triangles whose texture coordinates were non-finite and were removed (their textures
+    /// are not applied: the material's factors are).
+    pub bad_uvs: usize,
     /// Materials whose albedo or emission was non-finite, negative, (albedo) above 1 or
     /// (emission) above [`MAX_EMISSION`], and was clamped into range (non-finite values
     /// become 0).
@@ -379,13 +390,14 @@ impl std::fmt::Display for SanitizeReport {
         write!(
             f,
             "dropped {} triangles ({} with NaN/Inf vertices, {} degenerate, {} with a bad material \
-             index); removed bad shading normals on {}; clamped {} materials (albedo into [0, 1], \
-             emission into [0, {MAX_EMISSION:e}])",
+             index); removed bad shading normals on {}; removed bad texture coordinates on {}; \
+             clamped {} materials (albedo into [0, 1], emission into [0, {MAX_EMISSION:e}])",
             self.dropped(),
             self.non_finite,
             self.degenerate,
             self.bad_material,
             self.bad_normals,
+            self.bad_uvs,
             self.clamped_materials
         )
     }
@@ -427,22 +439,7 @@ impl Scene {
             }
             report.clamped_materials += usize::from(changed);
         }
-        let textures = self.textures.len() as u32;
-        let valid = |t: &texture::Texture| {
-            t.width > 0 && t.texels.len() as u64 == u64::from(t.width) * u64::from(t.height)
-        };
-        if self.texture_refs.iter().any(|r| {
-            r.texture >= textures
-                || !valid(&self.textures[r.texture as usize])
-                || !(r.row0.iter().chain(&r.row1).all(|x| x.is_finite()))
-        }) {
-            // A broken table (only a hand-built scene can have one): drop the textures.
-            self.texture_refs.clear();
-            for m in &mut self.materials {
-                m.base_color_texture = 0;
-                m.emissive_texture = 0;
-            }
-        }
+        self.sanitize_texture_refs(&mut report);
         let n_materials = self.materials.len();
         self.triangles.retain_mut(|t| {
             if !t.v.iter().all(|v| v.is_finite()) {
@@ -467,7 +464,7 @@ impl Scene {
                 && !uv.iter().all(|uv| uv.is_finite())
             {
                 t.uv = None;
-                report.bad_normals += 1;
+                report.bad_uvs += 1;
             }
             true
         });
@@ -487,6 +484,29 @@ impl Scene {
             }
         }
         Ok(report)
+    }
+
+    /// Unlinks the materials from texture refs that are unusable (a missing or malformed
+    /// texture, a non-finite transform; only a hand-built scene can have one): those materials
+    /// keep their factors and are counted as clamped; the other textures stay.
+    fn sanitize_texture_refs(&mut self, report: &mut SanitizeReport) {
+        let textures = &self.textures;
+        let valid = |r: &TextureRef| {
+            textures.get(r.texture as usize).is_some_and(|t| {
+                t.width > 0 && t.texels.len() as u64 == u64::from(t.width) * u64::from(t.height)
+            }) && r.row0.iter().chain(&r.row1).all(|x| x.is_finite())
+        };
+        let ok: Vec<bool> = self.texture_refs.iter().map(valid).collect();
+        for m in &mut self.materials {
+            let mut changed = false;
+            for tex in [&mut m.base_color_texture, &mut m.emissive_texture] {
+                if *tex > 0 && !ok.get(*tex as usize - 1).copied().unwrap_or(false) {
+                    *tex = 0;
+                    changed = true;
+                }
+            }
+            report.clamped_materials += usize::from(changed);
+        }
     }
 
     /// Axis-aligned bounds of all vertices, `(min, max)`; `None` for an empty scene.
@@ -643,6 +663,7 @@ mod tests {
                 degenerate: 2,
                 bad_material: 1,
                 bad_normals: 1,
+                bad_uvs: 0,
                 clamped_materials: 1
             }
         );

@@ -114,8 +114,14 @@ pub fn fit(textures: &mut [Texture], budget: u64) -> usize {
     halvings
 }
 
-/// sRGB transfer function decoded to linear (IEC 61966-2-1), for one 8-bit channel.
+/// sRGB transfer function decoded to linear (IEC 61966-2-1), for one 8-bit channel (a
+/// table of the 256 values: halving a large texture calls it for every texel).
 pub fn srgb_to_linear(c: u8) -> f32 {
+    static TABLE: std::sync::OnceLock<[f32; 256]> = std::sync::OnceLock::new();
+    TABLE.get_or_init(|| std::array::from_fn(|i| srgb_decode(i as u8)))[usize::from(c)]
+}
+
+fn srgb_decode(c: u8) -> f32 {
     let c = f32::from(c) / 255.0;
     if c <= 0.04045 {
         c / 12.92
@@ -195,21 +201,50 @@ impl TextureRef {
     }
 }
 
+/// Most bytes one texture may take decoded (RGBA, 4 a texel): a 16384 x 16384 image. The
+/// size is read from the file's header and checked before anything is decoded.
+pub const MAX_DECODED_TEXTURE_BYTES: u64 = 1 << 30;
+
 /// Decodes an image file's bytes (PNG or JPEG) into a texture; an error with the decoder's
-/// message when it cannot be read or is larger than [`MAX_TEXTURE_SIDE`].
+/// message when it cannot be read, is of another format (HDR, EXR, ... would be clamped to 8
+/// bits and taken as sRGB), or is larger than [`MAX_TEXTURE_SIDE`] a side or
+/// [`MAX_DECODED_TEXTURE_BYTES`] decoded (both checked from the header, before decoding).
 pub fn decode(name: &str, bytes: &[u8]) -> Result<Texture, String> {
-    let reader = image::ImageReader::new(std::io::Cursor::new(bytes))
-        .with_guessed_format()
-        .map_err(|e| e.to_string())?;
-    let img = reader.decode().map_err(|e| e.to_string())?;
-    if img.width() > MAX_TEXTURE_SIDE || img.height() > MAX_TEXTURE_SIDE || img.width() == 0 {
+    let reader = || {
+        image::ImageReader::new(std::io::Cursor::new(bytes))
+            .with_guessed_format()
+            .map_err(|e| e.to_string())
+    };
+    let format = reader()?.format();
+    match format {
+        Some(image::ImageFormat::Png | image::ImageFormat::Jpeg) => {}
+        Some(f) => {
+            return Err(format!(
+                "it is {f:?}; only PNG and JPEG textures are read (8-bit sRGB)"
+            ));
+        }
+        None => return Err("not an image format this loader knows (PNG or JPEG)".into()),
+    }
+    let (w, h) = reader()?.into_dimensions().map_err(|e| e.to_string())?;
+    let decoded = 4 * u64::from(w) * u64::from(h);
+    if w > MAX_TEXTURE_SIDE || h > MAX_TEXTURE_SIDE || w == 0 || h == 0 {
         return Err(format!(
-            "{}x{} texels is outside 1..={MAX_TEXTURE_SIDE} a side",
-            img.width(),
-            img.height()
+            "{w}x{h} texels is outside 1..={MAX_TEXTURE_SIDE} a side"
         ));
     }
-    let rgba = img.into_rgba8();
+    if decoded > MAX_DECODED_TEXTURE_BYTES {
+        return Err(format!(
+            "{w}x{h} texels take {decoded} bytes decoded, above the limit of \
+             {MAX_DECODED_TEXTURE_BYTES}"
+        ));
+    }
+    let mut reader = reader()?;
+    let mut limits = image::Limits::default();
+    limits.max_image_width = Some(MAX_TEXTURE_SIDE);
+    limits.max_image_height = Some(MAX_TEXTURE_SIDE);
+    limits.max_alloc = Some(2 * MAX_DECODED_TEXTURE_BYTES);
+    reader.limits(limits);
+    let rgba = reader.decode().map_err(|e| e.to_string())?.into_rgba8();
     Ok(Texture {
         name: name.to_owned(),
         width: rgba.width(),
@@ -297,6 +332,13 @@ mod tests {
     #[test]
     fn undecodable_bytes_are_an_error() {
         assert!(decode("x.png", b"not a png").is_err());
+        // A Radiance HDR decodes, but not as an 8-bit sRGB texture (issue 27, 20).
+        let mut hdr = std::io::Cursor::new(Vec::new());
+        image::Rgb32FImage::from_pixel(2, 2, image::Rgb([2.0, 1.0, 0.5]))
+            .write_to(&mut hdr, image::ImageFormat::Hdr)
+            .unwrap();
+        let e = decode("x.hdr", hdr.get_ref()).unwrap_err();
+        assert!(e.contains("only PNG and JPEG"), "{e}");
     }
 
     #[test]
