@@ -564,6 +564,7 @@ fn render_into(
                     spp: samples,
                     seed: args.seed,
                     threads: args.threads,
+                    ..Default::default()
                 },
                 Some(&|rows| pb.set_position(u64::from(rows))),
             )?;

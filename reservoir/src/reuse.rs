@@ -141,7 +141,8 @@ impl Reuse {
     }
 
     /// Merges neighbour `n`'s finalized reservoir `other` (its W and capped M). Returns true
-    /// when its sample is now selected.
+    /// when its sample is now selected. A neighbour with M = 0 merges nothing (and must not be
+    /// counted in k).
     pub fn neighbour(
         &mut self,
         n: u32,
@@ -151,6 +152,9 @@ impl Reuse {
         p_n_own: f32,
         u: f32,
     ) -> bool {
+        if other.m == 0 {
+            return false;
+        }
         let selected = if self.mode == Combination::Pairwise {
             let w = self.pairwise_weights(other.m as f32, p_here, p_n_y, p_n_own);
             self.canonical += w[1];

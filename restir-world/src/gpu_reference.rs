@@ -10,8 +10,8 @@ use crate::GpuContext;
 use crate::image_io::{self, Image, ImageIoError};
 use crate::methods::{FrameLoop, MethodError, Readback, run_frames};
 use crate::metrics::{self, MetricsError};
-use crate::render::{RenderError, Renderer};
-use crate::sampling::Estimator;
+use crate::render::{RenderError, RenderOptions, Renderer};
+use crate::sampling::{Estimator, Paths};
 use crate::scene::{Camera, Scene};
 
 /// Frames recorded per submission while rendering a reference.
@@ -26,6 +26,9 @@ pub struct ReferenceSettings {
     pub method: Estimator,
     /// Seed of the first half (the second uses a derived seed).
     pub seed: u32,
+    /// The depth of the paths (bounces, Russian roulette): the reference's indirect image holds
+    /// the same bounces as the methods compared with it.
+    pub paths: Paths,
 }
 
 impl Default for ReferenceSettings {
@@ -36,6 +39,7 @@ impl Default for ReferenceSettings {
                 candidates: crate::render::DEFAULT_CANDIDATES,
             },
             seed: 0x5eed_0001,
+            paths: Paths::default(),
         }
     }
 }
@@ -197,19 +201,28 @@ pub fn cache_key(scene: &Scene, camera: &Camera, settings: &ReferenceSettings) -
     for x in [settings.spp.div_ceil(2) * 2, m, k, settings.seed] {
         h.bytes(&x.to_le_bytes());
     }
+    // Paths beyond one bounce change the image: hashed when deeper (one bounce keeps its key).
+    if settings.paths != Paths::default() {
+        h.bytes(b"paths")
+            .bytes(&settings.paths.bounces.to_le_bytes())
+            .bytes(&settings.paths.roulette_from.to_le_bytes());
+    }
     format!("{:016x}", h.finish())
 }
 
 fn half(
     ctx: &GpuContext,
-    scene: &Scene,
-    camera: &Camera,
-    estimator: Estimator,
+    (scene, camera): (&Scene, &Camera),
+    settings: &ReferenceSettings,
     seed: u32,
     frames: u32,
     progress: &mut dyn FnMut(u32),
 ) -> Result<crate::reference::Rendered, MethodError> {
-    let mut r = Renderer::new(ctx, scene, camera, estimator, seed)?;
+    let options = RenderOptions {
+        seed,
+        paths: settings.paths,
+    };
+    let mut r = Renderer::with_options(ctx, scene, camera, settings.method, &options)?;
     let l = FrameLoop {
         samples: frames,
         records: 1,
@@ -238,24 +251,9 @@ pub fn render(
 ) -> Result<GpuReference, ReferenceError> {
     let frames = settings.spp.div_ceil(2).max(1);
     let seed_b = settings.seed ^ 0x9e37_79b9;
-    let a = half(
-        ctx,
-        scene,
-        camera,
-        settings.method,
-        settings.seed,
-        frames,
-        &mut progress,
-    )?;
-    let b = half(
-        ctx,
-        scene,
-        camera,
-        settings.method,
-        seed_b,
-        frames,
-        &mut progress,
-    )?;
+    let view = (scene, camera);
+    let a = half(ctx, view, settings, settings.seed, frames, &mut progress)?;
+    let b = half(ctx, view, settings, seed_b, frames, &mut progress)?;
     let avg = |x: &[[f32; 3]], y: &[[f32; 3]]| -> Vec<[f32; 3]> {
         x.iter()
             .zip(y)

@@ -38,7 +38,7 @@ use reservoir::rng::Rng;
 
 use crate::image_io::Image;
 use crate::lights::{self, LightSample, Lights};
-use crate::sampling::{self, CameraGpu, Estimator};
+use crate::sampling::{self, CameraGpu, Estimator, Paths};
 use crate::scene::{Camera, Scene, SceneError, luminance};
 
 /// Options of [`ReferenceRenderer::render`].
@@ -51,6 +51,8 @@ pub struct ReferenceOptions {
     pub seed: u32,
     /// Worker threads; 0 = all available cores.
     pub threads: usize,
+    /// The depth of the indirect paths, as the GPU renderer's.
+    pub paths: Paths,
 }
 
 impl Default for ReferenceOptions {
@@ -60,6 +62,7 @@ impl Default for ReferenceOptions {
             spp: 64,
             seed: 0,
             threads: 0,
+            paths: Paths::default(),
         }
     }
 }
@@ -329,7 +332,7 @@ impl ReferenceRenderer {
         &self,
         cam: &CameraGpu,
         px: [u32; 2],
-        method: Estimator,
+        opts: &ReferenceOptions,
         rng: &mut Rng,
     ) -> (Vec3, Vec3) {
         let jitter = Vec2::new(rng.next_f32(), rng.next_f32());
@@ -340,7 +343,7 @@ impl ReferenceRenderer {
             return (self.lights.env_radiance(dir), Vec3::ZERO);
         };
         let v1 = self.surface(eye, dir, &h1);
-        let direct = v1.emission + self.estimate(method, &v1, rng);
+        let direct = v1.emission + self.estimate(opts.method, &v1, rng);
         let wi = sampling::cosine_hemisphere(v1.ns, Vec2::new(rng.next_f32(), rng.next_f32()));
         if wi.dot(v1.n) <= 0.0 && v1.ns != v1.n {
             // Cosine-distributed about the shading normal but below the surface: no path.
@@ -350,11 +353,40 @@ impl ReferenceRenderer {
         let indirect = match self.closest(o1, wi) {
             Some(h2) => {
                 let v2 = self.surface(o1, wi, &h2);
-                v1.albedo * self.estimate(method, &v2, rng)
+                v1.albedo * (self.estimate(opts.method, &v2, rng) + self.path(opts, v2, rng))
             }
             None => Vec3::ZERO,
         };
         (direct, indirect)
+    }
+
+    /// Bounces 2..=opts.paths.bounces beyond the secondary vertex v2: radiance towards x1 from the
+    /// light estimates at x3, x4, ... (cosine-sampled directions, throughput = the albedos of
+    /// the vertices left behind after x1), Russian roulette as the GPU's `render_path`.
+    fn path(&self, opts: &ReferenceOptions, v2: Surface, rng: &mut Rng) -> Vec3 {
+        let (mut v, mut throughput, mut l) = (v2, Vec3::ONE, Vec3::ZERO);
+        let paths = opts.paths;
+        for bounce in 2..=paths.bounces {
+            if paths.roulette_from != 0 && bounce >= paths.roulette_from {
+                let q = v.albedo.max_element().min(1.0);
+                if rng.next_f32() >= q {
+                    break;
+                }
+                throughput /= q;
+            }
+            throughput *= v.albedo;
+            let wi = sampling::cosine_hemisphere(v.ns, Vec2::new(rng.next_f32(), rng.next_f32()));
+            if wi.dot(v.n) <= 0.0 && v.ns != v.n {
+                break;
+            }
+            let o = v.x + v.n * self.eps;
+            let Some(h) = self.closest(o, wi) else {
+                break;
+            };
+            v = self.surface(o, wi, &h);
+            l += throughput * self.estimate(opts.method, &v, rng);
+        }
+        l
     }
 
     /// Renders `camera` (its width x height) with `opts`. `progress`, if given, is called with
@@ -370,6 +402,7 @@ impl ReferenceRenderer {
         if opts.spp == 0 {
             return Err(SceneError::BadOption("spp must be at least 1".into()));
         }
+        opts.paths.check(1).map_err(SceneError::BadOption)?;
         let bytes = reference_bytes(camera.width, camera.height);
         if bytes > MAX_REFERENCE_BYTES {
             return Err(SceneError::BadOption(format!(
@@ -405,8 +438,7 @@ impl ReferenceRenderer {
                                 let pixel = y * w + x as u32;
                                 for s in 0..opts.spp {
                                     let mut rng = Rng::seed(pixel, s, opts.seed);
-                                    let (d, i) =
-                                        self.sample(&cam, [x as u32, y], opts.method, &mut rng);
+                                    let (d, i) = self.sample(&cam, [x as u32, y], opts, &mut rng);
                                     for c in 0..3 {
                                         acc[c] += f64::from(d[c]);
                                         acc[3 + c] += f64::from(i[c]);
@@ -472,6 +504,7 @@ mod tests {
                     spp,
                     seed,
                     threads: 0,
+                    ..Default::default()
                 },
                 None,
             )
@@ -539,6 +572,7 @@ mod tests {
                 spp: 128,
                 seed: 7,
                 threads: 0,
+                ..Default::default()
             };
             r.render(&s.camera.unwrap(), &o, None).unwrap()
         };
@@ -605,6 +639,7 @@ mod tests {
             spp: 2,
             seed,
             threads,
+            ..Default::default()
         };
         let a = r.render(&cam, &o(3, 1), None).unwrap();
         let b = r.render(&cam, &o(3, 3), None).unwrap();

@@ -48,6 +48,71 @@ pub fn triangle_uniform(u: Vec2) -> Vec2 {
     Vec2::new(su * (1.0 - u.y), su * u.y)
 }
 
+/// The iteration cap GPU drivers put on an invocation's loops (llvmpipe: 65,535): a loop bound
+/// a user sets (RIS candidates, bounces x candidates) is validated against it.
+pub const MAX_LOOP_ITERATIONS: u32 = 65_535;
+
+/// Most bounces of indirect light a render takes ([`Paths::bounces`]).
+pub const MAX_BOUNCES: u32 = 64;
+
+/// Default bounce at which Russian roulette starts ([`Paths::roulette_from`]).
+pub const DEFAULT_ROULETTE_FROM: u32 = 3;
+
+/// The depth of the indirect paths, shared by the GPU renderer and the CPU reference.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Paths {
+    /// Bounces of indirect light: the indirect image holds bounces 1..=bounces (1: light
+    /// estimated at the secondary vertex only). Beyond the secondary vertex the path continues
+    /// by cosine sampling with a light estimate (the method's estimator) at every vertex.
+    /// 1..=[`MAX_BOUNCES`].
+    pub bounces: u32,
+    /// Russian roulette from this bounce on (0: never): the path survives each further bounce
+    /// with the probability of the largest albedo component of the vertex it leaves, and its
+    /// throughput is divided by that probability (unbiased). 0 or at least 2.
+    pub roulette_from: u32,
+}
+
+impl Default for Paths {
+    fn default() -> Self {
+        Self {
+            bounces: 1,
+            roulette_from: DEFAULT_ROULETTE_FROM,
+        }
+    }
+}
+
+impl Paths {
+    /// `bounces` with the default roulette.
+    pub fn bounces(bounces: u32) -> Self {
+        Self {
+            bounces,
+            ..Self::default()
+        }
+    }
+
+    /// Checks the depth against [`MAX_BOUNCES`] and, for a light estimator of `candidates` per
+    /// vertex (one estimate per bounce), their loops together against [`MAX_LOOP_ITERATIONS`].
+    pub fn check(&self, candidates: u32) -> Result<(), String> {
+        if !(1..=MAX_BOUNCES).contains(&self.bounces) {
+            return Err(format!(
+                "bounces {} must be in 1..={MAX_BOUNCES}",
+                self.bounces
+            ));
+        }
+        if self.bounces.saturating_mul(candidates.max(1)) > MAX_LOOP_ITERATIONS {
+            return Err(format!(
+                "bounces x candidates = {} x {candidates} must be at most {MAX_LOOP_ITERATIONS} \
+                 (GPU drivers cap shader loop iterations)",
+                self.bounces
+            ));
+        }
+        if self.roulette_from == 1 {
+            return Err("roulette-from must be 0 (never) or at least 2".into());
+        }
+        Ok(())
+    }
+}
+
 /// The light estimator at each shading point, shared by the GPU renderer and the CPU
 /// reference.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

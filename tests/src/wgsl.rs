@@ -125,14 +125,19 @@ macro_rules! assert_wgsl_layout {
 }
 
 /// Asserts that the WGSL struct `$wgsl_name` in `$source` is the knob table `$config`'s GPU
-/// words: its `[gpu]` knobs as consecutive 4-byte fields, padded to `GPU_WORDS` words.
+/// words: its `[gpu]` knobs as consecutive 4-byte fields, then `_padN` fields up to `GPU_WORDS`.
 #[macro_export]
 macro_rules! assert_knobs_layout {
     ($config:ty, $source:expr, $wgsl_name:expr) => {
+        let pads: Vec<String> = (<$config>::GPU_KNOBS..<$config>::GPU_WORDS)
+            .map(|p| format!("_pad{p}"))
+            .collect();
         let fields: Vec<(&str, usize)> = <$config>::GPU_FIELDS
             .iter()
+            .copied()
+            .chain(pads.iter().map(String::as_str))
             .enumerate()
-            .map(|(i, f)| (*f, 4 * i))
+            .map(|(i, f)| (f, 4 * i))
             .collect();
         if let Err(e) =
             $crate::wgsl::check_layout(&$source, $wgsl_name, 4 * <$config>::GPU_WORDS, &fields)

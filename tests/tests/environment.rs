@@ -81,6 +81,7 @@ fn cpu_render(s: &Scene, cam: &Camera, method: Estimator, spp: u32) -> [Vec<[f32
         spp,
         seed: 5,
         threads: 0,
+        ..Default::default()
     };
     let out = r.render(cam, &o, None).expect("render");
     [out.direct.pixels, out.indirect.pixels]

@@ -16,6 +16,7 @@ fn settings(spp: u32, seed: u32) -> ReferenceSettings {
         spp,
         method: Estimator::Ris { candidates: 16 },
         seed,
+        ..Default::default()
     }
 }
 

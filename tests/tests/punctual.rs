@@ -107,6 +107,7 @@ fn point_light_in_a_sphere_matches_the_closed_forms() {
             spp: 32,
             seed: 4,
             threads: 0,
+            ..Default::default()
         };
         let out = cpu.render(&cam, &o, None).unwrap();
         runs.push((
@@ -194,6 +195,7 @@ fn spot_and_directional_lights_match_the_cpu_reference() {
                 spp: 64,
                 seed: 2,
                 threads: 0,
+                ..Default::default()
             };
             let out = ReferenceRenderer::new(s)
                 .unwrap()

@@ -159,6 +159,7 @@ fn gpu_matches_cpu_reference_on_cornell() {
                     spp: n,
                     seed: 23,
                     threads: 0,
+                    ..Default::default()
                 },
                 None,
             )
@@ -329,6 +330,7 @@ fn cpu_render(scene: &Scene, spp: u32) -> Rendered {
                 spp,
                 seed: 9,
                 threads: 0,
+                ..Default::default()
             },
             None,
         )

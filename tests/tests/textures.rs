@@ -131,6 +131,7 @@ fn emissive_ramp_texture_matches_the_analytic_image() {
             spp: 16,
             seed: 1,
             threads: 0,
+            ..Default::default()
         };
         let out = ReferenceRenderer::new(&s)
             .unwrap()
@@ -200,6 +201,7 @@ fn textured_emitters_light_the_furnace_by_their_texture() {
         spp: 32,
         seed: 3,
         threads: 0,
+        ..Default::default()
     };
     let out = ReferenceRenderer::new(&s)
         .unwrap()
@@ -253,6 +255,7 @@ fn base_colour_texture_reflects_the_sky_by_the_analytic_ramp() {
         spp: 64,
         seed: 1,
         threads: 0,
+        ..Default::default()
     };
     let out = ReferenceRenderer::new(&s)
         .unwrap()

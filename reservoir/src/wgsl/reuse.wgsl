@@ -98,11 +98,15 @@ fn reuse_pairwise_weights(c: Reuse, m_n: f32, p_here: f32, p_n_y: f32, p_n_own: 
                      share * reuse_balance(c.m_c * c.p_own, m_n * p_n_own));
 }
 
-// Merges neighbour n's finalized reservoir `other` (its W, its capped M; M = 0 merges
-// nothing), its sample shifted to the receiver (see the header for the targets); u uniform in
-// [0, 1). Returns true when n's sample is now the selected one: the caller keeps its payload.
+// Merges neighbour n's finalized reservoir `other` (its W, its capped M), its sample shifted
+// to the receiver (see the header for the targets); u uniform in [0, 1). Returns true when n's
+// sample is now the selected one: the caller keeps its payload. A neighbour with M = 0 merges
+// nothing (and must not be counted in k).
 fn reuse_neighbour(c: ptr<function, Reuse>, n: u32, other: PackedReservoir, p_here: f32,
                    p_n_y: f32, p_n_own: f32, u: f32) -> bool {
+    if other.m == 0u {
+        return false;
+    }
     var r = (*c).r;
     var selected: bool;
     if (*c).mode == REUSE_PAIRWISE {

@@ -4,7 +4,7 @@
 use super::{FrameMethod, MethodError, MethodSettings};
 use crate::gpu::{FrameEncoder, GpuContext};
 use crate::light_tiles::LightTiles;
-use crate::render::{DebugView, Renderer};
+use crate::render::{DebugView, RenderOptions, Renderer};
 use crate::restir_di::{RestirDi, RestirDiConfig};
 use crate::scene::{Camera, Scene};
 use crate::world_restir::{WorldRestir, WorldRestirConfig};
@@ -26,7 +26,7 @@ pub struct Composed {
 }
 
 impl Composed {
-    /// Builds `settings` for `scene` seen by `camera`.
+    /// Builds `settings` for `scene` seen by `camera`, seeded by `seed` (one-bounce paths).
     pub fn new(
         ctx: &GpuContext,
         scene: &Scene,
@@ -34,8 +34,19 @@ impl Composed {
         settings: &MethodSettings,
         seed: u32,
     ) -> Result<Self, MethodError> {
+        Self::with_options(ctx, scene, camera, settings, &RenderOptions::seeded(seed))
+    }
+
+    /// Builds `settings` for `scene` seen by `camera`, rendering with `options`.
+    pub fn with_options(
+        ctx: &GpuContext,
+        scene: &Scene,
+        camera: &Camera,
+        settings: &MethodSettings,
+        options: &RenderOptions,
+    ) -> Result<Self, MethodError> {
         settings.validate()?;
-        let renderer = Renderer::new(ctx, scene, camera, settings.estimator, seed)?;
+        let renderer = Renderer::with_options(ctx, scene, camera, settings.estimator, options)?;
         let tiles = match settings.di {
             Some(d) => Some(LightTiles::new(
                 ctx,
@@ -125,6 +136,7 @@ impl FrameMethod for Composed {
             Some(w) => w.encode(f, r)?,
             None => r.encode_shade_indirect(f),
         }
+        r.encode_path(f);
         let unified = self.world.as_ref().is_some_and(WorldRestir::lights_direct);
         match self.di.as_mut() {
             _ if unified => {}

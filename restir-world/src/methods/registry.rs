@@ -7,7 +7,7 @@ use std::fmt;
 use super::{Composed, FrameMethod, MethodError};
 use crate::gpu::GpuContext;
 use crate::knobs::{Knob, Knobs, Variant, parse_config};
-use crate::render;
+use crate::render::{self, RenderOptions};
 use crate::restir_di::{self, RestirDiConfig};
 use crate::sampling::Estimator;
 use crate::scene::{Camera, Scene};
@@ -223,7 +223,7 @@ impl MethodSettings {
         Ok(next)
     }
 
-    /// Builds the method.
+    /// Builds the method, seeded by `seed` (one-bounce paths).
     pub fn build(
         &self,
         ctx: &GpuContext,
@@ -231,7 +231,20 @@ impl MethodSettings {
         camera: &Camera,
         seed: u32,
     ) -> Result<Box<dyn FrameMethod>, MethodError> {
-        Ok(Box::new(Composed::new(ctx, scene, camera, self, seed)?))
+        self.build_with(ctx, scene, camera, &RenderOptions::seeded(seed))
+    }
+
+    /// Builds the method, rendering with `options` (seed, path depth).
+    pub fn build_with(
+        &self,
+        ctx: &GpuContext,
+        scene: &Scene,
+        camera: &Camera,
+        options: &RenderOptions,
+    ) -> Result<Box<dyn FrameMethod>, MethodError> {
+        Ok(Box::new(Composed::with_options(
+            ctx, scene, camera, self, options,
+        )?))
     }
 }
 

@@ -12,6 +12,10 @@
 //! 4. `shade_direct`: emission seen at the primary + NEE there -> `render_direct_frame`
 //!    (`restir_di::RestirDi` writes it instead in the `restir-di` methods).
 //! 5. `shade_indirect`: primary albedo x NEE at the secondary vertex -> `render_indirect_frame`.
+//!    `path` (with [`Paths::bounces`] > 1): the path goes on from the secondary vertex
+//!    by cosine sampling, with NEE at every vertex, Russian roulette from
+//!    [`Paths::roulette_from`]; it adds bounces 2.. to `render_indirect_frame`, after
+//!    whichever pass wrote bounce 1 (world-restir's shade included).
 //! 6. `accumulate`: running sums of both frames; advances the GPU frame counter that seeds
 //!    every pass.
 //!
@@ -54,7 +58,7 @@ pub const DEFAULT_CANDIDATES: u32 = 16;
 
 /// Most RIS candidates a method accepts: GPU drivers cap shader loop iterations (llvmpipe at
 /// 65,535), so more would silently give the image of this many.
-pub const MAX_CANDIDATES: u32 = 65_535;
+pub const MAX_CANDIDATES: u32 = crate::sampling::MAX_LOOP_ITERATIONS;
 
 /// Checks a RIS candidate count: 1 ..= [`MAX_CANDIDATES`].
 pub fn check_candidates(candidates: u32) -> Result<(), String> {
@@ -67,6 +71,26 @@ pub fn check_candidates(candidates: u32) -> Result<(), String> {
         ))
     }
 }
+pub use crate::sampling::{DEFAULT_ROULETTE_FROM, MAX_BOUNCES, Paths};
+
+/// How a render runs, whatever the method: the seed of its random streams and the depth of
+/// its indirect paths.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct RenderOptions {
+    pub seed: u32,
+    pub paths: Paths,
+}
+
+impl RenderOptions {
+    /// `seed` and one-bounce paths.
+    pub fn seeded(seed: u32) -> Self {
+        Self {
+            seed,
+            ..Self::default()
+        }
+    }
+}
+
 /// Relative ray-origin offset off surfaces (times max(1, |coordinate|)).
 pub const RAY_EPS: f32 = 1e-4;
 /// tmax of unbounded rays.
@@ -97,11 +121,13 @@ pub enum Stream {
     DiInitial = 10,
     DiTemporal = 11,
     DiSpatial = 12,
+    /// The path beyond the secondary vertex (salted by the bounce).
+    Path = 13,
 }
 
 impl Stream {
     /// Every stream with the suffix of its WGSL constant.
-    pub const ALL: [(Stream, &'static str); 13] = [
+    pub const ALL: [(Stream, &'static str); 14] = [
         (Stream::Primary, "PRIMARY"),
         (Stream::Gi, "GI"),
         (Stream::Direct, "DIRECT"),
@@ -115,6 +141,7 @@ impl Stream {
         (Stream::DiInitial, "DI_INITIAL"),
         (Stream::DiTemporal, "DI_TEMPORAL"),
         (Stream::DiSpatial, "DI_SPATIAL"),
+        (Stream::Path, "PATH"),
     ];
 }
 
@@ -297,6 +324,11 @@ pub struct RenderParams {
     /// negative controls of tests ([`Renderer::plant_scale`]).
     pub planted_direct: f32,
     pub planted_indirect: f32,
+    /// [`Paths::bounces`] and [`Paths::roulette_from`].
+    pub bounces: u32,
+    pub roulette_from: u32,
+    pub _pad0: u32,
+    pub _pad1: u32,
 }
 
 /// The floor of the ray-offset scale for `scene`: its extent (largest side of its bounding
@@ -669,6 +701,7 @@ struct Passes {
     gi: Pass,
     shade_direct: Pass,
     shade_indirect: Pass,
+    path: Pass,
     accumulate: Pass,
 }
 
@@ -679,6 +712,7 @@ impl Passes {
             "render_gi",
             "render_shade_direct",
             "render_shade_indirect",
+            "render_path",
             "render_accumulate",
         ];
         let modules = vec![passes_module()];
@@ -689,7 +723,8 @@ impl Passes {
             gi: pass(entries[1]),
             shade_direct: pass(entries[2]),
             shade_indirect: pass(entries[3]),
-            accumulate: pass(entries[4]),
+            path: pass(entries[4]),
+            accumulate: pass(entries[5]),
         }
     }
 }
@@ -701,6 +736,7 @@ pub struct Renderer {
     /// Set by [`Renderer::set_camera`]: uploaded at the start of the next frame.
     camera_changed: bool,
     estimator: Estimator,
+    options: RenderOptions,
     pub(crate) buffers: RenderBuffers,
     pub(crate) shared: SharedGroups,
     passes: Passes,
@@ -720,11 +756,26 @@ impl Renderer {
         estimator: Estimator,
         seed: u32,
     ) -> Result<Self, RenderError> {
+        Self::with_options(ctx, scene, camera, estimator, &RenderOptions::seeded(seed))
+    }
+
+    /// [`Renderer::new`] with every option.
+    pub fn with_options(
+        ctx: &GpuContext,
+        scene: &Scene,
+        camera: &Camera,
+        estimator: Estimator,
+        options: &RenderOptions,
+    ) -> Result<Self, RenderError> {
         let candidates = match estimator {
             Estimator::Nee => 1,
             Estimator::Ris { candidates } => candidates,
         };
         check_candidates(candidates).map_err(RenderError::Settings)?;
+        options
+            .paths
+            .check(candidates)
+            .map_err(RenderError::Settings)?;
         let sets = shared_bindings(ctx.tracer);
         ctx.check_storage_buffers("render", &sets.each_ref())?;
         camera
@@ -749,7 +800,7 @@ impl Renderer {
         let params = RenderParams {
             camera: CameraGpu::new(camera),
             pixel_count: pixels,
-            seed,
+            seed: options.seed,
             method: match estimator {
                 Estimator::Nee => METHOD_NEE,
                 Estimator::Ris { .. } => METHOD_RIS,
@@ -759,6 +810,10 @@ impl Renderer {
             attributes: u32::from(attributes.is_some()),
             planted_direct: 1.0,
             planted_indirect: 1.0,
+            bounces: options.paths.bounces,
+            roulette_from: options.paths.roulette_from,
+            _pad0: 0,
+            _pad1: 0,
         };
         let no_material = [Material::new([0.0; 3], [0.0; 3])];
         let materials = match scene.materials.is_empty() {
@@ -785,6 +840,7 @@ impl Renderer {
             camera: *camera,
             camera_changed: false,
             estimator,
+            options: *options,
             buffers,
             shared,
             passes,
@@ -856,6 +912,19 @@ impl Renderer {
         });
     }
 
+    /// Step 5b: bounces 2..=bounces of the path beyond the secondary vertex, added to
+    /// `render_indirect_frame` (nothing with one bounce).
+    pub fn encode_path(&self, f: &mut FrameEncoder) {
+        if self.options.paths.bounces > 1 {
+            f.span("path", |f| f.dispatch(&self.passes.path));
+        }
+    }
+
+    /// How the renderer runs (seed, bounces).
+    pub fn options(&self) -> &RenderOptions {
+        &self.options
+    }
+
     /// Step 6: adds the frame to the running sums and advances the frame counter.
     pub fn encode_accumulate(&mut self, f: &mut FrameEncoder) {
         f.span("accumulate", |f| f.dispatch(&self.passes.accumulate));
@@ -868,6 +937,7 @@ impl Renderer {
         self.encode_primary_and_gi(f);
         self.encode_shade_direct(f);
         self.encode_shade_indirect(f);
+        self.encode_path(f);
         self.encode_accumulate(f);
     }
 

@@ -69,6 +69,12 @@ struct RenderParams {
     // 1 and 1 but in tests' negative controls (render::Renderer::plant_scale).
     planted_direct: f32,
     planted_indirect: f32,
+    // render::RenderOptions: bounces of indirect light, Russian roulette from this bounce on
+    // (0: never).
+    bounces: u32,
+    roulette_from: u32,
+    _pad0: u32,
+    _pad1: u32,
 }
 
 // GPU-side frame counter: advanced by render_accumulate, read by every pass for its seeds.
