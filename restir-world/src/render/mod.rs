@@ -941,8 +941,9 @@ impl Renderer {
         self.encode_accumulate(f);
     }
 
-    /// Plants a bias: the direct and indirect frames are accumulated scaled by these factors
-    /// (1 and 1 by default) from the next submission on. Only for the negative controls of
+    /// Plants a bias: the direct and indirect frames are scaled by these factors (1 and 1 by
+    /// default) as they are accumulated, from the next submission on (the last frame's images
+    /// read back scaled too). Only for the negative controls of
     /// statistical tests: an estimator with a known defect applied on the GPU, which the same
     /// check must catch.
     pub fn plant_scale(&self, ctx: &GpuContext, direct: f32, indirect: f32) {

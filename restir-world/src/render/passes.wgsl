@@ -125,8 +125,8 @@ fn render_path(id: Invocation) {
     render_indirect_frame[i] += vec4<f32>(l, 0.0);
 }
 
-// Adds this frame's direct and indirect estimates to the running sums (scaled only in tests'
-// negative controls); advances the frame.
+// Adds this frame's direct and indirect estimates to the running sums (both scaled only in
+// tests' negative controls, the frame's own images too); advances the frame.
 @compute @workgroup_size(WORKGROUP_SIZE)
 fn render_accumulate(id: Invocation) {
     let i = item_index(id);
@@ -136,6 +136,10 @@ fn render_accumulate(id: Invocation) {
     if i >= render_params.pixel_count {
         return;
     }
-    render_accum_direct[i] += render_direct_frame[i] * render_params.planted_direct;
-    render_accum_indirect[i] += render_indirect_frame[i] * render_params.planted_indirect;
+    let direct = render_direct_frame[i] * render_params.planted_direct;
+    let indirect = render_indirect_frame[i] * render_params.planted_indirect;
+    render_direct_frame[i] = direct;
+    render_indirect_frame[i] = indirect;
+    render_accum_direct[i] += direct;
+    render_accum_indirect[i] += indirect;
 }
