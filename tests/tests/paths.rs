@@ -92,7 +92,7 @@ fn depths() -> [Paths; 5] {
 
 /// Every estimator matches the closed furnace at every depth within 1% (mean of 24x24 x 64
 /// frames on the GPU, 24x24 x 32 spp on the CPU; the icosphere furnace has no edges, so the
-/// light estimates are well conditioned). Control: `nee` at N = 7 held to N = 8's values (a
+/// light estimates are well conditioned); the 1/Z combinations too at N = 1 and 4. Control: `nee` at N = 7 held to N = 8's values (a
 /// planted missing bounce: 5% of the indirect light) must fail the same bound.
 #[test]
 fn closed_furnace_matches_every_depth() {
@@ -104,9 +104,16 @@ fn closed_furnace_matches_every_depth() {
         "restir-di",
         "world-restir+restir-di",
     ];
+    // 1/Z, which has no test of its own elsewhere, at two depths.
+    let one_over_z = ["world-restir:one-over-z", "restir-di:combine=one-over-z"];
     let mut worst: f64 = 0.0;
     for paths in depths() {
-        for spec in specs {
+        let extra: &[&str] = if matches!(paths.bounces, 1 | 4) {
+            &one_over_z
+        } else {
+            &[]
+        };
+        for spec in specs.iter().chain(extra) {
             let [d, i] = gpu_images(spec, paths, 1, 64);
             let e = furnace_error(&d, &i, paths.bounces);
             eprintln!("furnace {spec} {paths:?}: error {e:.4}");

@@ -10,7 +10,7 @@ use restir_world::methods::{self, Composed, FrameMethod};
 use restir_world::restir_di::{self, DiParams, DiPass, RestirDiConfig};
 use restir_world::scene::{BuiltinOptions, Camera, CameraPath, Scene, builtin};
 use restir_world::world_restir::WorldRestirConfig;
-use tests::bias::{assert_checked, channel_means, relative};
+use tests::bias::{assert_checked, channel_means, relative, within};
 use tests::gpu;
 
 /// Lights of the many-lights hall in these tests (the scene's default is 10,000; 2,000 as in
@@ -141,8 +141,8 @@ fn layouts_match_wgsl() {
 /// seen, are the same). Measured on lavapipe: +0.03/-0.04/-0.03% (these seeds, 2,000 lights);
 /// single seeds scattered by about 0.6% in a calibration at 10,000 lights (no-reuse / ris - 1:
 /// +0.3/+0.1/+0.6%, -0.7/-0.7/-0.8%, +0.5/+0.6/+0.4% over seeds 1-3), so two seeds leave about
-/// 0.4% and the margin is 3.5 sigma. Control: a planted 4% darkening of the same means must
-/// leave the margin.
+/// 0.4% and the margin is 3.5 sigma. Control: restir-di:no-reuse with its direct frames
+/// darkened by 4% on the GPU, at seed 3, must leave the margin.
 #[test]
 fn no_reuse_equals_ris_direct_in_expectation() {
     const MARGIN: f64 = 0.015;
@@ -225,21 +225,21 @@ fn gi_tiles_feed_world_restir_generate_without_bias() {
 /// cornell runs agree to about 0.1% (a calibration over seeds 1-3 with a 30 px spatial radius:
 /// at most +0.08%), many-lights single runs scatter by about 0.5% per channel (same
 /// calibration at 10,000 lights, seeds 1-3: +0.0/+0.3/+1.1, -0.6/-0.7/-0.5, -0.2/-0.3/-0.5%),
-/// two seeds about 0.35%: 1% is near 3 sigma. Control: the default with its direct frames
-/// darkened by 3% on the GPU, on other seeds (cornell 2, many-lights 3), must fail the bound.
+/// two seeds about 0.35%: 1% is near 3 sigma. Control (on many-lights, the noisier scene): the
+/// default with its direct frames darkened by 3% on the GPU, at seed 3, must fail the bound.
 #[test]
 fn unbiased_default_matches_the_reference() {
     const BOUND: f64 = 0.01;
-    for ((name, side, frames, seeds), control) in BIAS_RUNS.into_iter().zip([[2], [3]]) {
+    for (name, side, frames, seeds) in BIAS_RUNS {
         let b = relative_bias("restir-di", name, side, frames, seeds, 1.0);
-        let c = relative_bias("restir-di", name, side, frames, &control, 0.97);
-        assert_checked(
-            &format!("restir-di bias, {name}"),
-            b,
-            BOUND,
-            c,
-            "3% darker on the GPU",
-        );
+        let what = format!("restir-di bias, {name}");
+        if name == "many-lights" {
+            let c = relative_bias("restir-di", name, side, frames, &[3], 0.97);
+            assert_checked(&what, b, BOUND, c, "3% darker on the GPU, seed 3");
+        } else {
+            eprintln!("{what}: {b:+.4?} (bound {BOUND})");
+            assert!(within(b, BOUND), "{what}: {b:+.4?} beyond {BOUND}");
+        }
     }
 }
 
@@ -248,21 +248,21 @@ fn unbiased_default_matches_the_reference() {
 /// Measured on lavapipe at the default 3 px radius: cornell -0.00/-0.06/-0.05%, many-lights
 /// -0.12/+0.41/-0.23% (within the noise of about 0.35%; with a 30 px radius many-lights
 /// measured -1.30/-0.58/-1.23%). Control: the biased mode with its direct frames darkened by
-/// 4% on the GPU, on other seeds, must fail the bound. (That the knob takes effect at all is
+/// 4% on the GPU, on many-lights at seed 3, must fail the bound. (That the knob takes effect at all is
 /// checked by `deterministic_and_the_indirect_path_is_intact`.)
 #[test]
 fn biased_mode_bias_is_bounded() {
     const BOUND: f64 = 0.02;
-    for ((name, side, frames, seeds), control) in BIAS_RUNS.into_iter().zip([[2], [3]]) {
+    for (name, side, frames, seeds) in BIAS_RUNS {
         let b = relative_bias("restir-di:biased", name, side, frames, seeds, 1.0);
-        let c = relative_bias("restir-di:biased", name, side, frames, &control, 0.96);
-        assert_checked(
-            &format!("restir-di:biased bias, {name}"),
-            b,
-            BOUND,
-            c,
-            "4% darker on the GPU",
-        );
+        let what = format!("restir-di:biased bias, {name}");
+        if name == "many-lights" {
+            let c = relative_bias("restir-di:biased", name, side, frames, &[3], 0.96);
+            assert_checked(&what, b, BOUND, c, "4% darker on the GPU, seed 3");
+        } else {
+            eprintln!("{what}: {b:+.4?} (bound {BOUND})");
+            assert!(within(b, BOUND), "{what}: {b:+.4?} beyond {BOUND}");
+        }
     }
 }
 
