@@ -3,6 +3,8 @@
 # revision) in a temporary worktree and at the working tree, renders the fixed set of
 # scripts/render-golden.sh with both, and compares every EXR byte for byte.
 # usage: scripts/same-images.sh BASE   (e.g. scripts/same-images.sh HEAD~3)
+# AFTER_ARGS: render arguments for the working tree's binary only, for a default that changed
+# on purpose (e.g. AFTER_ARGS="--bounces 1" checks that one bounce renders as before).
 set -euo pipefail
 base=${1:?usage: scripts/same-images.sh BASE}
 root=$(git rev-parse --show-toplevel)
@@ -13,7 +15,8 @@ git -C "$root" worktree add --detach "$work/base" "$base" >/dev/null
 (cd "$work/base" && CARGO_TARGET_DIR="$root/target/same-images-base" cargo build --release -q -p demo)
 (cd "$root" && cargo build --release -q -p demo)
 "$root/scripts/render-golden.sh" "$root/target/same-images-base/release/restir-demo" "$work/before" >/dev/null
-"$root/scripts/render-golden.sh" "$root/target/release/restir-demo" "$work/after" >/dev/null
+# shellcheck disable=SC2086 # AFTER_ARGS is a list of arguments
+"$root/scripts/render-golden.sh" "$root/target/release/restir-demo" "$work/after" ${AFTER_ARGS:-} >/dev/null
 count=0
 for f in $(cd "$work/before" && find . -name '*.exr' | sort); do
   cmp -s "$work/before/$f" "$work/after/$f" || { echo "DIFFERENT: $f"; exit 1; }

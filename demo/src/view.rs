@@ -981,7 +981,7 @@ fn method_specs() -> Vec<String> {
     let entries = methods::registry();
     let mut v: Vec<String> = entries.iter().map(|e| e.name.to_owned()).collect();
     for e in entries {
-        let variants = e.variants().iter().filter(|x| x.name != "both");
+        let variants = e.variants().into_iter().filter(|x| x.name != "both");
         let specs = variants.map(|x| format!("{}:{}", e.name, x.name));
         v.extend(specs.filter(|s| methods::check_spec(s).is_ok()));
     }

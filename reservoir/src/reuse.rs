@@ -133,7 +133,12 @@ impl Reuse {
     /// Pairwise MIS weights of a neighbour of confidence `m_n`: (its sample's weight, its part
     /// of the canonical sample's weight).
     pub fn pairwise_weights(&self, m_n: f32, p_here: f32, p_n_y: f32, p_n_own: f32) -> [f32; 2] {
-        let share = (m_n + self.m_c) / self.m_total as f32;
+        // No confidence at all (every M = 0): no weight.
+        let share = if self.m_total > 0 {
+            (m_n + self.m_c) / self.m_total as f32
+        } else {
+            0.0
+        };
         [
             share * balance(m_n * p_n_y, self.m_c * p_here),
             share * balance(self.m_c * self.p_own, m_n * p_n_own),
@@ -141,8 +146,8 @@ impl Reuse {
     }
 
     /// Merges neighbour `n`'s finalized reservoir `other` (its W and capped M). Returns true
-    /// when its sample is now selected. A neighbour with M = 0 merges nothing (and must not be
-    /// counted in k).
+    /// when its sample is now selected. A neighbour with M = 0 is never selected (in pairwise
+    /// mode it leaves its whole share to the canonical sample).
     pub fn neighbour(
         &mut self,
         n: u32,
@@ -152,9 +157,6 @@ impl Reuse {
         p_n_own: f32,
         u: f32,
     ) -> bool {
-        if other.m == 0 {
-            return false;
-        }
         let selected = if self.mode == Combination::Pairwise {
             let w = self.pairwise_weights(other.m as f32, p_here, p_n_y, p_n_own);
             self.canonical += w[1];

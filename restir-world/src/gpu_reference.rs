@@ -123,15 +123,9 @@ impl Fnv64 {
     }
 }
 
-/// The cache key of a reference: a hash of the scene's triangles (with their normals and
-/// texture coordinates), materials, textures, environment and punctual lights, the camera,
-/// the settings, this crate's version and the renderer's composed WGSL (so a change of the
-/// estimator's code invalidates old references even within one version; the software
-/// tracer's composition: both tracers estimate the same image).
-pub fn cache_key(scene: &Scene, camera: &Camera, settings: &ReferenceSettings) -> String {
-    let mut h = Fnv64::default();
-    h.bytes(env!("CARGO_PKG_VERSION").as_bytes());
-    h.bytes(crate::render::passes_source(crate::gpu::Tracer::Bvh).as_bytes());
+/// Hashes what of `scene` changes its images: geometry (with normals and texture coordinates),
+/// materials, textures, the environment and the punctual lights.
+fn hash_scene(h: &mut Fnv64, scene: &Scene) {
     for t in &scene.triangles {
         for v in t.v {
             h.f32s(&v.to_array());
@@ -188,6 +182,18 @@ pub fn cache_key(scene: &Scene, camera: &Camera, settings: &ReferenceSettings) -
             .f32s(&l.color)
             .f32s(&[l.intensity, l.range.unwrap_or(0.0)]);
     }
+}
+
+/// The cache key of a reference: a hash of the scene's triangles (with their normals and
+/// texture coordinates), materials, textures, environment and punctual lights, the camera,
+/// the settings, this crate's version and the renderer's composed WGSL (so a change of the
+/// estimator's code invalidates old references even within one version; the software
+/// tracer's composition: both tracers estimate the same image).
+pub fn cache_key(scene: &Scene, camera: &Camera, settings: &ReferenceSettings) -> String {
+    let mut h = Fnv64::default();
+    h.bytes(env!("CARGO_PKG_VERSION").as_bytes());
+    h.bytes(crate::render::passes_source(crate::gpu::Tracer::Bvh).as_bytes());
+    hash_scene(&mut h, scene);
     h.f32s(&camera.eye.to_array())
         .f32s(&camera.target.to_array())
         .f32s(&camera.up.to_array())

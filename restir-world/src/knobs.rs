@@ -217,13 +217,47 @@ pub fn check_range<T: KnobValue>(
     }
 }
 
-/// A named variant of a method: a name, the knobs it sets (`key=value` joined by `+`) and what
-/// it isolates.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+/// A named variant of a method: a name, the knobs it sets (`key=value` each) and what it
+/// isolates.
+#[derive(Debug, Clone, PartialEq, Eq)]
 pub struct Variant {
     pub name: &'static str,
-    pub knobs: &'static str,
+    pub knobs: Vec<&'static str>,
     pub about: &'static str,
+}
+
+impl Variant {
+    pub fn new(name: &'static str, knobs: &[&'static str], about: &'static str) -> Self {
+        Self {
+            name,
+            knobs: knobs.to_vec(),
+            about,
+        }
+    }
+}
+
+/// The variants every spatiotemporal reuse method has, each isolating what one part buys;
+/// `spatial_off` is the knob setting that turns the method's spatial reuse off.
+pub fn reuse_variants(spatial_off: &'static str) -> Vec<Variant> {
+    vec![
+        Variant::new(
+            "both",
+            &[],
+            "temporal + spatial reuse, pairwise MIS (the default)",
+        ),
+        Variant::new(
+            "no-reuse",
+            &["temporal=off", spatial_off],
+            "no temporal, no spatial reuse",
+        ),
+        Variant::new("temporal", &[spatial_off], "temporal reuse only"),
+        Variant::new("spatial", &["temporal=off"], "spatial reuse only"),
+        Variant::new(
+            "biased",
+            &["combine=biased"],
+            "the paper's 1/M weights instead of pairwise MIS",
+        ),
+    ]
 }
 
 /// The configuration a variant text describes: named `variants` and knobs `key=value` joined
@@ -232,8 +266,8 @@ pub fn parse_config<C: Knobs>(variants: &[Variant], text: Option<&str>) -> Resul
     let mut config = C::default();
     for part in text.into_iter().flat_map(|t| t.split('+')) {
         let knobs = match variants.iter().find(|v| v.name == part) {
-            Some(v) => v.knobs,
-            None if part.contains('=') => part,
+            Some(v) => v.knobs.clone(),
+            None if part.contains('=') => vec![part],
             None => {
                 let names: Vec<&str> = variants.iter().map(|v| v.name).collect();
                 return Err(format!(
@@ -247,7 +281,7 @@ pub fn parse_config<C: Knobs>(variants: &[Variant], text: Option<&str>) -> Resul
                 ));
             }
         };
-        for (key, value) in knobs.split('+').filter_map(|k| k.split_once('=')) {
+        for (key, value) in knobs.iter().filter_map(|k| k.split_once('=')) {
             config.set(key, value)?;
         }
     }
@@ -429,11 +463,7 @@ mod tests {
 
     #[test]
     fn variants_apply_in_order() {
-        let variants = [Variant {
-            name: "small",
-            knobs: "count=2+flag=off",
-            about: "",
-        }];
+        let variants = [Variant::new("small", &["count=2", "flag=off"], "")];
         let c: TestConfig = parse_config(&variants, Some("small+count=3")).unwrap();
         assert_eq!((c.count, c.flag), (3, false));
         let e = parse_config::<TestConfig>(&variants, Some("bogus")).unwrap_err();

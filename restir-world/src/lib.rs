@@ -61,9 +61,6 @@ pub fn wgsl_modules() -> Vec<(String, String)> {
         ("restir-world/lights".into(), lights),
     ];
     modules.extend(trace::wgsl_modules());
-    modules.extend(render::wgsl_modules());
-    modules.extend(light_tiles::wgsl_modules());
-    modules.extend(world_restir::wgsl_modules());
-    modules.extend(restir_di::wgsl_modules());
+    modules.extend(kernels().into_iter().map(|k| (k.name, k.source)));
     modules
 }

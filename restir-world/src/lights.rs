@@ -38,7 +38,7 @@ use reservoir::rng::Rng;
 use crate::gpu::{Access, BindingSet, Resource, WgslModule};
 use crate::sampling;
 use crate::scene::environment::{self, Environment};
-use crate::scene::{PunctualKind, Scene, luminance};
+use crate::scene::{PunctualKind, PunctualLight, Scene, luminance};
 
 /// WGSL source of the light sampling functions (no bindings; see [`bindings`]).
 pub const WGSL: &str = include_str!("lights.wgsl");
@@ -61,7 +61,8 @@ pub fn at_infinity(kind: u32) -> bool {
 pub fn constants_wgsl() -> String {
     format!(
         "const LIGHTS_KIND_TRIANGLE: u32 = {KIND_TRIANGLE}u;\nconst LIGHTS_KIND_ENV: u32 = {KIND_ENV}u;\n\
-         const LIGHTS_KIND_POINT: u32 = {KIND_POINT}u;\nconst LIGHTS_KIND_DIRECTIONAL: u32 = {KIND_DIRECTIONAL}u;\n"
+         const LIGHTS_KIND_POINT: u32 = {KIND_POINT}u;\nconst LIGHTS_KIND_DIRECTIONAL: u32 = {KIND_DIRECTIONAL}u;\n\
+         const LIGHTS_NONE: u32 = {NO_LIGHT}u;\n"
     )
 }
 
@@ -122,7 +123,16 @@ pub struct LightsInfo {
     pub env_width: u32,
     pub total_power: f32,
     pub env_height: u32,
+    /// The environment's index in the table ([`NO_LIGHT`] without one).
+    pub env_light: u32,
+    pub _pad0: u32,
+    pub _pad1: u32,
+    pub _pad2: u32,
 }
+
+/// [`Lights::triangle_light`] of a triangle that is not a light (and
+/// [`LightsInfo::env_light`] without an environment).
+pub const NO_LIGHT: u32 = u32::MAX;
 
 /// A sample of a light (twin of WGSL `LightSample`; not uploaded).
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -160,6 +170,9 @@ pub struct Lights {
     pub env_height: u32,
     /// What the environment was made from (`Environment::source`), for messages.
     pub env_source: String,
+    /// Per scene triangle, its index in the table ([`NO_LIGHT`] when it does not emit): the
+    /// density with which the table samples a point a ray hit (multiple importance sampling).
+    pub triangle_light: Vec<u32>,
 }
 
 /// The sampling weight of an emitter: area x Rec. 709 luminance of its radiance (proportional
@@ -284,109 +297,102 @@ fn env_table(env: &Environment) -> Vec<EnvPixel> {
         .collect()
 }
 
+/// The table entries (weight, entry) of the scene's emissive triangles: power of the
+/// material's emission (its texture's mean where it has one) over the triangle.
+fn emissive_triangles(scene: &Scene) -> Vec<(f64, LightTriangle)> {
+    let mut out = Vec::new();
+    for (i, t) in scene.triangles.iter().enumerate() {
+        let Some(m) = scene.materials.get(t.material as usize) else {
+            continue;
+        };
+        let area = t.area();
+        let mut w = power(area, m.emission);
+        if let (Some(uv), true) = (t.uv, m.emissive_texture != 0 && w > 0.0) {
+            w = textured_power(scene, area, m.emission, m.emissive_texture, uv);
+        }
+        let e = LightTriangle {
+            p0: t.v[0].to_array(),
+            area,
+            e1: (t.v[1] - t.v[0]).to_array(),
+            prob: 0.0,
+            e2: (t.v[2] - t.v[0]).to_array(),
+            triangle: i as u32,
+            emission: m.emission,
+            kind: KIND_TRIANGLE,
+        };
+        out.push((w, e));
+    }
+    out
+}
+
+/// The table entry (weight, entry) of a punctual light in a scene of bounding-sphere radius
+/// `r` (see the module documentation for the weights).
+fn punctual(l: &PunctualLight, r: f64) -> (f64, LightTriangle) {
+    let emission = l.color.map(|c| c * l.intensity);
+    let lum = f64::from(luminance(emission));
+    let range = l.range.unwrap_or(0.0);
+    match l.kind {
+        PunctualKind::Point => {
+            let params = Vec3::new(-2.0, 0.0, range);
+            let e = entry(KIND_POINT, l.position, Vec3::ZERO, params, emission);
+            (2.0 * lum, e)
+        }
+        PunctualKind::Spot {
+            inner_cone,
+            outer_cone,
+        } => {
+            let (ci, co) = (inner_cone.cos(), outer_cone.cos());
+            let mid = f64::from(0.5 * (inner_cone + outer_cone)).cos();
+            let scale = 1.0 / (ci - co).max(1e-3);
+            let params = Vec3::new(co, scale, range);
+            let e = entry(KIND_POINT, l.position, l.direction, params, emission);
+            ((1.0 - mid) * lum, e)
+        }
+        PunctualKind::Directional => {
+            let e = entry(
+                KIND_DIRECTIONAL,
+                -l.direction,
+                Vec3::ZERO,
+                Vec3::ZERO,
+                emission,
+            );
+            (0.5 * r * r * lum, e)
+        }
+    }
+}
+
 impl Lights {
     /// Collects the lights of `scene`: its emissive triangles (material emission > 0, area >
     /// 0), its environment and its punctual lights, and builds the alias table over their
     /// weights (module documentation). Lights of weight 0 are left out; a scene without any
     /// gives empty lights (the environment's radiance is still seen by rays that miss).
     pub fn build(scene: &Scene) -> Self {
-        let mut triangles = Vec::new();
-        let mut weights = Vec::new();
-        for (i, t) in scene.triangles.iter().enumerate() {
-            let Some(m) = scene.materials.get(t.material as usize) else {
-                continue;
-            };
-            let area = t.area();
-            let mut w = power(area, m.emission);
-            if let (Some(uv), true) = (t.uv, m.emissive_texture != 0 && w > 0.0) {
-                w = textured_power(scene, area, m.emission, m.emissive_texture, uv);
-            }
-            if !(w > 0.0 && w.is_finite()) {
-                continue;
-            }
-            weights.push(w);
-            triangles.push(LightTriangle {
-                p0: t.v[0].to_array(),
-                area,
-                e1: (t.v[1] - t.v[0]).to_array(),
-                prob: 0.0,
-                e2: (t.v[2] - t.v[0]).to_array(),
-                triangle: i as u32,
-                emission: m.emission,
-                kind: KIND_TRIANGLE,
-            });
-        }
+        let mut entries = emissive_triangles(scene);
         let r = scene_radius(scene);
-        let pi = std::f64::consts::PI;
-        let mut push = |w: f64, e: LightTriangle| {
-            if w > 0.0 && w.is_finite() {
-                weights.push(w);
-                triangles.push(e);
-            }
-        };
         let (mut env, mut env_width, mut env_height) = (Vec::new(), 0, 0);
         let mut env_source = String::new();
         if let Some(e) = &scene.environment {
             env = env_table(e);
             env_source.clone_from(&e.source);
             (env_width, env_height) = (e.width, e.height);
-            let w = 2.0 * pi * r * r * e.mean_luminance();
-            push(
-                w,
-                entry(KIND_ENV, Vec3::ZERO, Vec3::ZERO, Vec3::ZERO, [0.0; 3]),
-            );
+            let w = 2.0 * std::f64::consts::PI * r * r * e.mean_luminance();
+            let zero = Vec3::ZERO;
+            entries.push((w, entry(KIND_ENV, zero, zero, zero, [0.0; 3])));
         }
-        for l in &scene.lights {
-            let emission = l.color.map(|c| c * l.intensity);
-            let lum = f64::from(luminance(emission));
-            let range = l.range.unwrap_or(0.0);
-            let (w, e) = match l.kind {
-                PunctualKind::Point => (
-                    2.0 * lum,
-                    entry(
-                        KIND_POINT,
-                        l.position,
-                        Vec3::ZERO,
-                        Vec3::new(-2.0, 0.0, range),
-                        emission,
-                    ),
-                ),
-                PunctualKind::Spot {
-                    inner_cone,
-                    outer_cone,
-                } => {
-                    let (ci, co) = (inner_cone.cos(), outer_cone.cos());
-                    let mid = f64::from(0.5 * (inner_cone + outer_cone)).cos();
-                    let scale = 1.0 / (ci - co).max(1e-3);
-                    (
-                        (1.0 - mid) * lum,
-                        entry(
-                            KIND_POINT,
-                            l.position,
-                            l.direction,
-                            Vec3::new(co, scale, range),
-                            emission,
-                        ),
-                    )
-                }
-                PunctualKind::Directional => (
-                    0.5 * r * r * lum,
-                    entry(
-                        KIND_DIRECTIONAL,
-                        -l.direction,
-                        Vec3::ZERO,
-                        Vec3::ZERO,
-                        emission,
-                    ),
-                ),
-            };
-            push(w, e);
-        }
+        entries.extend(scene.lights.iter().map(|l| punctual(l, r)));
+        entries.retain(|(w, _)| *w > 0.0 && w.is_finite());
+        let (weights, mut triangles): (Vec<f64>, Vec<LightTriangle>) = entries.into_iter().unzip();
         let total_power: f64 = weights.iter().sum();
         for (t, w) in triangles.iter_mut().zip(&weights) {
             t.prob = (w / total_power) as f32;
         }
         let alias = build_alias(&weights);
+        let mut triangle_light = vec![NO_LIGHT; scene.triangles.len()];
+        for (i, t) in triangles.iter().enumerate() {
+            if t.kind == KIND_TRIANGLE {
+                triangle_light[t.triangle as usize] = i as u32;
+            }
+        }
         Self {
             triangles,
             alias,
@@ -395,6 +401,7 @@ impl Lights {
             env_width,
             env_height,
             env_source,
+            triangle_light,
         }
     }
 
@@ -410,11 +417,16 @@ impl Lights {
 
     /// The uniform block.
     pub fn info(&self) -> LightsInfo {
+        let env_light = self.triangles.iter().position(|t| t.kind == KIND_ENV);
         LightsInfo {
             count: self.triangles.len() as u32,
             env_width: self.env_width,
             total_power: self.total_power as f32,
             env_height: self.env_height,
+            env_light: env_light.map_or(NO_LIGHT, |i| i as u32),
+            _pad0: 0,
+            _pad1: 0,
+            _pad2: 0,
         }
     }
 
@@ -568,6 +580,7 @@ pub fn bindings() -> BindingSet {
         .buffer("lights_alias", "array<AliasEntry>", Access::Read)
         .buffer("lights_env", "array<EnvPixel>", Access::Read)
         .buffer("lights_info", "LightsInfo", Access::Uniform)
+        .buffer("lights_of_triangle", "array<u32>", Access::Read)
 }
 
 /// Errors of [`GpuLights::new`].
@@ -617,6 +630,7 @@ pub struct GpuLights {
     pub alias: wgpu::Buffer,
     pub env: wgpu::Buffer,
     pub info: wgpu::Buffer,
+    pub triangle_light: wgpu::Buffer,
     pub count: u32,
 }
 
@@ -646,6 +660,11 @@ impl GpuLights {
         } else {
             (&lights.triangles, &lights.alias)
         };
+        let no_triangles = [NO_LIGHT];
+        let triangle_light = match lights.triangle_light.is_empty() {
+            true => &no_triangles[..],
+            false => &lights.triangle_light,
+        };
         let dummy_e = [bytemuck::Zeroable::zeroed()];
         let e: &[EnvPixel] = if lights.env.is_empty() {
             &dummy_e
@@ -663,17 +682,19 @@ impl GpuLights {
                 &[lights.info()],
                 wgpu::BufferUsages::UNIFORM,
             ),
+            triangle_light: buffers::storage_from(device, "lights_of_triangle", triangle_light),
             count: lights.len() as u32,
         })
     }
 
     /// The buffers of [`bindings`], by name.
-    pub fn resources(&self) -> [(&'static str, Resource<'_>); 4] {
+    pub fn resources(&self) -> [(&'static str, Resource<'_>); 5] {
         [
             ("lights_triangles", (&self.triangles).into()),
             ("lights_alias", (&self.alias).into()),
             ("lights_env", (&self.env).into()),
             ("lights_info", (&self.info).into()),
+            ("lights_of_triangle", (&self.triangle_light).into()),
         ]
     }
 }

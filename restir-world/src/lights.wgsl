@@ -50,6 +50,11 @@ struct LightsInfo {
     env_width: u32,
     total_power: f32,
     env_height: u32,
+    // The environment's index in the table (LIGHTS_NONE without one).
+    env_light: u32,
+    _pad0: u32,
+    _pad1: u32,
+    _pad2: u32,
 }
 
 // A sample of a light: a point on it, or the unit direction towards it (`position`) for the
@@ -224,4 +229,24 @@ fn lights_pdf_solid_angle(pdf_area: f32, to_light: vec3<f32>, light_normal: vec3
         return 0.0;
     }
     return pdf_area * d2 / cos_l;
+}
+
+// Solid-angle density with which lights_sample picks the point q (geometric normal nq) of scene
+// triangle `triangle`, seen from p: 0 when the triangle does not emit. For multiple importance
+// sampling of a ray that hit an emitter.
+fn lights_pdf_hit(triangle: u32, p: vec3<f32>, q: vec3<f32>, nq: vec3<f32>) -> f32 {
+    let light = lights_of_triangle[triangle];
+    if light == LIGHTS_NONE {
+        return 0.0;
+    }
+    return lights_pdf_solid_angle(lights_pdf_area(light), q - p, nq);
+}
+
+// Solid-angle density with which lights_sample picks the environment direction dir (0 without
+// an environment).
+fn lights_pdf_env(dir: vec3<f32>) -> f32 {
+    if lights_info.env_light == LIGHTS_NONE {
+        return 0.0;
+    }
+    return lights_triangles[lights_info.env_light].prob * lights_env[lights_env_pixel(dir)].pdf;
 }

@@ -423,37 +423,24 @@ impl ReferenceRenderer {
         };
         let next_row = AtomicU32::new(0);
         let done = AtomicU32::new(0);
+        let worker = || {
+            let mut out = Vec::new();
+            loop {
+                let y = next_row.fetch_add(1, Ordering::Relaxed);
+                if y >= h {
+                    break;
+                }
+                out.push((y, self.row(&cam, y, w, opts)));
+                let n = done.fetch_add(1, Ordering::Relaxed) + 1;
+                if let Some(p) = progress {
+                    p(n);
+                }
+            }
+            out
+        };
         let mut rows: Vec<(u32, Vec<[f64; 6]>)> = std::thread::scope(|s| {
             let workers: Vec<_> = (0..threads.min(h as usize).max(1))
-                .map(|_| {
-                    s.spawn(|| {
-                        let mut out = Vec::new();
-                        loop {
-                            let y = next_row.fetch_add(1, Ordering::Relaxed);
-                            if y >= h {
-                                break;
-                            }
-                            let mut row = vec![[0.0f64; 6]; w as usize];
-                            for (x, acc) in row.iter_mut().enumerate() {
-                                let pixel = y * w + x as u32;
-                                for s in 0..opts.spp {
-                                    let mut rng = Rng::seed(pixel, s, opts.seed);
-                                    let (d, i) = self.sample(&cam, [x as u32, y], opts, &mut rng);
-                                    for c in 0..3 {
-                                        acc[c] += f64::from(d[c]);
-                                        acc[3 + c] += f64::from(i[c]);
-                                    }
-                                }
-                            }
-                            out.push((y, row));
-                            let n = done.fetch_add(1, Ordering::Relaxed) + 1;
-                            if let Some(p) = progress {
-                                p(n);
-                            }
-                        }
-                        out
-                    })
-                })
+                .map(|_| s.spawn(worker))
                 .collect();
             workers
                 .into_iter()
@@ -466,25 +453,47 @@ impl ReferenceRenderer {
             ));
         }
         rows.sort_by_key(|r| r.0);
-        let inv = 1.0 / f64::from(opts.spp);
-        let mut direct = Image::new(w, h);
-        let mut indirect = Image::new(w, h);
-        let mut combined = Image::new(w, h);
-        for (y, row) in rows {
-            for (x, acc) in row.into_iter().enumerate() {
-                let i = y as usize * w as usize + x;
+        Ok(images(w, h, rows, opts.spp))
+    }
+
+    /// Row `y` of `w` pixels: per pixel the sums of (direct, indirect) over `opts.spp` samples.
+    fn row(&self, cam: &CameraGpu, y: u32, w: u32, opts: &ReferenceOptions) -> Vec<[f64; 6]> {
+        let mut row = vec![[0.0f64; 6]; w as usize];
+        for (x, acc) in row.iter_mut().enumerate() {
+            let pixel = y * w + x as u32;
+            for s in 0..opts.spp {
+                let mut rng = Rng::seed(pixel, s, opts.seed);
+                let (d, i) = self.sample(cam, [x as u32, y], opts, &mut rng);
                 for c in 0..3 {
-                    direct.pixels[i][c] = (acc[c] * inv) as f32;
-                    indirect.pixels[i][c] = (acc[3 + c] * inv) as f32;
-                    combined.pixels[i][c] = ((acc[c] + acc[3 + c]) * inv) as f32;
+                    acc[c] += f64::from(d[c]);
+                    acc[3 + c] += f64::from(i[c]);
                 }
             }
         }
-        Ok(Rendered {
-            direct,
-            indirect,
-            combined,
-        })
+        row
+    }
+}
+
+/// The three images of `rows` (sorted by y) of sums over `spp` samples.
+fn images(w: u32, h: u32, rows: Vec<(u32, Vec<[f64; 6]>)>, spp: u32) -> Rendered {
+    let inv = 1.0 / f64::from(spp);
+    let mut direct = Image::new(w, h);
+    let mut indirect = Image::new(w, h);
+    let mut combined = Image::new(w, h);
+    for (y, row) in rows {
+        for (x, acc) in row.into_iter().enumerate() {
+            let i = y as usize * w as usize + x;
+            for c in 0..3 {
+                direct.pixels[i][c] = (acc[c] * inv) as f32;
+                indirect.pixels[i][c] = (acc[3 + c] * inv) as f32;
+                combined.pixels[i][c] = ((acc[c] + acc[3 + c]) * inv) as f32;
+            }
+        }
+    }
+    Rendered {
+        direct,
+        indirect,
+        combined,
     }
 }
 

@@ -70,6 +70,14 @@ pub struct Paths {
     /// with the probability of the largest albedo component of the vertex it leaves, and its
     /// throughput is divided by that probability (unbiased). 0 or at least 2.
     pub roulette_from: u32,
+    /// Multiple importance sampling of the light reached both ways (GPU renderer; default
+    /// off): every light sample is weighted by the power heuristic against the cosine density
+    /// of its direction, and the emission a cosine-sampled ray finds (an emitter, or the
+    /// environment where it escapes) is added with the complementary weight, instead of being
+    /// left to next-event estimation alone. The expectation is the same; rare samples of small
+    /// bright lights near a surface lose most of their weight. (The CPU reference estimates the
+    /// same images without it.)
+    pub mis: bool,
 }
 
 impl Default for Paths {
@@ -77,6 +85,7 @@ impl Default for Paths {
         Self {
             bounces: 1,
             roulette_from: DEFAULT_ROULETTE_FROM,
+            mis: false,
         }
     }
 }

@@ -97,17 +97,12 @@ fn world_restir(c: &mut Criterion) {
     });
 
     // Per-stage spans of the defaults, then of every other variant.
-    let variants = std::iter::once(("default", WorldRestirConfig::default())).chain(
-        world_restir::VARIANTS
-            .iter()
-            .filter(|v| v.name != "both")
-            .map(|v| {
-                (
-                    v.name,
-                    parse_config(world_restir::VARIANTS, Some(v.name)).expect("variant"),
-                )
-            }),
-    );
+    let all = world_restir::variants();
+    let named = all.iter().filter(|v| v.name != "both").map(|v| {
+        let config = parse_config(&all, Some(v.name)).expect("variant");
+        (v.name, config)
+    });
+    let variants = std::iter::once(("default", WorldRestirConfig::default())).chain(named);
     for (variant, config) in variants {
         let mut wr = Composed::world_restir(ctx, &scene, &cam, config, 1).expect("world-restir");
         stage_result(ctx, &mut wr, variant, side, &t_ris, &t_nee, floor_ms);

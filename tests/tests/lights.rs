@@ -23,7 +23,16 @@ fn gpu_structs_match_naga_layouts() {
         LightsInfo,
         src,
         "LightsInfo",
-        [count, env_width, total_power, env_height]
+        [
+            count,
+            env_width,
+            total_power,
+            env_height,
+            env_light,
+            _pad0,
+            _pad1,
+            _pad2
+        ]
     );
     tests::assert_wgsl_layout!(
         CameraGpu,

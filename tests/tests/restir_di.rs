@@ -7,7 +7,7 @@
 use std::sync::Mutex;
 
 use restir_world::methods::{self, Composed, FrameMethod};
-use restir_world::restir_di::{self, DiParams, DiPass, RestirDiConfig};
+use restir_world::restir_di::{self, DiParams, RestirDiConfig};
 use restir_world::scene::{BuiltinOptions, Camera, CameraPath, Scene, builtin};
 use restir_world::world_restir::WorldRestirConfig;
 use tests::bias::{assert_checked, channel_means, relative, within};
@@ -107,7 +107,7 @@ const BIAS_RUNS: [(&str, u32, u32, &[u32]); 2] = [
 
 #[test]
 fn layouts_match_wgsl() {
-    let src = &restir_di::wgsl_modules()[2].1;
+    let src = &restir_di::kernels()[2].source;
     tests::assert_wgsl_layout!(
         DiParams,
         src,
@@ -115,7 +115,6 @@ fn layouts_match_wgsl() {
         [knobs, prev_camera, history, _pad0, _pad1, _pad2]
     );
     tests::assert_knobs_layout!(RestirDiConfig, src, "DiKnobs");
-    tests::assert_wgsl_layout!(DiPass, src, "DiPass", [temporal, _pad0, _pad1, _pad2]);
     let sample = tests::wgsl::check_layout(
         src,
         "LightSample",

@@ -6,7 +6,7 @@ use restir_world::methods::{Composed, FrameMethod};
 use restir_world::render::{DebugView, Renderer};
 use restir_world::sampling::Estimator;
 use restir_world::scene::{BuiltinOptions, Camera, CameraPath, Scene, builtin};
-use restir_world::world_restir::{self, WorldRestirConfig, WrParams, WrPass};
+use restir_world::world_restir::{self, WorldRestirConfig, WrParams};
 use tests::gpu;
 
 fn scene(name: &str, w: u32, h: u32) -> Scene {
@@ -42,7 +42,7 @@ fn mean_lum(img: &[[f32; 3]]) -> f64 {
 
 #[test]
 fn layouts_match_wgsl() {
-    let src = &world_restir::wgsl_modules()[0].1;
+    let src = &world_restir::kernels()[0].source;
     tests::assert_wgsl_layout!(
         WrParams,
         src,
@@ -50,7 +50,6 @@ fn layouts_match_wgsl() {
         [knobs, debug_view, items, tiles, tile_size]
     );
     tests::assert_knobs_layout!(WorldRestirConfig, src, "WrKnobs");
-    tests::assert_wgsl_layout!(WrPass, src, "WrPass", [pass_index, temporal, _pad0, _pad1]);
 }
 
 /// Algorithm 2 by readback: every vertex with a GI hit is in exactly one slot's compact storage,

@@ -93,20 +93,18 @@ fn reuse_begin(mode: u32, own: PackedReservoir, p_own: f32, k: u32, m_neighbours
 // Pairwise MIS weights of neighbour n (confidence m_n) against the canonical reservoir:
 // (the weight of n's sample, n's part of the canonical sample's weight).
 fn reuse_pairwise_weights(c: Reuse, m_n: f32, p_here: f32, p_n_y: f32, p_n_own: f32) -> vec2<f32> {
-    let share = (m_n + c.m_c) / f32(c.m_total);
+    // No confidence at all (every M = 0): no weight.
+    let share = select(0.0, (m_n + c.m_c) / f32(c.m_total), c.m_total > 0u);
     return vec2<f32>(share * reuse_balance(m_n * p_n_y, c.m_c * p_here),
                      share * reuse_balance(c.m_c * c.p_own, m_n * p_n_own));
 }
 
 // Merges neighbour n's finalized reservoir `other` (its W, its capped M), its sample shifted
 // to the receiver (see the header for the targets); u uniform in [0, 1). Returns true when n's
-// sample is now the selected one: the caller keeps its payload. A neighbour with M = 0 merges
-// nothing (and must not be counted in k).
+// sample is now the selected one: the caller keeps its payload. A neighbour with M = 0 is
+// never selected (in pairwise mode it leaves its whole share to the canonical sample).
 fn reuse_neighbour(c: ptr<function, Reuse>, n: u32, other: PackedReservoir, p_here: f32,
                    p_n_y: f32, p_n_own: f32, u: f32) -> bool {
-    if other.m == 0u {
-        return false;
-    }
     var r = (*c).r;
     var selected: bool;
     if (*c).mode == REUSE_PAIRWISE {

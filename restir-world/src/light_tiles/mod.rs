@@ -9,7 +9,7 @@
 //! method shares them.
 
 use crate::gpu::{Access, GpuContext, Pass, WgslModule, buffers};
-use crate::render::{ComposedKernel, KernelDef, RenderError, SharedGroups};
+use crate::render::{ComposedKernel, KernelDef, RenderError, STAGE_GROUP, SharedGroups};
 
 const FILL_WGSL: &str = include_str!("fill.wgsl");
 const READ_WGSL: &str = include_str!("read.wgsl");
@@ -30,15 +30,15 @@ pub struct LightTilesParams {
     pub _pad1: u32,
 }
 
-const FILL: KernelDef = KernelDef {
-    name: "light-tiles",
-    entries: &["light_tiles_fill"],
-    source: FILL_WGSL,
-    own: &[
+const FILL: KernelDef = KernelDef::new(
+    "light-tiles",
+    &["light_tiles_fill"],
+    FILL_WGSL,
+    &[&[
         ("light_tiles_params", "LightTilesParams", Access::Uniform),
         ("light_tiles", "array<LightSample>", Access::ReadWrite),
-    ],
-};
+    ]],
+);
 
 /// The reader of the tiles (`light_tiles_first`, `light_tiles_ris`), for kernels that bind
 /// [`BINDING`].
@@ -48,7 +48,11 @@ pub fn reader_module() -> WgslModule {
 
 fn fill_modules() -> Vec<WgslModule> {
     vec![
-        WgslModule::new("light-tiles-bindings", &["lights"], FILL.bindings().wgsl(3)),
+        WgslModule::new(
+            "light-tiles-bindings",
+            &["lights"],
+            FILL.bindings().wgsl(STAGE_GROUP),
+        ),
         WgslModule::new(
             "light-tiles-fill",
             &["render", "light-tiles-bindings", "workgroup"],
@@ -62,11 +66,6 @@ pub fn kernels() -> Vec<ComposedKernel> {
     let source = crate::render::compose_with_library(crate::gpu::Tracer::Bvh, fill_modules());
     let name = "restir-world/light_tiles/fill".to_owned();
     vec![ComposedKernel::stage(name, source, FILL.bindings())]
-}
-
-/// The WGSL module of the fill pass, composed as used.
-pub fn wgsl_modules() -> Vec<(String, String)> {
-    kernels().into_iter().map(|k| (k.name, k.source)).collect()
 }
 
 /// The tiles of a frame and their fill pass.

@@ -54,11 +54,11 @@ impl fmt::Debug for MethodEntry {
 
 impl MethodEntry {
     /// The named variants of the stage its variant configures.
-    pub fn variants(&self) -> &'static [Variant] {
+    pub fn variants(&self) -> Vec<Variant> {
         match self.variant_of {
-            VariantOf::WorldRestir => world_restir::VARIANTS,
-            VariantOf::RestirDi => restir_di::VARIANTS,
-            VariantOf::Nothing | VariantOf::RisCandidates => &[],
+            VariantOf::WorldRestir => world_restir::variants(),
+            VariantOf::RestirDi => restir_di::variants(),
+            VariantOf::Nothing | VariantOf::RisCandidates => Vec::new(),
         }
     }
 
@@ -114,10 +114,11 @@ impl MethodEntry {
                 s.estimator = Estimator::Ris { candidates };
             }
             (VariantOf::WorldRestir, v) => {
-                s.world = Some(parse_config(world_restir::VARIANTS, v).map_err(|e| self.bad(e))?);
+                s.world =
+                    Some(parse_config(&world_restir::variants(), v).map_err(|e| self.bad(e))?);
             }
             (VariantOf::RestirDi, v) => {
-                s.di = Some(parse_config(restir_di::VARIANTS, v).map_err(|e| self.bad(e))?);
+                s.di = Some(parse_config(&restir_di::variants(), v).map_err(|e| self.bad(e))?);
             }
         }
         s.validate()?;

@@ -327,8 +327,35 @@ pub struct RenderParams {
     /// [`Paths::bounces`] and [`Paths::roulette_from`].
     pub bounces: u32,
     pub roulette_from: u32,
-    pub _pad0: u32,
+    /// [`Paths::mis`] as 0 or 1.
+    pub mis: u32,
     pub _pad1: u32,
+}
+
+impl RenderParams {
+    /// The parameters of a render of `camera` with `estimator` and `options`, for a scene
+    /// without triangle attributes and with the default ray-offset floor.
+    fn new(camera: &Camera, estimator: Estimator, options: &RenderOptions) -> Self {
+        let (method, candidates) = match estimator {
+            Estimator::Nee => (METHOD_NEE, 1),
+            Estimator::Ris { candidates } => (METHOD_RIS, candidates),
+        };
+        Self {
+            camera: CameraGpu::new(camera),
+            pixel_count: camera.width * camera.height,
+            seed: options.seed,
+            method,
+            candidates,
+            ray_offset_floor: 1.0,
+            attributes: 0,
+            planted_direct: 1.0,
+            planted_indirect: 1.0,
+            bounces: options.paths.bounces,
+            roulette_from: options.paths.roulette_from,
+            mis: u32::from(options.paths.mis),
+            _pad1: 0,
+        }
+    }
 }
 
 /// The floor of the ray-offset scale for `scene`: its extent (largest side of its bounding
@@ -472,18 +499,6 @@ pub fn kernels() -> Vec<ComposedKernel> {
             name: format!("restir-world/render/{}", t.name()),
             source: passes_source(t),
             groups: shared_bindings(t).into(),
-        })
-        .into()
-}
-
-/// WGSL modules of the renderer, composed as used.
-pub fn wgsl_modules() -> Vec<(String, String)> {
-    [Tracer::Bvh, Tracer::RayQuery]
-        .map(|t| {
-            (
-                format!("restir-world/render/{}", t.name()),
-                passes_source(t),
-            )
         })
         .into()
 }
@@ -644,26 +659,90 @@ impl SharedGroups {
     }
 }
 
+/// The group a stage's kernels bind their own buffers at (0..3 are the renderer's: see
+/// [`SharedGroups`]).
+pub const STAGE_GROUP: u32 = 3;
+
+/// A buffer a kernel binds: name, WGSL type, access.
+pub type Buffer = (&'static str, &'static str, Access);
+
 /// One kernel module of a stage above the renderer: its WGSL file, entry points and own
-/// group-3 buffers (name, WGSL type, access). Each stage composes it after the render library
-/// with its own library modules ([`SharedGroups::own_kernel`]).
+/// group-3 buffers, in runs (e.g. the stage's parameters, then [`REUSE_IO`], then its own).
+/// Each stage composes it after the render library with its own library modules
+/// ([`SharedGroups::own_kernel`]).
 #[derive(Debug)]
 pub struct KernelDef {
     pub name: &'static str,
     pub entries: &'static [&'static str],
     pub source: &'static str,
-    pub own: &'static [(&'static str, &'static str, Access)],
+    pub own: &'static [&'static [Buffer]],
 }
 
 impl KernelDef {
-    /// Its group-3 buffers.
+    pub const fn new(
+        name: &'static str,
+        entries: &'static [&'static str],
+        source: &'static str,
+        own: &'static [&'static [Buffer]],
+    ) -> Self {
+        Self {
+            name,
+            entries,
+            source,
+            own,
+        }
+    }
+
+    /// Its group-3 buffers, in binding order.
+    pub fn buffers(&self) -> impl Iterator<Item = &Buffer> {
+        self.own.iter().flat_map(|run| run.iter())
+    }
+
+    /// Its group-3 bindings.
     pub fn bindings(&self) -> BindingSet {
-        BindingSet::of_buffers(self.name, self.own)
+        let buffers: Vec<Buffer> = self.buffers().copied().collect();
+        BindingSet::of_buffers(self.name, &buffers)
     }
 
     /// Whether it binds buffer `name`.
     pub fn binds(&self, name: &str) -> bool {
-        self.own.iter().any(|(n, _, _)| *n == name)
+        self.buffers().any(|(n, _, _)| *n == name)
+    }
+}
+
+/// The stored reservoirs of the reuse methods, as their kernels bind them.
+pub const RESERVOIRS: &str = "array<StoredReservoir>";
+
+/// What every reuse pass binds after its stage's parameters: the pass's own uniform
+/// ([`ReusePass`]), the source reservoirs it merges, the receivers' own reservoirs, and where it
+/// writes.
+pub const REUSE_IO: &[Buffer] = &[
+    ("reuse_pass", "ReusePass", Access::Read),
+    ("reuse_src", RESERVOIRS, Access::Read),
+    ("reuse_self", RESERVOIRS, Access::Read),
+    ("reuse_out", RESERVOIRS, Access::ReadWrite),
+];
+
+/// WGSL `ReusePass`: per reuse pass, whether it reads last frame's reservoirs (`temporal` = 1)
+/// and its index among the stage's passes (mixed into its random stream).
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct ReusePass {
+    pub temporal: u32,
+    pub pass_index: u32,
+    pub _pad0: u32,
+    pub _pad1: u32,
+}
+
+impl ReusePass {
+    /// The uniform of a reuse pass (a storage buffer, read-only).
+    pub fn buffer(device: &wgpu::Device, temporal: bool, pass_index: u32) -> wgpu::Buffer {
+        let u = Self {
+            temporal: u32::from(temporal),
+            pass_index,
+            ..Default::default()
+        };
+        buffers::with_usage(device, "reuse pass", &[u], wgpu::BufferUsages::STORAGE)
     }
 }
 
@@ -797,24 +876,9 @@ impl Renderer {
         let textures = texture_tables(scene);
         let texel_bytes = (textures.1.len() * 4) as u64;
         ctx.check_binding_size("the scene's textures (resize them)", texel_bytes)?;
-        let params = RenderParams {
-            camera: CameraGpu::new(camera),
-            pixel_count: pixels,
-            seed: options.seed,
-            method: match estimator {
-                Estimator::Nee => METHOD_NEE,
-                Estimator::Ris { .. } => METHOD_RIS,
-            },
-            candidates,
-            ray_offset_floor: ray_offset_floor(scene),
-            attributes: u32::from(attributes.is_some()),
-            planted_direct: 1.0,
-            planted_indirect: 1.0,
-            bounces: options.paths.bounces,
-            roulette_from: options.paths.roulette_from,
-            _pad0: 0,
-            _pad1: 0,
-        };
+        let mut params = RenderParams::new(camera, estimator, options);
+        params.ray_offset_floor = ray_offset_floor(scene);
+        params.attributes = u32::from(attributes.is_some());
         let no_material = [Material::new([0.0; 3], [0.0; 3])];
         let materials = match scene.materials.is_empty() {
             true => &no_material[..],
@@ -913,9 +977,9 @@ impl Renderer {
     }
 
     /// Step 5b: bounces 2..=bounces of the path beyond the secondary vertex, added to
-    /// `render_indirect_frame` (nothing with one bounce).
+    /// `render_indirect_frame` (nothing with one bounce and no MIS).
     pub fn encode_path(&self, f: &mut FrameEncoder) {
-        if self.options.paths.bounces > 1 {
+        if self.options.paths.bounces > 1 || self.options.paths.mis {
             f.span("path", |f| f.dispatch(&self.passes.path));
         }
     }

@@ -49,7 +49,8 @@ fn render_gi(id: Invocation) {
 }
 
 // Direct light at the primary vertex: emission seen + NEE (a camera ray that missed sees the
-// environment, stored as the vertex's emission by render_surface).
+// environment, stored as the vertex's emission by render_surface), + with MIS the emission the
+// GI ray found.
 @compute @workgroup_size(WORKGROUP_SIZE)
 fn render_shade_direct(id: Invocation) {
     let i = item_index(id);
@@ -59,6 +60,9 @@ fn render_shade_direct(id: Invocation) {
     if g.prim != BVH_NO_HIT {
         var rng = render_rng(i, STREAM_DIRECT);
         c = g.emission + render_nee(g, &rng);
+        if render_params.mis != 0u {
+            c += g.albedo * render_hit_emission(g, render_secondary[i]);
+        }
     }
     render_direct_frame[i] = vec4<f32>(c, 1.0);
 }
@@ -84,7 +88,8 @@ fn render_shade_indirect(id: Invocation) {
 // throughput (albedo products: the cosine pdf cancels the BRDF's cos / pi); Russian roulette
 // from bounce roulette_from on. Adds the primary albedo x that radiance to the indirect image
 // that bounce 1's pass wrote. Emission the path hits is not added (NEE at the vertex before
-// counts it), nor the environment an escaping ray sees.
+// counts it), nor the environment an escaping ray sees, except with MIS (render_params.mis),
+// which weighs both ways to the light and traces one more ray for the last bounce's hits.
 @compute @workgroup_size(WORKGROUP_SIZE)
 fn render_path(id: Invocation) {
     let i = item_index(id);
@@ -96,7 +101,9 @@ fn render_path(id: Invocation) {
     }
     var throughput = g.albedo;
     var l = vec3<f32>(0.0);
-    for (var bounce = 2u; bounce <= render_params.bounces; bounce++) {
+    // With MIS one more ray: the emission the last vertex's ray finds is part of the last bounce.
+    let last = render_params.bounces + render_params.mis;
+    for (var bounce = 2u; bounce <= last; bounce++) {
         var rng = render_rng_salted(i, STREAM_PATH, bounce);
         if render_params.roulette_from != 0u && bounce >= render_params.roulette_from {
             let q = min(max(v.albedo.x, max(v.albedo.y, v.albedo.z)), 1.0);
@@ -116,7 +123,8 @@ fn render_path(id: Invocation) {
             break;
         }
         let w = render_surface(ray.dir, trace_closest(ray));
-        if w.prim == BVH_NO_HIT {
+        l += throughput * render_hit_emission(v, w);
+        if w.prim == BVH_NO_HIT || bounce > render_params.bounces {
             break;
         }
         l += throughput * render_nee(w, &rng);

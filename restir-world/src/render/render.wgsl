@@ -73,7 +73,8 @@ struct RenderParams {
     // (0: never).
     bounces: u32,
     roulette_from: u32,
-    _pad0: u32,
+    // 1: light samples and the emission rays hit are weighted by multiple importance sampling.
+    mis: u32,
     _pad1: u32,
 }
 
@@ -111,8 +112,10 @@ fn render_surface(dir: vec3<f32>, hit: Hit) -> GVertex {
     var v: GVertex;
     v.prim = hit.prim;
     if hit.prim == BVH_NO_HIT {
-        // The ray escaped: it sees the environment.
+        // The ray escaped: it sees the environment. The direction is kept in `shading` (for
+        // multiple importance sampling of what it sees).
         v.emission = lights_env_radiance(dir);
+        v.shading = dir;
         return v;
     }
     let tri = bvh_triangles[hit.prim];
@@ -226,6 +229,15 @@ fn render_light_sample_at(light: u32, coords: vec2<f32>) -> LightSample {
     return render_textured_emission(lights_sample_at(light, coords));
 }
 
+// Per reuse pass (Rust twin: render::ReusePass): temporal = 1 for the pass that reads last
+// frame's reservoirs, pass_index mixes into its random stream.
+struct ReusePass {
+    temporal: u32,
+    pass_index: u32,
+    _pad0: u32,
+    _pad1: u32,
+}
+
 // A reservoir as the reuse methods (world-restir, restir-di) store it between passes, 16 bytes
 // (Rust twin: render::StoredReservoir). Its light sample is the light and where on it, one
 // representation for every light kind: light_kind = the sample's LIGHTS_KIND_* in the low 2
@@ -267,6 +279,54 @@ fn render_stored_sample(r: StoredReservoir) -> LightSample {
     return s;
 }
 
+// Multiple importance sampling (render_params.mis) of light reached two ways: a light sample
+// (next-event estimation) and a cosine-sampled ray that hits an emitter or escapes to the
+// environment. Each strategy's estimate is weighted by the power heuristic of the two densities
+// (solid angle at the receiver: the light table's density of the point or direction, and the
+// cosine density); both sides compute the direction from the same positions, so the weights
+// sum to 1 everywhere. Delta lights (point, spot, directional) cannot be hit: weight 1.
+
+fn render_power_heuristic(a: f32, b: f32) -> f32 {
+    let a2 = a * a;
+    return select(0.0, a2 / (a2 + b * b), a2 > 0.0);
+}
+
+// The light-sample strategy's weight of sample s at point p (shading normal ns).
+fn render_light_mis(p: vec3<f32>, ns: vec3<f32>, s: LightSample) -> f32 {
+    if render_params.mis == 0u || s.kind == LIGHTS_KIND_POINT || s.kind == LIGHTS_KIND_DIRECTIONAL {
+        return 1.0;
+    }
+    var wi = s.position;
+    var p_light = 0.0;
+    if s.kind == LIGHTS_KIND_ENV {
+        p_light = lights_pdf_env(wi);
+    } else {
+        let to = s.position - p;
+        wi = normalize(to);
+        p_light = lights_pdf_solid_angle(lights_pdf_area(s.light), to, s.normal);
+    }
+    return render_power_heuristic(p_light, max(dot(ns, wi), 0.0) * SAMPLING_INV_PI);
+}
+
+// The emission a cosine-sampled ray from v found at w (a hit, or an escaped ray whose emission
+// is the environment's radiance in direction w.shading), weighted by the ray strategy's MIS
+// weight; 0 without MIS (next-event estimation then counts all of it).
+fn render_hit_emission(v: GVertex, w: GVertex) -> vec3<f32> {
+    if render_params.mis == 0u || all(w.emission == vec3<f32>(0.0)) {
+        return vec3<f32>(0.0);
+    }
+    var dir = w.shading;
+    var p_light = 0.0;
+    if w.prim == BVH_NO_HIT {
+        p_light = lights_pdf_env(dir);
+    } else {
+        dir = normalize(w.position - v.position);
+        p_light = lights_pdf_hit(bvh_triangles[w.prim].index, v.position, w.position, w.normal);
+    }
+    let p_ray = max(dot(v.shading, dir), 0.0) * SAMPLING_INV_PI;
+    return w.emission * render_power_heuristic(p_ray, p_light);
+}
+
 // f(y) W of a stored reservoir's light sample y at vertex v, times `weight` (applied first),
 // with one shadow ray: 0 when the reservoir is empty or y is occluded. Every reuse method
 // shades its final reservoirs with it.
@@ -275,9 +335,12 @@ fn render_shade_stored(v: GVertex, res: StoredReservoir, weight: vec3<f32>) -> v
         return vec3<f32>(0.0);
     }
     let y = render_stored_sample(res);
-    let f = render_vertex_light(v, y);
+    var f = render_vertex_light(v, y);
     if !any(f > vec3<f32>(0.0)) || !render_visible_sample(v.position, v.normal, y) {
         return vec3<f32>(0.0);
+    }
+    if render_params.mis != 0u {
+        f *= render_light_mis(v.position, v.shading, y);
     }
     return weight * f * res.ucw;
 }
@@ -314,11 +377,15 @@ fn render_reuse_store(c: ptr<function, Reuse>, own: StoredReservoir,
 }
 
 // Direct light at primary vertex g from a stored reservoir: the emission seen + f(y) W with one
-// shadow ray (restir-di's and the unified cache's shading).
-fn render_direct_from_stored(g: GVertex, res: StoredReservoir) -> vec3<f32> {
+// shadow ray (restir-di's and the unified cache's shading), + with MIS the emission its GI ray
+// found at `secondary`.
+fn render_direct_from_stored(g: GVertex, res: StoredReservoir, secondary: GVertex) -> vec3<f32> {
     var c = g.emission;
     if g.prim != BVH_NO_HIT {
         c += render_shade_stored(g, res, vec3<f32>(1.0));
+        if render_params.mis != 0u {
+            c += g.albedo * render_hit_emission(g, secondary);
+        }
     }
     return c;
 }
@@ -441,9 +508,12 @@ fn render_nee_one(p: vec3<f32>, n: vec3<f32>, ns: vec3<f32>, albedo: vec3<f32>, 
     if s.pdf_area <= 0.0 {
         return vec3<f32>(0.0);
     }
-    let f = render_light_contribution(p, n, ns, albedo, s);
+    var f = render_light_contribution(p, n, ns, albedo, s);
     if all(f == vec3<f32>(0.0)) || !render_visible_sample(p, n, s) {
         return vec3<f32>(0.0);
+    }
+    if render_params.mis != 0u {
+        f *= render_light_mis(p, ns, s);
     }
     return f / s.pdf_area;
 }
@@ -499,7 +569,11 @@ fn render_nee_ris(p: vec3<f32>, n: vec3<f32>, ns: vec3<f32>, albedo: vec3<f32>, 
     if ris.reservoir.ucw <= 0.0 || !render_visible_sample(p, n, ris.light) {
         return vec3<f32>(0.0);
     }
-    return render_light_contribution(p, n, ns, albedo, ris.light) * ris.reservoir.ucw;
+    var f = render_light_contribution(p, n, ns, albedo, ris.light);
+    if render_params.mis != 0u {
+        f *= render_light_mis(p, ns, ris.light);
+    }
+    return f * ris.reservoir.ucw;
 }
 
 // Reflected direct light at a surface vertex with the render's method.

@@ -30,10 +30,11 @@ use reservoir::reuse::Combination;
 use crate::gpu::{
     Access, FrameEncoder, GpuContext, GpuError, Pass, Resource, Tracer, WgslModule, buffers,
 };
-use crate::knobs::{Knobs, Variant};
+use crate::knobs::{Knobs, Variant, reuse_variants};
 use crate::light_tiles::{self, LightTiles};
 use crate::render::{
-    self, ComposedKernel, GVertex, KernelDef, RenderError, Renderer, SharedGroups,
+    self, ComposedKernel, GVertex, KernelDef, RESERVOIRS, REUSE_IO, RenderError, Renderer,
+    ReusePass, STAGE_GROUP, SharedGroups,
 };
 use crate::sampling::CameraGpu;
 use crate::scene::Camera;
@@ -43,9 +44,6 @@ pub const WGSL: &str = include_str!("restir_di.wgsl");
 const INITIAL_WGSL: &str = include_str!("initial.wgsl");
 const REUSE_WGSL: &str = include_str!("reuse.wgsl");
 const SHADE_WGSL: &str = include_str!("shade.wgsl");
-
-/// The group every ReSTIR DI pass binds its own buffers at (0..3 are the renderer's).
-pub const GROUP: u32 = 3;
 
 /// Most spatial neighbours per pixel (`spatial-k`).
 pub const MAX_SPATIAL_K: u32 = 16;
@@ -100,39 +98,17 @@ crate::knobs! {
     }
 }
 
-/// The named variants of `restir-di` (and of the direct light of `world-restir+restir-di`).
-pub const VARIANTS: &[Variant] = &[
-    Variant {
-        name: "both",
-        knobs: "",
-        about: "temporal + spatial reuse, pairwise MIS (the default)",
-    },
-    Variant {
-        name: "no-reuse",
-        knobs: "temporal=off+spatial-k=0",
-        about: "initial candidates from the light tiles only",
-    },
-    Variant {
-        name: "temporal",
-        knobs: "spatial-k=0",
-        about: "temporal reuse only",
-    },
-    Variant {
-        name: "spatial",
-        knobs: "temporal=off",
-        about: "spatial reuse only",
-    },
-    Variant {
-        name: "biased",
-        knobs: "combine=biased",
-        about: "the paper's 1/M weights instead of pairwise MIS",
-    },
-    Variant {
-        name: "gi-tiles",
-        knobs: "gi-tiles=on",
-        about: "the light tiles also feed world-restir's generate (world-restir+restir-di only)",
-    },
-];
+/// The named variants of `restir-di` (and of the direct light of `world-restir+restir-di`):
+/// the reuse variants every method has, then its own.
+pub fn variants() -> Vec<Variant> {
+    let mut v = reuse_variants("spatial-k=0");
+    v.push(Variant::new(
+        "gi-tiles",
+        &["gi-tiles=on"],
+        "the light tiles also feed world-restir's generate (world-restir+restir-di only)",
+    ));
+    v
+}
 
 impl RestirDiConfig {
     /// Checks every knob (device-independent limits; [`RestirDi::new`] also checks the tile
@@ -163,16 +139,6 @@ pub struct DiParams {
     pub _pad2: u32,
 }
 
-/// WGSL `DiPass`.
-#[repr(C)]
-#[derive(Debug, Clone, Copy, Default, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
-pub struct DiPass {
-    pub temporal: u32,
-    pub _pad0: u32,
-    pub _pad1: u32,
-    pub _pad2: u32,
-}
-
 /// Generated constants header and the knobs' struct.
 pub fn constants_wgsl() -> String {
     format!(
@@ -181,37 +147,33 @@ pub fn constants_wgsl() -> String {
     )
 }
 
-const RES: &str = "array<StoredReservoir>";
 const PARAMS: (&str, &str, Access) = ("di_params", "DiParams", Access::Uniform);
-const INITIAL: KernelDef = KernelDef {
-    name: "initial",
-    entries: &["di_initial"],
-    source: INITIAL_WGSL,
-    own: &[
+const INITIAL: KernelDef = KernelDef::new(
+    "initial",
+    &["di_initial"],
+    INITIAL_WGSL,
+    &[&[
         PARAMS,
         light_tiles::BINDING,
-        ("di_out", RES, Access::ReadWrite),
+        ("di_out", RESERVOIRS, Access::ReadWrite),
+    ]],
+);
+const REUSE: KernelDef = KernelDef::new(
+    "reuse",
+    &["di_reuse"],
+    REUSE_WGSL,
+    &[
+        &[PARAMS],
+        REUSE_IO,
+        &[("di_prev_gbuffer", "array<GVertex>", Access::Read)],
     ],
-};
-const REUSE: KernelDef = KernelDef {
-    name: "reuse",
-    entries: &["di_reuse"],
-    source: REUSE_WGSL,
-    own: &[
-        PARAMS,
-        ("di_pass", "DiPass", Access::Read),
-        ("di_src", RES, Access::Read),
-        ("di_self", RES, Access::Read),
-        ("di_out", RES, Access::ReadWrite),
-        ("di_prev_gbuffer", "array<GVertex>", Access::Read),
-    ],
-};
-const SHADE: KernelDef = KernelDef {
-    name: "shade",
-    entries: &["di_shade"],
-    source: SHADE_WGSL,
-    own: &[PARAMS, ("di_final", RES, Access::Read)],
-};
+);
+const SHADE: KernelDef = KernelDef::new(
+    "shade",
+    &["di_shade"],
+    SHADE_WGSL,
+    &[&[PARAMS, ("di_final", RESERVOIRS, Access::Read)]],
+);
 const KERNELS: [&KernelDef; 3] = [&INITIAL, &REUSE, &SHADE];
 
 /// The modules of kernel `k`, composed after the render library (+ the light-tiles reader for
@@ -219,7 +181,11 @@ const KERNELS: [&KernelDef; 3] = [&INITIAL, &REUSE, &SHADE];
 fn modules(k: &KernelDef) -> Vec<WgslModule> {
     let mut modules = vec![
         WgslModule::new("di-constants", &[], constants_wgsl()),
-        WgslModule::new("di-bindings", &["restir-di"], k.bindings().wgsl(GROUP)),
+        WgslModule::new(
+            "di-bindings",
+            &["restir-di"],
+            k.bindings().wgsl(STAGE_GROUP),
+        ),
         WgslModule::new("restir-di", &["render", "reservoir", "di-constants"], WGSL),
         WgslModule::new(k.name, &["restir-di", "di-bindings", "workgroup"], k.source),
     ];
@@ -237,11 +203,6 @@ pub fn kernels() -> Vec<ComposedKernel> {
             ComposedKernel::stage(name, source, k.bindings())
         })
         .collect()
-}
-
-/// Every WGSL module of ReSTIR DI, composed as used.
-pub fn wgsl_modules() -> Vec<(String, String)> {
-    kernels().into_iter().map(|k| (k.name, k.source)).collect()
 }
 
 /// ReSTIR DI's buffers.
@@ -310,17 +271,13 @@ impl DiPasses {
         let params = || ("di_params", Resource::from(&b.params));
         let r = &b.reservoirs;
         let reuse_pass = |temporal: bool, [src, own, out]: [&wgpu::Buffer; 3]| {
-            let u = DiPass {
-                temporal: u32::from(temporal),
-                ..Default::default()
-            };
-            let u = buffers::with_usage(device, "di pass", &[u], wgpu::BufferUsages::STORAGE);
+            let u = ReusePass::buffer(device, temporal, 0);
             let res = vec![
                 params(),
-                ("di_pass", (&u).into()),
-                ("di_src", src.into()),
-                ("di_self", own.into()),
-                ("di_out", out.into()),
+                ("reuse_pass", (&u).into()),
+                ("reuse_src", src.into()),
+                ("reuse_self", own.into()),
+                ("reuse_out", out.into()),
                 ("di_prev_gbuffer", (&b.prev_gbuffer).into()),
             ];
             shared.bound_pass(device, &reuse, "di_reuse", res, None)

@@ -16,15 +16,6 @@ struct DiParams {
     _pad2: u32,
 }
 
-// Per reuse pass (Rust twin: restir_di::DiPass): temporal = 1 for the pass that reads last
-// frame's reservoirs through the reprojection.
-struct DiPass {
-    temporal: u32,
-    _pad0: u32,
-    _pad1: u32,
-    _pad2: u32,
-}
-
 // The pixel whose camera ray through `cam` sees the point p, or DI_NO_PIXEL when p is behind
 // the camera or outside the image.
 fn di_project(cam: CameraGpu, p: vec3<f32>) -> u32 {

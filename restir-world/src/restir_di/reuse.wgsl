@@ -1,5 +1,5 @@
-// Passes "di-temporal" and "di-spatial": each pixel (the canonical reservoir, di_self) merges
-// reservoirs of other pixels (di_src) that pass the similarity test di_similar (depth within
+// Passes "di-temporal" and "di-spatial": each pixel (the canonical reservoir, reuse_self) merges
+// reservoirs of other pixels (reuse_src) that pass the similarity test di_similar (depth within
 // depth_threshold, shading normals within normal_threshold):
 // - temporal: the one pixel of last frame's image that sees the receiver's primary hit
 //   through last frame's camera (di_project), tested against last frame's G-buffer
@@ -7,7 +7,7 @@
 //   camera cut or the first frame (history = 0) merges nothing.
 // - spatial: spatial_k pixels drawn uniformly in a disc of spatial_radius pixels around the
 //   receiver (this frame's temporal output), each M capped at temporal_m_cap.
-// Writes di_out; the stored M is the sum of the merged (capped) M.
+// Writes reuse_out; the stored M is the sum of the merged (capped) M.
 //
 // Combination (di_params.knobs.combine): the reservoir crate's reuse_* (1/M, 1/Z or pairwise
 // MIS); light samples need no shift, so every Jacobian is 1. The target is render_light_target.
@@ -24,13 +24,13 @@ fn di_source_vertex(j: u32, temporal: bool) -> GVertex {
 fn di_reuse(id: Invocation) {
     let i = item_index(id);
     if i >= render_params.pixel_count { return; }
-    let own = di_self[i];
+    let own = reuse_self[i];
     let g = render_gbuffer[i];
     if g.prim == BVH_NO_HIT || own.m == 0u {
-        di_out[i] = own;
+        reuse_out[i] = own;
         return;
     }
-    let temporal = di_pass.temporal != 0u;
+    let temporal = reuse_pass.temporal != 0u;
     var rng = render_rng(i, select(STREAM_DI_SPATIAL, STREAM_DI_TEMPORAL, temporal));
     let cap = max(di_params.knobs.temporal_m_cap, 1u);
 
@@ -42,7 +42,7 @@ fn di_reuse(id: Invocation) {
         if di_params.history != 0u {
             let j = di_project(di_params.prev_camera, g.position);
             if j != DI_NO_PIXEL {
-                let m = di_src[j].m;
+                let m = reuse_src[j].m;
                 if m > 0u && di_similar(g, di_prev_gbuffer[j], di_params.prev_camera.eye) {
                     idx[0] = j;
                     ms[0] = reuse_cap_m(m, cap);
@@ -64,7 +64,7 @@ fn di_reuse(id: Invocation) {
                 continue;
             }
             let j = u32(ny) * cam.width + u32(nx);
-            let m = di_src[j].m;
+            let m = reuse_src[j].m;
             if j == i || m == 0u || !di_similar(g, render_gbuffer[j], cam.eye) {
                 continue;
             }
@@ -85,7 +85,7 @@ fn di_reuse(id: Invocation) {
     var out = own;
     for (var n = 0u; n < k; n++) {
         let u_merge = rng_next_f32(&rng);
-        let src = di_src[idx[n]];
+        let src = reuse_src[idx[n]];
         let q = di_source_vertex(idx[n], temporal);
         if render_reuse_light(&c, n, src, ms[n], g, q, own_sample, u_merge) {
             out = src;
@@ -98,5 +98,5 @@ fn di_reuse(id: Invocation) {
             reuse_count_z(&c, ms[n], render_light_target(di_source_vertex(idx[n], temporal), y));
         }
     }
-    di_out[i] = render_reuse_store(&c, own, out);
+    reuse_out[i] = render_reuse_store(&c, own, out);
 }

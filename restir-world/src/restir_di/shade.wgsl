@@ -6,5 +6,6 @@
 fn di_shade(id: Invocation) {
     let i = item_index(id);
     if i >= render_params.pixel_count { return; }
-    render_direct_frame[i] = vec4<f32>(render_direct_from_stored(render_gbuffer[i], di_final[i]), 1.0);
+    let c = render_direct_from_stored(render_gbuffer[i], di_final[i], render_secondary[i]);
+    render_direct_frame[i] = vec4<f32>(c, 1.0);
 }

@@ -37,10 +37,11 @@ use crate::gpu::{
     Access, BindingSet, FrameEncoder, GpuContext, GpuError, Pass, Resource, Tracer, WgslModule,
     buffers,
 };
-use crate::knobs::{Knobs, Variant};
+use crate::knobs::{Knobs, Variant, reuse_variants};
 use crate::light_tiles::{self, LightTiles};
 use crate::render::{
-    self, ComposedKernel, DebugView, KernelDef, OwnKernel, RenderError, Renderer, SharedGroups,
+    self, ComposedKernel, DebugView, KernelDef, OwnKernel, RESERVOIRS, REUSE_IO, RenderError,
+    Renderer, ReusePass, STAGE_GROUP, SharedGroups,
 };
 use crate::scene::Camera;
 
@@ -52,9 +53,6 @@ const SCATTER_WGSL: &str = include_str!("scatter.wgsl");
 const REUSE_WGSL: &str = include_str!("reuse.wgsl");
 const SHADE_WGSL: &str = include_str!("shade.wgsl");
 const DEBUG_WGSL: &str = include_str!("debug.wgsl");
-
-/// The group every world-space pass binds its own buffers at (0..3 are the renderer's).
-pub const GROUP: u32 = 3;
 
 /// Errors of world-space ReSTIR.
 #[derive(Debug, thiserror::Error)]
@@ -132,59 +130,38 @@ crate::knobs! {
     }
 }
 
-/// The named variants of `world-restir`, each isolating what one part buys.
-pub const VARIANTS: &[Variant] = &[
-    Variant {
-        name: "both",
-        knobs: "",
-        about: "temporal + spatial reuse (the default)",
-    },
-    Variant {
-        name: "no-reuse",
-        knobs: "temporal=off+spatial-passes=0",
-        about: "no temporal, no spatial reuse",
-    },
-    Variant {
-        name: "temporal",
-        knobs: "spatial-passes=0",
-        about: "temporal reuse only",
-    },
-    Variant {
-        name: "spatial",
-        knobs: "temporal=off",
-        about: "spatial reuse only",
-    },
-    Variant {
-        name: "no-adaptive",
-        knobs: "adaptive-cell-size=off",
-        about: "fixed cell size",
-    },
-    Variant {
-        name: "no-jitter",
-        knobs: "jitter=off",
-        about: "no tangent jitter of the lookups",
-    },
-    Variant {
-        name: "biased",
-        knobs: "combine=biased",
-        about: "the paper's 1/M weights instead of pairwise MIS",
-    },
-    Variant {
-        name: "one-over-z",
-        knobs: "combine=one-over-z",
-        about: "1/Z weights instead of pairwise MIS",
-    },
-    Variant {
-        name: "paper-grid",
-        knobs: "buckets=100000",
-        about: "the paper's fixed 100,000 x 32 table",
-    },
-    Variant {
-        name: "unified",
-        knobs: "unified=on",
-        about: "one cache for all light: primary vertices in the grid too, direct light from it",
-    },
-];
+/// The named variants of `world-restir`: the reuse variants every method has, then its own.
+pub fn variants() -> Vec<Variant> {
+    let mut v = reuse_variants("spatial-passes=0");
+    v.extend([
+        Variant::new(
+            "no-adaptive",
+            &["adaptive-cell-size=off"],
+            "fixed cell size",
+        ),
+        Variant::new(
+            "no-jitter",
+            &["jitter=off"],
+            "no tangent jitter of the lookups",
+        ),
+        Variant::new(
+            "one-over-z",
+            &["combine=one-over-z"],
+            "1/Z weights instead of pairwise MIS",
+        ),
+        Variant::new(
+            "paper-grid",
+            &["buckets=100000"],
+            "the paper's fixed 100,000 x 32 table",
+        ),
+        Variant::new(
+            "unified",
+            &["unified=on"],
+            "one cache for all light: primary vertices in the grid too, direct light from it",
+        ),
+    ]);
+    v
+}
 
 impl WorldRestirConfig {
     /// No temporal and no spatial reuse: the `ris` baseline's estimator.
@@ -267,16 +244,6 @@ pub struct WrParams {
     pub tile_size: u32,
 }
 
-/// WGSL `WrPass`.
-#[repr(C)]
-#[derive(Debug, Clone, Copy, Default, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
-pub struct WrPass {
-    pub pass_index: u32,
-    pub temporal: u32,
-    pub _pad0: u32,
-    pub _pad1: u32,
-}
-
 /// Generated constants header and the knobs' struct.
 pub fn constants_wgsl() -> String {
     format!(
@@ -299,71 +266,69 @@ enum HashRole {
     Lookup,
 }
 
-const RES: &str = "array<StoredReservoir>";
 const PARAMS: (&str, &str, Access) = ("wr_params", "WrParams", Access::Uniform);
-const GENERATE: KernelDef = KernelDef {
-    name: "generate",
-    entries: &["wr_generate"],
-    source: GENERATE_WGSL,
-    own: &[
+const GENERATE: KernelDef = KernelDef::new(
+    "generate",
+    &["wr_generate"],
+    GENERATE_WGSL,
+    &[&[
         PARAMS,
-        ("wr_out", RES, Access::ReadWrite),
+        ("wr_out", RESERVOIRS, Access::ReadWrite),
         light_tiles::BINDING,
-    ],
-};
-const INSERT: KernelDef = KernelDef {
-    name: "insert",
-    entries: &["wr_insert"],
-    source: INSERT_WGSL,
-    own: &[
+    ]],
+);
+const INSERT: KernelDef = KernelDef::new(
+    "insert",
+    &["wr_insert"],
+    INSERT_WGSL,
+    &[&[
         PARAMS,
         ("wr_vertex_slot", "array<vec2<u32>>", Access::ReadWrite),
-    ],
-};
-const SCATTER: KernelDef = KernelDef {
-    name: "scatter",
-    entries: &["wr_scatter", "wr_sort_cells"],
-    source: SCATTER_WGSL,
-    own: &[
+    ]],
+);
+const SCATTER: KernelDef = KernelDef::new(
+    "scatter",
+    &["wr_scatter", "wr_sort_cells"],
+    SCATTER_WGSL,
+    &[&[
         PARAMS,
         ("wr_vertex_slot", "array<vec2<u32>>", Access::Read),
         ("wr_offsets", "array<u32>", Access::Read),
         ("wr_counters", "array<u32>", Access::Read),
         ("wr_cells", "array<u32>", Access::ReadWrite),
+    ]],
+);
+const REUSE: KernelDef = KernelDef::new(
+    "reuse",
+    &["wr_reuse"],
+    REUSE_WGSL,
+    &[
+        &[PARAMS],
+        REUSE_IO,
+        &[
+            ("wr_lookup_offsets", "array<u32>", Access::Read),
+            ("wr_lookup_cells", "array<u32>", Access::Read),
+            ("wr_prev_vertices", "array<GVertex>", Access::Read),
+        ],
     ],
-};
-const REUSE: KernelDef = KernelDef {
-    name: "reuse",
-    entries: &["wr_reuse"],
-    source: REUSE_WGSL,
-    own: &[
+);
+const SHADE: KernelDef = KernelDef::new(
+    "shade",
+    &["wr_shade", "wr_shade_direct"],
+    SHADE_WGSL,
+    &[&[PARAMS, ("wr_final", RESERVOIRS, Access::Read)]],
+);
+const DEBUG: KernelDef = KernelDef::new(
+    "debug",
+    &["wr_debug_view"],
+    DEBUG_WGSL,
+    &[&[
         PARAMS,
-        ("wr_pass", "WrPass", Access::Read),
-        ("wr_src", RES, Access::Read),
-        ("wr_self", RES, Access::Read),
-        ("wr_out", RES, Access::ReadWrite),
-        ("wr_lookup_offsets", "array<u32>", Access::Read),
-        ("wr_lookup_cells", "array<u32>", Access::Read),
-        ("wr_prev_vertices", "array<GVertex>", Access::Read),
-    ],
-};
-const SHADE: KernelDef = KernelDef {
-    name: "shade",
-    entries: &["wr_shade", "wr_shade_direct"],
-    source: SHADE_WGSL,
-    own: &[PARAMS, ("wr_final", RES, Access::Read)],
-};
-const DEBUG: KernelDef = KernelDef {
-    name: "debug",
-    entries: &["wr_debug_view"],
-    source: DEBUG_WGSL,
-    own: &[
-        PARAMS,
-        ("wr_final", RES, Access::Read),
+        ("wr_final", RESERVOIRS, Access::Read),
         ("wr_vertex_slot", "array<vec2<u32>>", Access::Read),
         ("wr_debug", "array<vec4<f32>>", Access::ReadWrite),
-    ],
-};
+    ]],
+);
 const KERNELS: [(&KernelDef, Option<HashRole>); 6] = [
     (&GENERATE, None),
     (&INSERT, Some(HashRole::Table)),
@@ -389,8 +354,8 @@ fn bindings(k: &KernelDef, hash: Option<HashRole>) -> BindingSet {
 /// The modules of kernel `k`, composed after the render library.
 fn modules(k: &KernelDef, hash: Option<HashRole>) -> Vec<WgslModule> {
     let at = gpu_hash::wgsl::BindAt {
-        group: GROUP,
-        first_binding: k.own.len() as u32,
+        group: STAGE_GROUP,
+        first_binding: k.buffers().count() as u32,
     };
     let role = |r| (hash == Some(r)).then_some(at);
     let hash_wgsl = match hash {
@@ -399,7 +364,7 @@ fn modules(k: &KernelDef, hash: Option<HashRole>) -> Vec<WgslModule> {
     };
     let mut modules = vec![
         WgslModule::new("wr-constants", &[], constants_wgsl()),
-        WgslModule::new("wr-bindings", &[], bindings(k, hash).wgsl(GROUP)),
+        WgslModule::new("wr-bindings", &[], bindings(k, hash).wgsl(STAGE_GROUP)),
         WgslModule::new("gpu-hash", &[], hash_wgsl),
         WgslModule::new(
             "world-restir",
@@ -426,11 +391,6 @@ pub fn kernels() -> Vec<ComposedKernel> {
             ComposedKernel::stage(name, source, bindings(k, *hash))
         })
         .collect()
-}
-
-/// Every WGSL module of world-space ReSTIR, composed as used.
-pub fn wgsl_modules() -> Vec<(String, String)> {
-    kernels().into_iter().map(|k| (k.name, k.source)).collect()
 }
 
 /// World-space ReSTIR's buffers besides the hash tables.
@@ -553,7 +513,8 @@ impl Binder<'_> {
     }
 
     fn insert(&self, p: usize) -> Result<Pass, GpuError> {
-        let hash = Resource::Block(self.tables[p].bind_group_entries(INSERT.own.len() as u32));
+        let first = INSERT.buffers().count() as u32;
+        let hash = Resource::Block(self.tables[p].bind_group_entries(first));
         let res = vec![
             self.params(),
             ("wr_vertex_slot", (&self.b.vertex_slot).into()),
@@ -582,25 +543,16 @@ impl Binder<'_> {
         [src, own, out]: [&wgpu::Buffer; 3],
         grid: usize,
     ) -> Result<Pass, GpuError> {
-        let u = WrPass {
-            pass_index: index,
-            temporal: u32::from(temporal),
-            ..Default::default()
-        };
-        let u = buffers::with_usage(
-            &self.ctx.device,
-            "wr pass",
-            &[u],
-            wgpu::BufferUsages::STORAGE,
-        );
-        let hash = self.tables[grid].lookup_bind_group_entries(REUSE.own.len() as u32);
+        let u = ReusePass::buffer(&self.ctx.device, temporal, index);
+        let first = REUSE.buffers().count() as u32;
+        let hash = self.tables[grid].lookup_bind_group_entries(first);
         let b = self.b;
         let res = vec![
             self.params(),
-            ("wr_pass", (&u).into()),
-            ("wr_src", src.into()),
-            ("wr_self", own.into()),
-            ("wr_out", out.into()),
+            ("reuse_pass", (&u).into()),
+            ("reuse_src", src.into()),
+            ("reuse_self", own.into()),
+            ("reuse_out", out.into()),
             ("wr_lookup_offsets", (&b.offsets[grid]).into()),
             ("wr_lookup_cells", (&b.cells[grid]).into()),
             ("wr_prev_vertices", (&b.prev_vertices).into()),

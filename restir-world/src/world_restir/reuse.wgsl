@@ -1,11 +1,11 @@
 // Passes "temporal" and "spatial" (paper Algorithm 3): each vertex (the canonical reservoir,
-// wr_self) merges a stochastic subset of up to max_count reservoirs (wr_src) of the cell it
+// reuse_self) merges a stochastic subset of up to max_count reservoirs (reuse_src) of the cell it
 // falls in, looked up (jittered) in a grid bound in gpu-hash's lookup role with its compact cell
 // storage (wr_lookup_offsets, wr_lookup_cells): last frame's grid, eye, reservoirs and vertices
 // (wr_prev_vertices) for the temporal pass (at most temporal_m_cap of M taken from last frame in
-// total), this frame's for the spatial passes (ping-pong wr_self -> wr_out). Reservoirs whose
+// total), this frame's for the spatial passes (ping-pong reuse_self -> reuse_out). Reservoirs whose
 // generating normal differs from the receiver's beyond normal_threshold (cosine) are skipped.
-// Writes wr_out; the stored M is always the sum of the merged (capped) M.
+// Writes reuse_out; the stored M is always the sum of the merged (capped) M.
 //
 // Combination (wr_params.knobs.combine): the reservoir crate's reuse_* (1/M, 1/Z or pairwise MIS);
 // light samples need no shift, so every Jacobian is 1. The target is render_light_target.
@@ -59,7 +59,7 @@ fn wr_visited(s: WrVisit, k: u32) -> u32 {
 // M of source reservoir j as merged at receiver i, 0 when it is not merged (no vertex, the
 // receiver itself in a spatial pass, or a normal too different).
 fn wr_merged_m(i: u32, j: u32, v: GVertex, temporal: bool, cap: u32) -> u32 {
-    let m = wr_src[j].m;
+    let m = reuse_src[j].m;
     if (!temporal && j == i) || m == 0u
         || dot(wr_source_vertex(j, temporal).shading, v.shading) < wr_params.knobs.normal_threshold {
         return 0u;
@@ -71,14 +71,14 @@ fn wr_merged_m(i: u32, j: u32, v: GVertex, temporal: bool, cap: u32) -> u32 {
 fn wr_reuse(id: Invocation) {
     let i = item_index(id);
     if i >= wr_params.items { return; }
-    let own = wr_self[i];
+    let own = reuse_self[i];
     if !wr_has_vertex(i) {
-        wr_out[i] = own;
+        reuse_out[i] = own;
         return;
     }
     let v = wr_vertex(i);
-    let temporal = wr_pass.temporal != 0u;
-    var rng = render_rng_salted(i, select(STREAM_WR_SPATIAL, STREAM_WR_TEMPORAL, temporal), wr_pass.pass_index);
+    let temporal = reuse_pass.temporal != 0u;
+    var rng = render_rng_salted(i, select(STREAM_WR_SPATIAL, STREAM_WR_TEMPORAL, temporal), reuse_pass.pass_index);
     let u_own = rng_next_f32(&rng);
     let own_sample = render_stored_sample(own);
     let p_own = select(0.0, render_light_target(v, own_sample), own.m > 0u);
@@ -103,7 +103,7 @@ fn wr_reuse(id: Invocation) {
         if m == 0u {
             continue;
         }
-        let src = wr_src[j];
+        let src = reuse_src[j];
         if render_reuse_light(&c, j, src, m, v, wr_source_vertex(j, temporal), own_sample, u_merge) {
             out = src;
         }
@@ -119,5 +119,5 @@ fn wr_reuse(id: Invocation) {
             }
         }
     }
-    wr_out[i] = render_reuse_store(&c, own, out);
+    reuse_out[i] = render_reuse_store(&c, own, out);
 }

@@ -20,6 +20,7 @@ fn wr_shade(id: Invocation) {
 fn wr_shade_direct(id: Invocation) {
     let i = item_index(id);
     if i >= render_params.pixel_count { return; }
-    let c = render_direct_from_stored(render_gbuffer[i], wr_final[render_params.pixel_count + i]);
+    let c = render_direct_from_stored(render_gbuffer[i], wr_final[render_params.pixel_count + i],
+                                      render_secondary[i]);
     render_direct_frame[i] = vec4<f32>(c, 1.0);
 }

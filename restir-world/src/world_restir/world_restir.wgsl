@@ -15,15 +15,6 @@ struct WrParams {
     tile_size: u32,
 }
 
-// Per reuse pass: `pass_index` mixes into the random stream, `temporal` = 1 for the pass that
-// reads last frame's grid (Rust twin: world_restir::WrPass).
-struct WrPass {
-    pass_index: u32,
-    temporal: u32,
-    _pad0: u32,
-    _pad1: u32,
-}
-
 // Grid items: item i < pixel_count is pixel i's secondary vertex; with the unified cache,
 // item pixel_count + i is pixel i's primary vertex (wr_params.items in all).
 
