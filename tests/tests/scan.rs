@@ -669,14 +669,16 @@ fn params_layout_matches_wgsl() {
 #[test]
 fn reduce_then_scan_baseline_matches_cpu() {
     // The benchmark's baseline must be a correct scan too.
-    use tests::floors::ReduceThenScan;
+    use tests::floors::{ReduceThenScan, RtsStages};
     let ctx = gpu::context();
     let rts = ReduceThenScan::new(&ctx.device, 1 << 21);
     for n in [1, ReduceThenScan::TILE + 1, (1 << 21) - 3] {
         let input = make_input(Pattern::Random(u64::from(n)), n as usize);
         let in_buf = buffers::storage_from(&ctx.device, "input", &input);
         let out = buffers::storage_zeroed(&ctx.device, "output", u64::from(n) * 4);
-        gpu::run(ctx, |enc| rts.encode(&ctx.device, enc, &in_buf, &out, n));
+        gpu::run(ctx, |enc| {
+            rts.encode(&ctx.device, enc, &in_buf, &out, n, RtsStages::All)
+        });
         let got: Vec<u32> = buffers::read_range(ctx, &out, 0, u64::from(n) * 4).unwrap();
         assert_scan_eq(&got, &input, ScanKind::Exclusive, &format!("rts n={n}"));
     }
