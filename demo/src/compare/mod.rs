@@ -117,17 +117,16 @@ fn compare_scene(
         refs,
         bar,
     };
-    let finished = job.run_listed(&label)?;
-    let runs: Vec<_> = finished.iter().map(|(_, f)| f.run.clone()).collect();
+    let (runs, lasts): (Vec<_>, Vec<_>) = job
+        .run_listed(&label)?
+        .into_iter()
+        .map(|(spec, f)| (f.run, (spec, f.last_combined)))
+        .unzip();
     let equal_time = equal_time::compare(&job, &runs)?;
     job.bar.finish_and_clear();
 
     let last_ref = job.refs.last().context("no reference")?;
     let exposure = metrics::auto_exposure(&last_ref.combined);
-    let lasts = finished
-        .into_iter()
-        .map(|(spec, f)| (spec, f.last_combined))
-        .collect();
     strip.push(output::StripRow::new(last_ref, lasts, exposure));
     if opts.write_exr {
         write_reference_exrs(&opts.out, &label, last_ref)?;
