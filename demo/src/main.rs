@@ -356,6 +356,15 @@ pub(crate) fn write_all_or_none(
 
 fn info(scene_name: Option<&str>, opts: &scenes::SceneArgs) -> Result<()> {
     let ctx = gpu_context()?;
+    print_adapter(&ctx);
+    if let Some(name) = scene_name {
+        print_scene(name, &scenes::load(name, opts, None)?);
+    }
+    Ok(())
+}
+
+/// The adapter, its tracers, the limits that size our buffers and its subgroup sizes.
+fn print_adapter(ctx: &GpuContext) {
     println!("{}", ctx.describe());
     println!(
         "tracers: bvh (software CWBVH): yes; ray-query: {}; auto picks {}; this run: {}",
@@ -383,58 +392,57 @@ fn info(scene_name: Option<&str>, opts: &scenes::SceneArgs) -> Result<()> {
         "subgroup sizes: {}..{}",
         sg.subgroup_min_size, sg.subgroup_max_size
     );
-    if let Some(name) = scene_name {
-        let s = scenes::load(name, opts, None)?;
-        let lights = Lights::build(&s);
+}
+
+/// A scene's statistics: geometry, lights, cameras, environment and textures.
+fn print_scene(name: &str, s: &Scene) {
+    let lights = Lights::build(s);
+    println!(
+        "scene {name}: {} triangles, {} materials, {} emissive triangles (total power {:.4e})",
+        s.triangles.len(),
+        s.materials.len(),
+        lights.len(),
+        lights.total_power
+    );
+    if let Some((lo, hi)) = s.bounds() {
+        println!("bounds: {lo} .. {hi}");
+    }
+    for (i, c) in s.cameras.iter().enumerate() {
+        println!("camera {i}: {:?}", c.name);
+    }
+    for l in &s.lights {
         println!(
-            "scene {name}: {} triangles, {} materials, {} emissive triangles (total power {:.4e})",
-            s.triangles.len(),
-            s.materials.len(),
-            lights.len(),
-            lights.total_power
+            "punctual light {:?}: {:?} at {} towards {}, colour {:?}, intensity {}",
+            l.name, l.kind, l.position, l.direction, l.color, l.intensity
         );
-        if let Some((lo, hi)) = s.bounds() {
-            println!("bounds: {lo} .. {hi}");
-        }
-        for (i, c) in s.cameras.iter().enumerate() {
-            println!("camera {i}: {:?}", c.name);
-        }
-        for l in &s.lights {
+    }
+    if let Some(env) = &s.environment {
+        println!(
+            "environment: {} ({}x{} pixels)",
+            env.source, env.width, env.height
+        );
+    }
+    if !s.textures.is_empty() {
+        println!(
+            "textures: {} images, {} uses",
+            s.textures.len(),
+            s.texture_refs.len()
+        );
+    }
+    match s.camera {
+        Some(c) => println!(
+            "camera: eye {} target {} up {} fov {} deg, {}x{}",
+            c.eye, c.target, c.up, c.vfov_deg, c.width, c.height
+        ),
+        None => {
+            let c = s.camera_or_default(256, 256);
             println!(
-                "punctual light {:?}: {:?} at {} towards {}, colour {:?}, \
-                 intensity {}",
-                l.name, l.kind, l.position, l.direction, l.color, l.intensity
+                "camera: none in the file; the default framing: eye {} target {} up {} fov {} \
+                 deg",
+                c.eye, c.target, c.up, c.vfov_deg
             );
-        }
-        if let Some(env) = &s.environment {
-            println!(
-                "environment: {} ({}x{} pixels)",
-                env.source, env.width, env.height
-            );
-        }
-        if !s.textures.is_empty() {
-            println!(
-                "textures: {} images, {} uses",
-                s.textures.len(),
-                s.texture_refs.len()
-            );
-        }
-        match s.camera {
-            Some(c) => println!(
-                "camera: eye {} target {} up {} fov {} deg, {}x{}",
-                c.eye, c.target, c.up, c.vfov_deg, c.width, c.height
-            ),
-            None => {
-                let c = s.camera_or_default(256, 256);
-                println!(
-                    "camera: none in the file; the default framing: eye {} target {} up {} \
-                     fov {} deg",
-                    c.eye, c.target, c.up, c.vfov_deg
-                );
-            }
         }
     }
-    Ok(())
 }
 
 /// `--quiet`: no progress bars.
@@ -730,17 +738,20 @@ fn compare_cmd(a: CompareArgs) -> Result<()> {
     let report = compare::run(&ctx, &opts, command)?;
     for sc in &report.scenes {
         for m in &sc.methods {
+            let errors: Vec<String> = m
+                .images
+                .iter()
+                .map(|(kind, e)| {
+                    let rel = e.frame.map_or("-".into(), |e| format!("{:.4e}", e.rel_mse));
+                    format!("{} {rel}", kind.name())
+                })
+                .collect();
             println!(
-                "{:>12} {:>14}: {} ms/frame, frame relMSE indirect {} combined {} direct {}",
+                "{:>12} {:>14}: {} ms/frame, frame relMSE {}",
                 sc.scene,
                 m.method,
                 m.ms_per_frame.map_or("-".into(), |v| format!("{v:.3}")),
-                m.frame_indirect
-                    .map_or("-".into(), |e| format!("{:.4e}", e.rel_mse)),
-                m.frame_combined
-                    .map_or("-".into(), |e| format!("{:.4e}", e.rel_mse)),
-                m.frame_direct
-                    .map_or("-".into(), |e| format!("{:.4e}", e.rel_mse)),
+                errors.join(" "),
             );
         }
     }

@@ -439,65 +439,9 @@ impl Viewer {
         setup: Setup,
         display: &winit::event_loop::OwnedDisplayHandle,
     ) -> Result<Self> {
-        let (w, h) = (setup.camera.width, setup.camera.height);
-        // The image at an integer zoom of about 512 pixels, the overlay's panel beside it.
-        let zoom = (512 / w.max(h)).clamp(1, 8);
-        let attrs = Window::default_attributes()
-            .with_title(format!("restir-demo view: {}", setup.scene_name))
-            .with_inner_size(winit::dpi::PhysicalSize::new(
-                (w * zoom).clamp(320, 1600) + PANEL_WIDTH as u32,
-                (h * zoom).clamp(600, 1200),
-            ));
-        let window = Arc::new(
-            event_loop
-                .create_window(attrs)
-                .map_err(|e| anyhow::anyhow!("cannot create a window: {e}. {SUGGEST_RENDER}"))?,
-        );
-        let backends = GpuContext::backends_from_env()?;
-        let mut desc =
-            wgpu::InstanceDescriptor::new_with_display_handle_from_env(Box::new(display.clone()));
-        desc.backends = backends;
-        let instance = wgpu::Instance::new(desc);
-        let surface = instance.create_surface(window.clone()).map_err(|e| {
-            anyhow::anyhow!(
-                "no surface support: cannot create a wgpu surface for the window: {e}. \
-                 {SUGGEST_RENDER}"
-            )
-        })?;
-        let mut ctx = pollster::block_on(GpuContext::for_surface(&instance, &surface))
-            .map_err(|e| anyhow::anyhow!("{e}. {SUGGEST_RENDER}"))?;
-        crate::apply_tracer(&mut ctx)?;
-        eprintln!("{}", ctx.describe());
-        let caps = surface.get_capabilities(&ctx.adapter);
-        // egui draws into a gamma-space target preferably.
-        let format = caps
-            .formats
-            .iter()
-            .copied()
-            .find(|f| !f.is_srgb())
-            .or(caps.formats.first().copied())
-            .with_context(|| {
-                format!(
-                    "the adapter {:?} cannot present to this window (no surface format). {}",
-                    ctx.info.name, SUGGEST_RENDER
-                )
-            })?;
-        let size = window.inner_size();
-        let surface_config = wgpu::SurfaceConfiguration {
-            usage: wgpu::TextureUsages::RENDER_ATTACHMENT,
-            format,
-            width: size.width.max(1),
-            height: size.height.max(1),
-            present_mode: wgpu::PresentMode::AutoVsync,
-            desired_maximum_frame_latency: 2,
-            alpha_mode: caps
-                .alpha_modes
-                .first()
-                .copied()
-                .unwrap_or(wgpu::CompositeAlphaMode::Auto),
-            view_formats: vec![],
-            color_space: wgpu::SurfaceColorSpace::Auto,
-        };
+        let window = open_window(event_loop, &setup)?;
+        let (surface, ctx) = surface_and_context(&window, display)?;
+        let surface_config = surface_config(&surface, &ctx, window.inner_size())?;
         surface.configure(&ctx.device, &surface_config);
         let egui_ctx = egui::Context::default();
         let egui_state = egui_winit::State::new(
@@ -508,7 +452,8 @@ impl Viewer {
             None,
             Some(ctx.limits().max_texture_dimension_2d as usize),
         );
-        let egui_renderer = egui_wgpu::Renderer::new(&ctx.device, format, Default::default());
+        let egui_renderer =
+            egui_wgpu::Renderer::new(&ctx.device, surface_config.format, Default::default());
         let method = setup
             .settings
             .build(&ctx, &setup.scene, &setup.camera, setup.args.seed)?;
@@ -690,9 +635,7 @@ impl Viewer {
             s.wall_frames += 1;
         }
         let times = times.unwrap_or_default();
-        s.since_build
-            .add(&restir_world::gpu::SpanTimes(times.passes.clone()));
-        s.since_build.frames += 1;
+        s.since_build.merge(&times);
         s.recent.push_back(FrameTimes {
             spans: times,
             wall,
@@ -939,6 +882,83 @@ impl Viewer {
     }
 }
 
+/// The window: the image at an integer zoom of about 512 pixels, the overlay's panel beside
+/// it.
+fn open_window(event_loop: &ActiveEventLoop, setup: &Setup) -> Result<Arc<Window>> {
+    let (w, h) = (setup.camera.width, setup.camera.height);
+    let zoom = (512 / w.max(h)).clamp(1, 8);
+    let attrs = Window::default_attributes()
+        .with_title(format!("restir-demo view: {}", setup.scene_name))
+        .with_inner_size(winit::dpi::PhysicalSize::new(
+            (w * zoom).clamp(320, 1600) + PANEL_WIDTH as u32,
+            (h * zoom).clamp(600, 1200),
+        ));
+    let window = event_loop
+        .create_window(attrs)
+        .map_err(|e| anyhow::anyhow!("cannot create a window: {e}. {SUGGEST_RENDER}"))?;
+    Ok(Arc::new(window))
+}
+
+/// A surface for `window` and a GPU context on an adapter that can present to it (tracing
+/// with `--tracer`).
+fn surface_and_context(
+    window: &Arc<Window>,
+    display: &winit::event_loop::OwnedDisplayHandle,
+) -> Result<(wgpu::Surface<'static>, GpuContext)> {
+    let mut desc =
+        wgpu::InstanceDescriptor::new_with_display_handle_from_env(Box::new(display.clone()));
+    desc.backends = GpuContext::backends_from_env()?;
+    let instance = wgpu::Instance::new(desc);
+    let surface = instance.create_surface(window.clone()).map_err(|e| {
+        anyhow::anyhow!(
+            "no surface support: cannot create a wgpu surface for the window: {e}. \
+             {SUGGEST_RENDER}"
+        )
+    })?;
+    let mut ctx = pollster::block_on(GpuContext::for_surface(&instance, &surface))
+        .map_err(|e| anyhow::anyhow!("{e}. {SUGGEST_RENDER}"))?;
+    crate::apply_tracer(&mut ctx)?;
+    eprintln!("{}", ctx.describe());
+    Ok((surface, ctx))
+}
+
+/// The surface's configuration at `size`: a gamma-space format when there is one (egui draws
+/// into those preferably), vsync.
+fn surface_config(
+    surface: &wgpu::Surface,
+    ctx: &GpuContext,
+    size: winit::dpi::PhysicalSize<u32>,
+) -> Result<wgpu::SurfaceConfiguration> {
+    let caps = surface.get_capabilities(&ctx.adapter);
+    let format = caps
+        .formats
+        .iter()
+        .copied()
+        .find(|f| !f.is_srgb())
+        .or(caps.formats.first().copied())
+        .with_context(|| {
+            format!(
+                "the adapter {:?} cannot present to this window (no surface format). {}",
+                ctx.info.name, SUGGEST_RENDER
+            )
+        })?;
+    Ok(wgpu::SurfaceConfiguration {
+        usage: wgpu::TextureUsages::RENDER_ATTACHMENT,
+        format,
+        width: size.width.max(1),
+        height: size.height.max(1),
+        present_mode: wgpu::PresentMode::AutoVsync,
+        desired_maximum_frame_latency: 2,
+        alpha_mode: caps
+            .alpha_modes
+            .first()
+            .copied()
+            .unwrap_or(wgpu::CompositeAlphaMode::Auto),
+        view_formats: vec![],
+        color_space: wgpu::SurfaceColorSpace::Auto,
+    })
+}
+
 /// Moves `camera` by `translate` (right, up, forward) and turns it by `look` (yaw, pitch),
 /// keeping the eye-target distance; never lets the view direction reach the up axis.
 fn fly(camera: &mut Camera, translate: Vec3, (yaw, pitch): (f32, f32)) {
@@ -1050,6 +1070,22 @@ fn overlay(
 }
 
 fn controls_ui(ui: &mut egui::Ui, info: &Info, c: &mut Controls, s: &Stats, a: &mut Actions) {
+    status_ui(ui, info, s);
+    ui.separator();
+    times_ui(ui, info, s);
+    ui.separator();
+    method_ui(ui, info, c, a);
+    ui.separator();
+    image_ui(ui, info, c, a);
+    ui.separator();
+    ui.label("WASD move, Q/E down/up, shift faster; drag the image or arrows to look");
+    ui.collapsing("the same image offline", |ui| {
+        ui.add(egui::Label::new(egui::RichText::new(&info.render_cmd).monospace()).wrap());
+    });
+}
+
+/// The adapter, the frame size and counts, and the last message.
+fn status_ui(ui: &mut egui::Ui, info: &Info, s: &Stats) {
     ui.heading("restir-demo view");
     ui.label(format!("adapter: {}", info.adapter));
     ui.label(format!(
@@ -1062,37 +1098,36 @@ fn controls_ui(ui: &mut egui::Ui, info: &Info, c: &mut Controls, s: &Stats, a: &
     if let Some(m) = &s.message {
         ui.colored_label(egui::Color32::YELLOW, m);
     }
-    ui.separator();
-    let mut recent = PassTimes::default();
-    let (mut wall, mut done) = (0.0, 0.0);
-    for t in &s.recent {
-        recent.add(&restir_world::gpu::SpanTimes(t.spans.passes.clone()));
-        recent.frames += 1;
-        wall += t.wall;
-        done += t.done;
-    }
+}
+
+/// The recent frames' wall-clock time and GPU spans.
+fn times_ui(ui: &mut egui::Ui, info: &Info, s: &Stats) {
+    let recent = PassTimes::sum(s.recent.iter().map(|t| &t.spans));
     let n = s.recent.len().max(1) as f64;
+    let wall = s.recent.iter().map(|t| t.wall).sum::<f64>() / n;
+    let done = s.recent.iter().map(|t| t.done).sum::<f64>() / n;
     ui.label(format!(
-        "frame {:.1} ms (wall clock); recorded until done {:.1} ms",
-        wall / n,
-        done / n
+        "frame {wall:.1} ms (wall clock); recorded until done {done:.1} ms"
     ));
-    if info.timestamps {
-        ui.label(format!("GPU spans {:.2} ms/frame:", recent.ms_per_frame()));
-        if spans_disagree(recent.ms_per_frame(), done / n) {
-            ui.colored_label(egui::Color32::YELLOW, SPANS_DISAGREE);
-        }
-        egui::Grid::new("spans").striped(true).show(ui, |ui| {
-            for (name, ms) in recent.per_frame() {
-                ui.label(name);
-                ui.label(format!("{ms:.3} ms"));
-                ui.end_row();
-            }
-        });
-    } else {
+    if !info.timestamps {
         ui.label("GPU timings: no timestamp queries on this adapter");
+        return;
     }
-    ui.separator();
+    ui.label(format!("GPU spans {:.2} ms/frame:", recent.ms_per_frame()));
+    if spans_disagree(recent.ms_per_frame(), done) {
+        ui.colored_label(egui::Color32::YELLOW, SPANS_DISAGREE);
+    }
+    egui::Grid::new("spans").striped(true).show(ui, |ui| {
+        for (name, ms) in recent.per_frame() {
+            ui.label(name);
+            ui.label(format!("{ms:.3} ms"));
+            ui.end_row();
+        }
+    });
+}
+
+/// The method list, the spec field and the method's knobs.
+fn method_ui(ui: &mut egui::Ui, info: &Info, c: &mut Controls, a: &mut Actions) {
     ui.label("method");
     egui::ComboBox::from_id_salt("method")
         .selected_text(info.settings.spec())
@@ -1100,20 +1135,15 @@ fn controls_ui(ui: &mut egui::Ui, info: &Info, c: &mut Controls, s: &Stats, a: &
         .show_ui(ui, |ui| {
             for spec in method_specs() {
                 if ui.selectable_label(false, &spec).clicked() {
-                    match methods::parse_spec(&spec) {
-                        Ok(set) => a.settings = Some(set),
-                        Err(e) => c.spec_text = format!("{spec}: {e}"),
-                    }
+                    apply_spec(&spec, c, a);
                 }
             }
         });
     ui.horizontal(|ui| {
         let r = ui.text_edit_singleline(&mut c.spec_text);
         if r.lost_focus() && ui.input(|i| i.key_pressed(egui::Key::Enter)) {
-            match methods::parse_spec(c.spec_text.trim()) {
-                Ok(set) => a.settings = Some(set),
-                Err(e) => c.spec_text = format!("{}: {e}", c.spec_text.trim()),
-            }
+            let spec = c.spec_text.trim().to_owned();
+            apply_spec(&spec, c, a);
         }
     });
     if !info.settings.knobs().is_empty() {
@@ -1121,7 +1151,19 @@ fn controls_ui(ui: &mut egui::Ui, info: &Info, c: &mut Controls, s: &Stats, a: &
             .default_open(true)
             .show(ui, |ui| knobs_ui(ui, &info.settings, c, a));
     }
-    ui.separator();
+}
+
+/// Switches to the method `spec`, or says in the spec field why not.
+fn apply_spec(spec: &str, c: &mut Controls, a: &mut Actions) {
+    match methods::parse_spec(spec) {
+        Ok(set) => a.settings = Some(set),
+        Err(e) => c.spec_text = format!("{spec}: {e}"),
+    }
+}
+
+/// What is shown and how: the image, exposure, resolution, accumulation, fly speed,
+/// screenshot and restart.
+fn image_ui(ui: &mut egui::Ui, info: &Info, c: &mut Controls, a: &mut Actions) {
     egui::ComboBox::from_label("shown")
         .selected_text(c.shown.label())
         .show_ui(ui, |ui| {
@@ -1148,9 +1190,7 @@ fn controls_ui(ui: &mut egui::Ui, info: &Info, c: &mut Controls, s: &Stats, a: &
                 ui.selectable_value(&mut c.scale, s, format!("{s}"));
             }
         });
-    if c.scale != before {
-        a.rebuild = true;
-    }
+    a.rebuild |= c.scale != before;
     let acc = c.accumulate;
     ui.checkbox(&mut c.accumulate, "accumulate while still");
     a.restart |= acc != c.accumulate;
@@ -1163,11 +1203,6 @@ fn controls_ui(ui: &mut egui::Ui, info: &Info, c: &mut Controls, s: &Stats, a: &
     ui.horizontal(|ui| {
         a.screenshot |= ui.button("screenshot (P)").clicked();
         a.restart |= ui.button("restart (R)").clicked();
-    });
-    ui.separator();
-    ui.label("WASD move, Q/E down/up, shift faster; drag the image or arrows to look");
-    ui.collapsing("the same image offline", |ui| {
-        ui.add(egui::Label::new(egui::RichText::new(&info.render_cmd).monospace()).wrap());
     });
 }
 

@@ -21,6 +21,9 @@ use std::time::{Duration, Instant};
 
 use restir_world::image_io::{Image, read_exr, write_exr};
 
+mod common;
+use common::cpu;
+
 /// Longest a case may run: every case is a few pixels, refused before any real work.
 const CASE_TIMEOUT: Duration = Duration::from_secs(120);
 
@@ -90,6 +93,16 @@ fn plus(base: Vec<String>, extra: &[&str]) -> Vec<String> {
     v
 }
 
+/// The CPU reference on `cornell` with `flags` added.
+fn cornell(name: &'static str, flags: &[&str], code: i32, needle: &str) -> Case {
+    case_of(name, plus(cpu("cornell"), flags), code, needle)
+}
+
+/// The CPU reference on `file` of the corpus (`tests/bad_inputs/`).
+fn scene_file(name: &'static str, file: &str, code: i32, needle: &str) -> Case {
+    case_of(name, cpu(&corpus(file)), code, needle)
+}
+
 impl Case {
     fn env(mut self, key: &'static str, value: &'static str) -> Self {
         self.env.push((key, value));
@@ -111,26 +124,6 @@ impl Case {
         self.no_out = true;
         self
     }
-}
-
-/// The CPU reference at 4x4, one frame: no GPU needed.
-fn cpu(scene: &str) -> Vec<String> {
-    [
-        "render",
-        "--scene",
-        scene,
-        "--method",
-        "cpu-reference",
-        "--size",
-        "4x4",
-        "--frames",
-        "1",
-        "--threads",
-        "1",
-    ]
-    .iter()
-    .map(|s| s.to_string())
-    .collect()
 }
 
 fn compare(extra: &[&str]) -> Vec<String> {
@@ -505,9 +498,9 @@ fn new_input_cases(tmp: &Path, g: &Path) -> Vec<Case> {
     // 6: a Radiance header line without end (600 MiB, sparse).
     sparse(&g.join("endless.hdr"), b"#?RADIANCE\n", 600 << 20);
     v.push(
-        case_of(
+        cornell(
             "27-6-hdr-endless-header-line",
-            plus(cpu("cornell"), &["--env", &gs("endless.hdr")]),
+            &["--env", &gs("endless.hdr")],
             1,
             "header line",
         )
@@ -516,9 +509,9 @@ fn new_input_cases(tmp: &Path, g: &Path) -> Vec<Case> {
 
     // 7: an --env that is a FIFO.
     mkfifo(&g.join("fifo.hdr"));
-    v.push(case_of(
+    v.push(cornell(
         "27-7-env-fifo",
-        plus(cpu("cornell"), &["--env", &gs("fifo.hdr")]),
+        &["--env", &gs("fifo.hdr")],
         1,
         "not a regular file",
     ));
@@ -830,15 +823,15 @@ fn new_input_cases(tmp: &Path, g: &Path) -> Vec<Case> {
     ));
 
     // 26: negative values after a space.
-    v.push(case_of(
+    v.push(cornell(
         "27-26-env-intensity-minus-1",
-        plus(cpu("cornell"), &["--sky", "1", "--env-intensity", "-1"]),
+        &["--sky", "1", "--env-intensity", "-1"],
         1,
         "--env-intensity",
     ));
-    v.push(case_of(
+    v.push(cornell(
         "27-26-camera-minus-1",
-        plus(cpu("cornell"), &["--camera", "-1"]),
+        &["--camera", "-1"],
         1,
         "--camera -1",
     ));
@@ -884,67 +877,63 @@ fn files_under(dir: &Path) -> Vec<PathBuf> {
     out
 }
 
-#[test]
-fn bad_inputs_are_refused_with_their_cause_and_leave_nothing_behind() {
-    let tmp = Path::new(env!("CARGO_TARGET_TMPDIR")).join("bad_inputs");
-    let _ = std::fs::remove_dir_all(&tmp);
-    let gen_dir = generate(&tmp.join("generated"));
+/// The cases before issue 27's, numbered as in issue 14; `gen_dir` holds [`generate`]'s files.
+fn cases(tmp: &Path, gen_dir: &Path) -> Vec<Case> {
     let g = |name: &str| gen_dir.join(name).display().to_string();
-
-    let mut cases = vec![
+    // The CPU reference on a generated scene file, and compare against a generated reference.
+    let generated = |name: &'static str, file: &str, code: i32, needle: &str| {
+        case_of(name, cpu(&g(file)), code, needle)
+    };
+    let reference = |name: &'static str, file: &str, code: i32, needle: &str| {
+        case_of(name, compare(&["--reference", &g(file)]), code, needle)
+    };
+    vec![
         // 15: checks before expensive work.
-        Case {
-            args: [
-                cpu("cornell"),
-                vec!["--out".into(), "/proc/restir-demo-x/y".into()],
-            ]
-            .concat(),
-            ..case(
-                "out-dir-unwritable",
-                &[],
-                1,
-                "cannot create the output directory /proc/restir-demo-x/y",
-            )
-        },
+        cornell(
+            "out-dir-unwritable",
+            &["--out", "/proc/restir-demo-x/y"],
+            1,
+            "cannot create the output directory /proc/restir-demo-x/y",
+        ),
         // With the reference cache inside the case's output: a reference rendered before the
         // error is found would be left behind there.
-        Case {
-            args: with_cache(
+        case_of(
+            "compare-bad-variant",
+            with_cache(
                 compare(&["--methods", "nee,ris:0"]),
                 &tmp.join("out/compare-bad-variant/cache"),
             ),
-            ..case("compare-bad-variant", &[], 1, "ris:0")
-        },
-        Case {
-            args: with_cache(
+            1,
+            "ris:0",
+        ),
+        case_of(
+            "compare-missing-second-scene",
+            with_cache(
                 compare(&["--scene", "cornell,doesnotexist"]),
                 &tmp.join("out/compare-missing-second-scene/cache"),
             ),
-            ..case("compare-missing-second-scene", &[], 1, "\"doesnotexist\"")
-        },
+            1,
+            "\"doesnotexist\"",
+        ),
         // 10: compare options that silently did something else.
-        Case {
-            args: compare(&["--methods", "nee,ris", "--equal-time-to", "world-restir"]),
-            ..case(
-                "equal-time-to-unlisted",
-                &[],
-                1,
-                "--equal-time-to names \"world-restir\", which is not in --methods",
-            )
-        },
-        Case {
-            args: compare(&["--reference-spp", "0"]),
-            ..case(
-                "reference-spp-0",
-                &[],
-                1,
-                "--reference-spp must be at least 2",
-            )
-        },
-        Case {
-            args: compare(&["--methods", "nee,nee"]),
-            ..case("methods-twice", &[], 1, "--methods lists \"nee\" twice")
-        },
+        case_of(
+            "equal-time-to-unlisted",
+            compare(&["--methods", "nee,ris", "--equal-time-to", "world-restir"]),
+            1,
+            "--equal-time-to names \"world-restir\", which is not in --methods",
+        ),
+        case_of(
+            "reference-spp-0",
+            compare(&["--reference-spp", "0"]),
+            1,
+            "--reference-spp must be at least 2",
+        ),
+        case_of(
+            "methods-twice",
+            compare(&["--methods", "nee,nee"]),
+            1,
+            "--methods lists \"nee\" twice",
+        ),
         // 7: candidate counts the GPU would silently cap.
         case(
             "candidates-above-cap",
@@ -970,33 +959,25 @@ fn bad_inputs_are_refused_with_their_cause_and_leave_nothing_behind() {
             2,
             "unknown tracer \"optix\"; known: auto, bvh, ray-query",
         ),
-        Case {
-            args: compare(&["--methods", "ris:70000"]),
-            ..case("compare-ris-above-cap", &[], 1, "must be in 1..=65535")
-        },
-        Case {
-            args: compare(&["--methods", "world-restir:candidates=70000"]),
-            ..case(
-                "compare-world-restir-above-cap",
-                &[],
-                1,
-                "must be in 1..=65535",
-            )
-        },
+        case_of(
+            "compare-ris-above-cap",
+            compare(&["--methods", "ris:70000"]),
+            1,
+            "must be in 1..=65535",
+        ),
+        case_of(
+            "compare-world-restir-above-cap",
+            compare(&["--methods", "world-restir:candidates=70000"]),
+            1,
+            "must be in 1..=65535",
+        ),
         // 13: cameras that rendered black or static.
-        Case {
-            args: [
-                cpu("cornell"),
-                vec![
-                    "--eye".into(),
-                    "0,1,3e38".into(),
-                    "--target".into(),
-                    "0,1,-3e38".into(),
-                ],
-            ]
-            .concat(),
-            ..case("eye-target-overflow", &[], 1, "too far apart")
-        },
+        cornell(
+            "eye-target-overflow",
+            &["--eye", "0,1,3e38", "--target", "0,1,-3e38"],
+            1,
+            "too far apart",
+        ),
         // 14: a long dolly used to reach the target at frame 100 and fail there.
         case(
             "long-dolly",
@@ -1046,326 +1027,232 @@ fn bad_inputs_are_refused_with_their_cause_and_leave_nothing_behind() {
             "WGPU_BACKEND=\"foo\"",
         )
         .env("WGPU_BACKEND", "foo"),
-        Case {
-            args: cpu(&g("binary.obj")),
-            ..case("binary-obj", &[], 1, "not UTF-8 text")
-        },
-        Case {
-            args: cpu(&corpus("missing_mtl.obj")),
-            ..case("missing-mtl-names-the-file", &[], 0, "nowhere.mtl: ")
-        },
+        generated("binary-obj", "binary.obj", 1, "not UTF-8 text"),
+        scene_file(
+            "missing-mtl-names-the-file",
+            "missing_mtl.obj",
+            0,
+            "nowhere.mtl: ",
+        ),
         // 4: unbounded reads.
-        Case {
-            args: cpu(&g("zero.obj")),
-            ..case(
-                "obj-link-to-dev-zero",
-                &[],
-                1,
-                "zero.obj: not a regular file",
-            )
-        },
-        Case {
-            args: cpu(&g("linked_zero.gltf")),
-            ..case(
-                "gltf-buffer-link-to-dev-zero",
-                &[],
-                1,
-                "outside the scene file's directory",
-            )
-        },
+        generated(
+            "obj-link-to-dev-zero",
+            "zero.obj",
+            1,
+            "zero.obj: not a regular file",
+        ),
+        generated(
+            "gltf-buffer-link-to-dev-zero",
+            "linked_zero.gltf",
+            1,
+            "outside the scene file's directory",
+        ),
         // 5: uris followed anywhere.
-        Case {
-            args: cpu(&corpus("buffer_dev_zero.gltf")),
-            ..case("gltf-buffer-absolute", &[], 1, "\"/dev/zero\" is absolute")
-        },
-        Case {
-            args: cpu(&corpus("buffer_traversal.gltf")),
-            ..case(
-                "gltf-buffer-traversal",
-                &[],
-                1,
-                "leaves the scene file's directory",
-            )
-        },
-        Case {
-            args: cpu(&corpus("image_absolute.gltf")),
-            ..case("gltf-image-absolute", &[], 1, "\"/etc/passwd\" is absolute")
-        },
+        scene_file(
+            "gltf-buffer-absolute",
+            "buffer_dev_zero.gltf",
+            1,
+            "\"/dev/zero\" is absolute",
+        ),
+        scene_file(
+            "gltf-buffer-traversal",
+            "buffer_traversal.gltf",
+            1,
+            "leaves the scene file's directory",
+        ),
+        scene_file(
+            "gltf-image-absolute",
+            "image_absolute.gltf",
+            1,
+            "\"/etc/passwd\" is absolute",
+        ),
         // 12: silently truncated glTF geometry.
-        Case {
-            args: cpu(&corpus("index_count_too_large.gltf")),
-            ..case("gltf-index-count-too-large", &[], 1, "declares 6 elements")
-        },
-        Case {
-            args: cpu(&corpus("index_count_not_3.gltf")),
-            ..case(
-                "gltf-index-count-not-3",
-                &[],
-                1,
-                "4 indices is not a multiple of 3",
-            )
-        },
-        Case {
-            args: cpu(&corpus("ok_triangle.gltf")),
-            ..case("gltf-control", &[], 0, "")
-        },
+        scene_file(
+            "gltf-index-count-too-large",
+            "index_count_too_large.gltf",
+            1,
+            "declares 6 elements",
+        ),
+        scene_file(
+            "gltf-index-count-not-3",
+            "index_count_not_3.gltf",
+            1,
+            "4 indices is not a multiple of 3",
+        ),
+        scene_file("gltf-control", "ok_triangle.gltf", 0, ""),
         // 8: a scene in units too small for 32-bit light densities is refused by its size.
-        Case {
-            args: cpu(&corpus("tiny_units.obj")),
-            ..case("tiny-units", &[], 1, "units across")
-        },
+        scene_file("tiny-units", "tiny_units.obj", 1, "units across"),
         // 11: lights and materials.
-        Case {
-            args: cpu(&corpus("no_lights.obj")),
-            ..case("no-lights-warns", &[], 0, "no lights")
-        },
-        Case {
-            args: cpu(&corpus("bad_ke.obj")),
-            ..case(
-                "bad-ke-line",
-                &[],
-                1,
-                "bad_ke.mtl: MTL line 3: Ke expects 1 or 3 numbers, got \"abc def\"",
-            )
-        },
-        Case {
-            args: cpu(&corpus("usemtl_nosuch.obj")),
-            ..case(
-                "usemtl-nosuch-warns",
-                &[],
-                0,
-                "usemtl \"nosuch\" names no material",
-            )
-        },
+        scene_file("no-lights-warns", "no_lights.obj", 0, "no lights"),
+        scene_file(
+            "bad-ke-line",
+            "bad_ke.obj",
+            1,
+            "bad_ke.mtl: MTL line 3: Ke expects 1 or 3 numbers, got \"abc def\"",
+        ),
+        scene_file(
+            "usemtl-nosuch-warns",
+            "usemtl_nosuch.obj",
+            0,
+            "usemtl \"nosuch\" names no material",
+        ),
         // 9: references.
-        Case {
-            args: compare(&["--reference", &g("srgb.png")]),
-            ..case("reference-png", &[], 1, "must be a linear OpenEXR")
-        },
-        Case {
-            args: compare(&["--reference", &g("png_named.exr")]),
-            ..case("reference-png-named-exr", &[], 1, "not OpenEXR")
-        },
-        Case {
-            args: compare(&["--reference", &g("nan.exr")]),
-            ..case(
-                "reference-nan",
-                &[],
-                1,
-                "NaN or infinite value at pixel (0, 0)",
-            )
-        },
-        Case {
-            args: compare(&["--reference", &g("inf.exr")]),
-            ..case(
-                "reference-inf",
-                &[],
-                1,
-                "NaN or infinite value at pixel (0, 0)",
-            )
-        },
-        Case {
-            args: compare(&["--reference", &g("negative.exr")]),
-            ..case(
-                "reference-negative",
-                &[],
-                1,
-                "negative value at pixel (0, 0)",
-            )
-        },
-        Case {
-            args: compare(&["--reference", &g("zeros.exr")]),
-            ..case("reference-zeros", &[], 1, "black everywhere")
-        },
+        reference("reference-png", "srgb.png", 1, "must be a linear OpenEXR"),
+        reference("reference-png-named-exr", "png_named.exr", 1, "not OpenEXR"),
+        reference(
+            "reference-nan",
+            "nan.exr",
+            1,
+            "NaN or infinite value at pixel (0, 0)",
+        ),
+        reference(
+            "reference-inf",
+            "inf.exr",
+            1,
+            "NaN or infinite value at pixel (0, 0)",
+        ),
+        reference(
+            "reference-negative",
+            "negative.exr",
+            1,
+            "negative value at pixel (0, 0)",
+        ),
+        reference("reference-zeros", "zeros.exr", 1, "black everywhere"),
         // 6: emission that overflows the accumulation.
-        Case {
-            args: [cpu("furnace"), vec!["--le".into(), "1e38".into()]].concat(),
-            ..case("furnace-le-huge", &[], 1, "Le 1e38 must be in [0, 1e10]")
-        },
-        Case {
-            args: cpu(&corpus("huge_ke.obj")),
-            ..case("mtl-ke-huge-clamped", &[], 0, "clamped 1 materials")
-        },
+        case_of(
+            "furnace-le-huge",
+            plus(cpu("furnace"), &["--le", "1e38"]),
+            1,
+            "Le 1e38 must be in [0, 1e10]",
+        ),
+        scene_file(
+            "mtl-ke-huge-clamped",
+            "huge_ke.obj",
+            0,
+            "clamped 1 materials",
+        ),
         // Issue 15: scene flags and required glTF extensions.
-        Case {
-            args: cpu(&corpus("requires_draco.gltf")),
-            ..case(
-                "gltf-requires-draco",
-                &[],
-                1,
-                "requires extension KHR_draco_mesh_compression (Draco-compressed meshes)",
-            )
-        },
-        Case {
-            args: [cpu("cornell"), vec!["--camera".into(), "Side".into()]].concat(),
-            ..case(
-                "camera-unknown-name",
-                &[],
-                1,
-                "--camera Side: no camera \"Side\" in the scene (expected a name or an index: \
+        scene_file(
+            "gltf-requires-draco",
+            "requires_draco.gltf",
+            1,
+            "requires extension KHR_draco_mesh_compression (Draco-compressed meshes)",
+        ),
+        case_of(
+            "camera-unknown-name",
+            plus(cpu("cornell"), &["--camera", "Side"]),
+            1,
+            "--camera Side: no camera \"Side\" in the scene (expected a name or an index: \
                  the scene has 0 \"default\")",
-            )
-        },
-        Case {
-            args: [cpu("cornell"), vec!["--camera".into(), "1".into()]].concat(),
-            ..case("camera-index-out-of-range", &[], 1, "no camera \"1\"")
-        },
-        Case {
-            args: [
-                cpu("cornell"),
-                vec!["--add-lights".into(), "1000001".into()],
-            ]
-            .concat(),
-            ..case("add-lights-too-many", &[], 2, "--add-lights <ADD_LIGHTS>")
-        },
-        Case {
-            args: [cpu("cornell"), vec!["--add-lights".into(), "-3".into()]].concat(),
-            ..case("add-lights-negative", &[], 2, "-3")
-        },
-        Case {
-            args: [
-                cpu("cornell"),
-                vec![
-                    "--add-lights".into(),
-                    "10".into(),
-                    "--add-light-power".into(),
-                    "nan".into(),
-                ],
-            ]
-            .concat(),
-            ..case(
-                "add-light-power-nan",
-                &[],
-                2,
-                "--add-light-power <ADD_LIGHT_POWER>",
-            )
-        },
-        Case {
-            args: [
-                cpu("cornell"),
-                vec![
-                    "--add-lights".into(),
-                    "10".into(),
-                    "--add-light-size=-1".into(),
-                ],
-            ]
-            .concat(),
-            ..case(
-                "add-light-size-negative",
-                &[],
-                2,
-                "--add-light-size <ADD_LIGHT_SIZE>",
-            )
-        },
+        ),
+        cornell(
+            "camera-index-out-of-range",
+            &["--camera", "1"],
+            1,
+            "no camera \"1\"",
+        ),
+        cornell(
+            "add-lights-too-many",
+            &["--add-lights", "1000001"],
+            2,
+            "--add-lights <ADD_LIGHTS>",
+        ),
+        cornell("add-lights-negative", &["--add-lights", "-3"], 2, "-3"),
+        cornell(
+            "add-light-power-nan",
+            &["--add-lights", "10", "--add-light-power", "nan"],
+            2,
+            "--add-light-power <ADD_LIGHT_POWER>",
+        ),
+        cornell(
+            "add-light-size-negative",
+            &["--add-lights", "10", "--add-light-size=-1"],
+            2,
+            "--add-light-size <ADD_LIGHT_SIZE>",
+        ),
         // Issue 15: environment light flags.
-        Case {
-            args: [cpu("cornell"), vec!["--sky=-1,0,0".into()]].concat(),
-            ..case("sky-negative", &[], 1, "--sky -1,0,0")
-        },
-        Case {
-            args: [cpu("cornell"), vec!["--sky".into(), "nan".into()]].concat(),
-            ..case("sky-nan", &[], 1, "must be finite")
-        },
-        Case {
-            args: [cpu("cornell"), vec!["--sky".into(), "1,2".into()]].concat(),
-            ..case("sky-two-values", &[], 1, "expected R,G,B or one number")
-        },
-        Case {
-            args: [
-                cpu("cornell"),
-                vec!["--env".into(), "/nonexistent/sky.hdr".into()],
-            ]
-            .concat(),
-            ..case("env-missing", &[], 1, "/nonexistent/sky.hdr")
-        },
-        Case {
-            args: [cpu("cornell"), vec!["--env".into(), g("srgb.png")]].concat(),
-            ..case("env-not-hdr", &[], 1, ".hdr or .exr")
-        },
-        Case {
-            args: [cpu("cornell"), vec!["--env".into(), g("nan.exr")]].concat(),
-            ..case("env-nan-pixel", &[], 1, "nan.exr: pixel (0, 0)")
-        },
-        Case {
-            args: [cpu("cornell"), vec!["--env".into(), g("negative.exr")]].concat(),
-            ..case("env-negative-pixel", &[], 1, "negative.exr: pixel (0, 0)")
-        },
-        Case {
-            args: [cpu("cornell"), vec!["--env".into(), g("png_named.exr")]].concat(),
-            ..case("env-undecodable", &[], 1, "cannot decode")
-        },
-        Case {
-            args: [cpu("cornell"), vec!["--env".into(), g("huge.hdr")]].concat(),
-            ..case("env-absurd-size", &[], 1, "100000x2 pixels is outside")
-        },
-        Case {
-            args: [
-                cpu("cornell"),
-                vec![
-                    "--env".into(),
-                    g("zeros.exr"),
-                    "--env-intensity".into(),
-                    "nan".into(),
-                ],
-            ]
-            .concat(),
-            ..case(
-                "env-intensity-nan",
-                &[],
-                1,
-                "--env-intensity: intensity NaN",
-            )
-        },
-        Case {
-            args: [cpu("cornell"), vec!["--env-intensity".into(), "2".into()]].concat(),
-            ..case(
-                "env-intensity-alone",
-                &[],
-                1,
-                "--env-intensity scales --env or --sky",
-            )
-        },
-        Case {
-            args: [
-                cpu("cornell"),
-                vec!["--sky".into(), "1".into(), "--env".into(), g("zeros.exr")],
-            ]
-            .concat(),
-            ..case("sky-and-env", &[], 2, "cannot be used with")
-        },
-        Case {
-            args: [cpu("cornell"), vec!["--add-light-power".into(), "5".into()]].concat(),
-            ..case(
-                "add-light-power-without-count",
-                &[],
-                1,
-                "need --add-lights N",
-            )
-        },
-        Case {
-            args: [
-                cpu("cornell"),
-                vec![
-                    "--add-lights".into(),
-                    "1".into(),
-                    "--add-light-power".into(),
-                    "1e30".into(),
-                    "--add-light-size".into(),
-                    "1e-4".into(),
-                ],
-            ]
-            .concat(),
-            ..case(
-                "add-lights-radiance-overflow",
-                &[],
-                1,
-                "--add-light-size 1e-4: bad scene option: add-lights: power 1e30",
-            )
-        },
-        Case {
-            args: [cpu("cornell"), vec!["--add-lights".into(), "20".into()]].concat(),
-            ..case("add-lights-control", &[], 0, "added 20 lights")
-        },
+        cornell("sky-negative", &["--sky=-1,0,0"], 1, "--sky -1,0,0"),
+        cornell("sky-nan", &["--sky", "nan"], 1, "must be finite"),
+        cornell(
+            "sky-two-values",
+            &["--sky", "1,2"],
+            1,
+            "expected R,G,B or one number",
+        ),
+        cornell(
+            "env-missing",
+            &["--env", "/nonexistent/sky.hdr"],
+            1,
+            "/nonexistent/sky.hdr",
+        ),
+        cornell("env-not-hdr", &["--env", &g("srgb.png")], 1, ".hdr or .exr"),
+        cornell(
+            "env-nan-pixel",
+            &["--env", &g("nan.exr")],
+            1,
+            "nan.exr: pixel (0, 0)",
+        ),
+        cornell(
+            "env-negative-pixel",
+            &["--env", &g("negative.exr")],
+            1,
+            "negative.exr: pixel (0, 0)",
+        ),
+        cornell(
+            "env-undecodable",
+            &["--env", &g("png_named.exr")],
+            1,
+            "cannot decode",
+        ),
+        cornell(
+            "env-absurd-size",
+            &["--env", &g("huge.hdr")],
+            1,
+            "100000x2 pixels is outside",
+        ),
+        cornell(
+            "env-intensity-nan",
+            &["--env", &g("zeros.exr"), "--env-intensity", "nan"],
+            1,
+            "--env-intensity: intensity NaN",
+        ),
+        cornell(
+            "env-intensity-alone",
+            &["--env-intensity", "2"],
+            1,
+            "--env-intensity scales --env or --sky",
+        ),
+        cornell(
+            "sky-and-env",
+            &["--sky", "1", "--env", &g("zeros.exr")],
+            2,
+            "cannot be used with",
+        ),
+        cornell(
+            "add-light-power-without-count",
+            &["--add-light-power", "5"],
+            1,
+            "need --add-lights N",
+        ),
+        cornell(
+            "add-lights-radiance-overflow",
+            &[
+                "--add-lights",
+                "1",
+                "--add-light-power",
+                "1e30",
+                "--add-light-size",
+                "1e-4",
+            ],
+            1,
+            "--add-light-size 1e-4: bad scene option: add-lights: power 1e30",
+        ),
+        cornell(
+            "add-lights-control",
+            &["--add-lights", "20"],
+            0,
+            "added 20 lights",
+        ),
         // 3: memory before allocation.
         case(
             "cpu-reference-too-large",
@@ -1383,9 +1270,13 @@ fn bad_inputs_are_refused_with_their_cause_and_leave_nothing_behind() {
             1,
             "GiB of memory, above the limit",
         ),
-    ];
+    ]
+}
 
-    cases.extend(new_input_cases(&tmp, &gen_dir));
+/// Cases that depend on the adapter's limits (skipped, with the reason printed, where the
+/// limit is above what they need).
+fn adapter_cases(gen_dir: &Path) -> Vec<Case> {
+    let mut cases = Vec::new();
 
     // 2: smoke above the storage binding limit (the adapter's limit decides the size).
     let adapter = info(&[]);
@@ -1453,6 +1344,17 @@ fn bad_inputs_are_refused_with_their_cause_and_leave_nothing_behind() {
         _ => eprintln!("skipping world-restir-on-gl: no GL adapter with under 20 storage buffers"),
     }
 
+    cases
+}
+
+#[test]
+fn bad_inputs_are_refused_with_their_cause_and_leave_nothing_behind() {
+    let tmp = Path::new(env!("CARGO_TARGET_TMPDIR")).join("bad_inputs");
+    let _ = std::fs::remove_dir_all(&tmp);
+    let gen_dir = generate(&tmp.join("generated"));
+    let mut cases = cases(&tmp, &gen_dir);
+    cases.extend(new_input_cases(&tmp, &gen_dir));
+    cases.extend(adapter_cases(&gen_dir));
     let only = std::env::var("BAD_INPUTS_ONLY").ok();
     let mut failures = Vec::new();
     let mut ran = 0;
@@ -1464,90 +1366,7 @@ fn bad_inputs_are_refused_with_their_cause_and_leave_nothing_behind() {
             continue;
         }
         ran += 1;
-        let out = tmp.join("out").join(c.name);
-        // Through a shell that waits for a line on stdin, then limits the address space and
-        // execs restir-demo (same process id): `before` sees the id the run will have.
-        let mut cmd = Command::new("sh");
-        let limit = c.mem_mib.map_or(String::new(), |m| {
-            format!("ulimit -v {} || exit 90; ", m * 1024)
-        });
-        cmd.arg("-c")
-            .arg(format!("read _ignored; {limit}exec \"$0\" \"$@\""))
-            .arg(exe())
-            .args(&c.args);
-        let wants_out = !c.no_out && c.args.first().is_some_and(|a| a != "info");
-        if wants_out && !c.args.iter().any(|a| a == "--out") {
-            cmd.arg("--out").arg(&out);
-        }
-        for (k, v) in &c.env {
-            cmd.env(k, v);
-        }
-        // stderr goes to a file and the run has a deadline: an unbounded read (a link to
-        // /dev/zero read whole) fails the case instead of hanging the test.
-        let log = tmp.join(format!("{}.stderr", c.name));
-        cmd.stdin(Stdio::piped())
-            .stdout(Stdio::null())
-            .stderr(std::fs::File::create(&log).expect("stderr log"));
-        let mut child = cmd.spawn().expect("run restir-demo");
-        if let Some(before) = &c.before {
-            before(child.id(), &out);
-        }
-        {
-            use std::io::Write;
-            let mut stdin = child.stdin.take().expect("stdin");
-            let _ = stdin.write_all(b"go\n");
-        }
-        let start = Instant::now();
-        let mut problems = Vec::new();
-        let status = loop {
-            if let Some(st) = child.try_wait().expect("wait for restir-demo") {
-                break Some(st);
-            }
-            if start.elapsed() > CASE_TIMEOUT {
-                let _ = child.kill();
-                let _ = child.wait();
-                problems.push(format!(
-                    "still running after {} s (an unbounded read or a hang): killed",
-                    CASE_TIMEOUT.as_secs()
-                ));
-                break None;
-            }
-            std::thread::sleep(Duration::from_millis(10));
-        };
-        let err = std::fs::read_to_string(&log).unwrap_or_default();
-        let code = status.and_then(|s| s.code());
-        if code == Some(101) || err.contains("panicked") {
-            problems.push("panicked".to_owned());
-        }
-        if code != Some(c.code) {
-            problems.push(format!("exit code {code:?}, expected {}", c.code));
-        }
-        if !err.contains(&c.needle) {
-            problems.push(format!("stderr lacks {:?}", c.needle));
-        }
-        if c.code != 0 {
-            let left = files_under(&out);
-            if !left.is_empty() {
-                problems.push(format!("a failed run left files behind: {left:?}"));
-            }
-        } else {
-            for f in files_under(&out) {
-                // Links a case planted (at names the run must not use) are not its outputs.
-                let link = std::fs::symlink_metadata(&f).is_ok_and(|m| m.is_symlink());
-                if f.extension().is_some_and(|e| e == "exr") && !link {
-                    match read_exr(&f) {
-                        Ok(img) if img.is_finite() => {}
-                        Ok(_) => problems.push(format!("{} has NaN/Inf pixels", f.display())),
-                        Err(e) => problems.push(format!("{}: unreadable: {e}", f.display())),
-                    }
-                }
-            }
-        }
-        if let Some(after) = &c.after
-            && let Err(e) = after(&out)
-        {
-            problems.push(e);
-        }
+        let (problems, err) = run_case(c, &tmp);
         if !problems.is_empty() {
             failures.push(format!(
                 "{}: {}\n  args: {:?}\n  stderr: {}",
@@ -1566,4 +1385,114 @@ fn bad_inputs_are_refused_with_their_cause_and_leave_nothing_behind() {
         ran,
         failures.join("\n")
     );
+}
+
+/// Runs a case (its output under `tmp/out/NAME`); returns what went wrong and its stderr.
+fn run_case(c: &Case, tmp: &Path) -> (Vec<String>, String) {
+    let out = tmp.join("out").join(c.name);
+    // stderr goes to a file and the run has a deadline: an unbounded read (a link to
+    // /dev/zero read whole) fails the case instead of hanging the test.
+    let log = tmp.join(format!("{}.stderr", c.name));
+    let mut problems = Vec::new();
+    let status = wait_with_deadline(start(c, &out, &log), &mut problems);
+    let err = std::fs::read_to_string(&log).unwrap_or_default();
+    let code = status.and_then(|s| s.code());
+    if code == Some(101) || err.contains("panicked") {
+        problems.push("panicked".to_owned());
+    }
+    if code != Some(c.code) {
+        problems.push(format!("exit code {code:?}, expected {}", c.code));
+    }
+    if !err.contains(&c.needle) {
+        problems.push(format!("stderr lacks {:?}", c.needle));
+    }
+    problems.extend(check_outputs(c, &out));
+    if let Some(after) = &c.after
+        && let Err(e) = after(&out)
+    {
+        problems.push(e);
+    }
+    (problems, err)
+}
+
+/// Starts the case's run, stderr into `log`, after its `before` (given the run's process id).
+fn start(c: &Case, out: &Path, log: &Path) -> std::process::Child {
+    // Through a shell that waits for a line on stdin, then limits the address space and
+    // execs restir-demo (same process id): `before` sees the id the run will have.
+    let mut cmd = Command::new("sh");
+    let limit = c.mem_mib.map_or(String::new(), |m| {
+        format!("ulimit -v {} || exit 90; ", m * 1024)
+    });
+    cmd.arg("-c")
+        .arg(format!("read _ignored; {limit}exec \"$0\" \"$@\""))
+        .arg(exe())
+        .args(&c.args);
+    let wants_out = !c.no_out && c.args.first().is_some_and(|a| a != "info");
+    if wants_out && !c.args.iter().any(|a| a == "--out") {
+        cmd.arg("--out").arg(out);
+    }
+    for (k, v) in &c.env {
+        cmd.env(k, v);
+    }
+    cmd.stdin(Stdio::piped())
+        .stdout(Stdio::null())
+        .stderr(std::fs::File::create(log).expect("stderr log"));
+    let mut child = cmd.spawn().expect("run restir-demo");
+    if let Some(before) = &c.before {
+        before(child.id(), out);
+    }
+    {
+        use std::io::Write;
+        let mut stdin = child.stdin.take().expect("stdin");
+        let _ = stdin.write_all(b"go\n");
+    }
+    child
+}
+
+/// The run's exit status, or `None` when it ran past [`CASE_TIMEOUT`] (then killed, and said
+/// in `problems`).
+fn wait_with_deadline(
+    mut child: std::process::Child,
+    problems: &mut Vec<String>,
+) -> Option<std::process::ExitStatus> {
+    let start = Instant::now();
+    loop {
+        if let Some(st) = child.try_wait().expect("wait for restir-demo") {
+            return Some(st);
+        }
+        if start.elapsed() > CASE_TIMEOUT {
+            let _ = child.kill();
+            let _ = child.wait();
+            problems.push(format!(
+                "still running after {} s (an unbounded read or a hang): killed",
+                CASE_TIMEOUT.as_secs()
+            ));
+            return None;
+        }
+        std::thread::sleep(Duration::from_millis(10));
+    }
+}
+
+/// A failed run must leave nothing in `out`; a successful one only finite, readable EXRs.
+fn check_outputs(c: &Case, out: &Path) -> Vec<String> {
+    let mut problems = Vec::new();
+    if c.code != 0 {
+        let left = files_under(out);
+        if !left.is_empty() {
+            problems.push(format!("a failed run left files behind: {left:?}"));
+        }
+        return problems;
+    }
+    for f in files_under(out) {
+        // Links a case planted (at names the run must not use) are not its outputs.
+        let link = std::fs::symlink_metadata(&f).is_ok_and(|m| m.is_symlink());
+        if f.extension().is_some_and(|e| e == "exr") && !link {
+            match read_exr(&f) {
+                Ok(img) if img.is_finite() => {}
+                Ok(_) => problems.push(format!("{} has NaN/Inf pixels", f.display())),
+                Err(e) => problems.push(format!("{}: unreadable: {e}", f.display())),
+            }
+        }
+    }
+    problems
 }

@@ -3,6 +3,9 @@
 
 use std::process::Command;
 
+mod common;
+use common::cpu;
+
 fn demo() -> Command {
     Command::new(env!("CARGO_BIN_EXE_restir-demo"))
 }
@@ -53,16 +56,7 @@ fn a_scene_file_name_with_dots_keeps_its_outputs_apart() {
     .unwrap();
     let out = dir.join("out");
     let o = demo()
-        .args(["render", "--scene"])
-        .arg(&obj)
-        .args([
-            "--method",
-            "cpu-reference",
-            "--size",
-            "4x4",
-            "--frames",
-            "1",
-        ])
+        .args(cpu(obj.to_str().unwrap()))
         .arg("--out")
         .arg(&out)
         .output()

@@ -80,6 +80,11 @@ fn f(v: &Value) -> f64 {
         .unwrap_or_else(|| panic!("expected a number, got {v}"))
 }
 
+fn report(out: &Path) -> Value {
+    let text = std::fs::read_to_string(out.join("report.json")).unwrap();
+    serde_json::from_str(&text).expect("report.json parses")
+}
+
 #[test]
 fn compare_end_to_end() {
     let out = out_dir("compare_e2e");
@@ -88,6 +93,67 @@ fn compare_end_to_end() {
         "nee,ris,ris:16,world-restir",
         &["--plant-bias", "ris:16=1.5"],
     );
+    check_files(&out);
+    let json = report(&out);
+    all_numbers_finite(&json, "report");
+    assert!(!json["device"].as_str().unwrap_or("").is_empty());
+    let timestamps = json["timestamps"] != false;
+    let scene = &json["scenes"][0];
+    let self_err = f(&scene["reference"]["self_rel_mse"]["indirect"]);
+    assert!(
+        self_err > 0.0 && self_err < 1.0,
+        "reference relMSE {self_err}"
+    );
+    let [nee, ris, biased, wr] = ["nee", "ris", "ris:16", "world-restir"].map(|m| method(scene, m));
+    assert!(f(&wr["images"]["indirect"]["frame"]["rel_mse"]) > 0.0);
+    check_equal_time(&scene["equal_time"]);
+    assert_eq!(nee["per_frame"].as_array().unwrap().len(), 4);
+    for m in [nee, ris, biased] {
+        assert!(!timestamps || f(&m["ms_per_frame"]) > 0.0);
+        for image in ["direct", "indirect", "combined"] {
+            let e = &m["images"][image];
+            for key in ["frame", "accumulated"] {
+                assert!(f(&e[key]["rel_mse"]) > 0.0, "{image} {key}");
+            }
+            assert!(f(&e["frame_flip"]) > 0.0, "{image}");
+        }
+    }
+    check_planted_bias(ris, biased);
+    // Times leave out the warm-up frames; the grid is reported for world-restir only.
+    assert_eq!(f(&ris["timed_frames"]), 2.0);
+    assert!(!timestamps || f(&ris["ms_per_frame_median"]) > 0.0);
+    assert_eq!(f(&wr["max_grid_overflows"]), 0.0);
+    assert!(nee["max_grid_overflows"].is_null());
+    // Accumulating frames lowers the error of an unbiased method.
+    let ris_indirect = &ris["images"]["indirect"];
+    assert!(f(&ris_indirect["accumulated"]["rel_mse"]) < f(&ris_indirect["frame"]["rel_mse"]));
+
+    // The same run against the first run's reference given as external EXRs: same numbers.
+    let out2 = out_dir("compare_e2e_external");
+    let r = out.join("reference_cornell.exr");
+    let ri = out.join("reference_cornell.indirect.exr");
+    run(
+        &out2,
+        "nee",
+        &[
+            "--reference",
+            r.to_str().unwrap(),
+            "--reference-indirect",
+            ri.to_str().unwrap(),
+        ],
+    );
+    let json2 = report(&out2);
+    let scene2 = &json2["scenes"][0];
+    assert_eq!(scene2["reference"]["source"], "external");
+    assert_eq!(
+        method(scene2, "nee")["images"]["indirect"]["accumulated"],
+        nee["images"]["indirect"]["accumulated"],
+        "external reference gives other numbers"
+    );
+}
+
+/// Every output is written; the plot names the methods, report.md has their rows.
+fn check_files(out: &Path) {
     for file in [
         "report.md",
         "report.json",
@@ -106,27 +172,10 @@ fn compare_end_to_end() {
     assert!(svg.starts_with("<svg") && svg.contains("nee") && svg.contains("ris"));
     let md = std::fs::read_to_string(out.join("report.md")).unwrap();
     assert!(md.contains("| nee |") && md.contains("Equal time"));
+}
 
-    let json: Value =
-        serde_json::from_str(&std::fs::read_to_string(out.join("report.json")).unwrap())
-            .expect("report.json parses");
-    all_numbers_finite(&json, "report");
-    assert!(!json["device"].as_str().unwrap_or("").is_empty());
-    let scene = &json["scenes"][0];
-    let reference = &scene["reference"];
-    let self_err = f(&reference["self_rel_mse_indirect"]);
-    assert!(
-        self_err > 0.0 && self_err < 1.0,
-        "reference relMSE {self_err}"
-    );
-
-    let nee = method(scene, "nee");
-    let ris = method(scene, "ris");
-    let biased = method(scene, "ris:16");
-    let wr = method(scene, "world-restir");
-    assert!(f(&wr["frame_indirect"]["rel_mse"]) > 0.0);
-    // world-restir is the equal-time target; nee and ris are measured against it.
-    let eq = &scene["equal_time"];
+/// world-restir is the equal-time target; nee and ris are measured against it.
+fn check_equal_time(eq: &Value) {
     assert_eq!(eq["target"], "world-restir");
     let entries = eq["entries"].as_array().expect("equal-time entries");
     assert_eq!(
@@ -136,73 +185,33 @@ fn compare_end_to_end() {
     );
     for e in entries {
         assert!(e["spp_per_frame"].as_u64().unwrap() >= 1);
-        assert!(f(&e["rel_mse_ratio_indirect"]) > 0.0);
-        assert!(f(&e["equal_error_speedup_indirect"]) > 0.0);
+        let indirect = &e["images"]["indirect"];
+        assert!(f(&indirect["rel_mse_ratio"]) > 0.0);
+        assert!(f(&indirect["equal_error_speedup"]) > 0.0);
     }
-    assert_eq!(nee["per_frame"].as_array().unwrap().len(), 4);
-    for m in [nee, ris, biased] {
-        assert!(f(&m["ms_per_frame"]) > 0.0 || json["timestamps"] == false);
-        for key in [
-            "frame_indirect",
-            "frame_combined",
-            "frame_direct",
-            "accumulated_indirect",
-        ] {
-            assert!(f(&m[key]["rel_mse"]) > 0.0, "{key}");
-        }
-        assert!(f(&m["frame_flip_combined"]) > 0.0);
-    }
-    // Negative control: the same estimator and seed with the indirect image scaled by 1.5.
+}
+
+/// Negative control: `biased` is `ris`'s estimator and seed with the indirect image scaled by
+/// 1.5; its errors and its bias column see it, its direct column does not.
+fn check_planted_bias(ris: &Value, biased: &Value) {
     assert_eq!(f(&biased["planted_bias"]), 1.5);
     let (a, b) = (
-        f(&ris["accumulated_indirect"]["rel_mse"]),
-        f(&biased["accumulated_indirect"]["rel_mse"]),
+        f(&ris["images"]["indirect"]["accumulated"]["rel_mse"]),
+        f(&biased["images"]["indirect"]["accumulated"]["rel_mse"]),
     );
     assert!(b > 1.5 * a, "planted bias not seen: {b} vs {a}");
-    // The bias column sees the planted 1.5 exactly: same estimator and seed.
     for c in 0..3 {
-        let (r, p) = (f(&ris["bias_indirect"][c]), f(&biased["bias_indirect"][c]));
+        let bias = |m: &Value, image: &str| f(&m["images"][image]["bias"][c]);
+        let (r, p) = (bias(ris, "indirect"), bias(biased, "indirect"));
         assert!((p / r - 1.5).abs() < 1e-3, "bias column: {p} vs 1.5 x {r}");
         assert!(r > 0.5 && r < 1.5, "ris bias {r}");
-        // The planted bias is on the indirect image only: the direct column is unchanged.
-        let (rd, pd) = (f(&ris["bias_direct"][c]), f(&biased["bias_direct"][c]));
+        let (rd, pd) = (bias(ris, "direct"), bias(biased, "direct"));
         assert!(
             (pd / rd - 1.0).abs() < 1e-6,
             "direct bias column: {pd} vs {rd}"
         );
         assert!(rd > 0.5 && rd < 1.5, "ris direct bias {rd}");
     }
-    // Times leave out the warm-up frames; the grid is reported for world-restir only.
-    assert_eq!(f(&ris["timed_frames"]), 2.0);
-    assert!(f(&ris["ms_per_frame_median"]) > 0.0 || json["timestamps"] == false);
-    assert_eq!(f(&wr["max_grid_overflows"]), 0.0);
-    assert!(nee["max_grid_overflows"].is_null());
-    // Accumulating frames lowers the error of an unbiased method.
-    assert!(f(&ris["accumulated_indirect"]["rel_mse"]) < f(&ris["frame_indirect"]["rel_mse"]));
-
-    // The same run against the first run's reference given as external EXRs: same numbers.
-    let out2 = out_dir("compare_e2e_external");
-    let r = out.join("reference_cornell.exr");
-    let ri = out.join("reference_cornell.indirect.exr");
-    run(
-        &out2,
-        "nee",
-        &[
-            "--reference",
-            r.to_str().unwrap(),
-            "--reference-indirect",
-            ri.to_str().unwrap(),
-        ],
-    );
-    let json2: Value =
-        serde_json::from_str(&std::fs::read_to_string(out2.join("report.json")).unwrap()).unwrap();
-    let scene2 = &json2["scenes"][0];
-    assert_eq!(scene2["reference"]["source"], "external");
-    assert_eq!(
-        method(scene2, "nee")["accumulated_indirect"],
-        nee["accumulated_indirect"],
-        "external reference gives other numbers"
-    );
 }
 
 #[test]
@@ -213,8 +222,7 @@ fn compare_moving_camera() {
         "nee,world-restir",
         &["--animation", "orbit", "--eval-every", "2"],
     );
-    let json: Value =
-        serde_json::from_str(&std::fs::read_to_string(out.join("report.json")).unwrap()).unwrap();
+    let json = report(&out);
     all_numbers_finite(&json, "report");
     let scene = &json["scenes"][0];
     assert_eq!(scene["camera"], "orbit");
@@ -228,12 +236,12 @@ fn compare_moving_camera() {
         let frames = m["per_frame"].as_array().unwrap();
         let evaluated: Vec<u64> = frames
             .iter()
-            .filter(|fr| !fr["indirect"].is_null())
+            .filter(|fr| !fr["images"]["indirect"].is_null())
             .map(|fr| fr["frame"].as_u64().unwrap())
             .collect();
         assert_eq!(evaluated, [1, 3], "{name}");
         assert!(
-            m["accumulated_indirect"].is_null(),
+            m["images"]["indirect"]["accumulated"].is_null(),
             "no accumulation for a moving camera"
         );
     }

@@ -52,6 +52,18 @@ fn out_dir(name: &str) -> PathBuf {
     dir
 }
 
+/// The words of a command line.
+fn words(line: &str) -> Vec<&str> {
+    line.split_whitespace().collect()
+}
+
+/// A window test's display (as [`display`]) and its fresh output directory `name`; `None`
+/// when it skips.
+fn window_test(name: &str) -> Option<(bool, PathBuf)> {
+    let xvfb = display()?;
+    Some((xvfb, out_dir(name)))
+}
+
 /// Runs `restir-demo view ARGS` in a window; panics unless it exits 0.
 fn view(xvfb: bool, dir: &Path, args: &[&str]) -> String {
     let _one = XVFB.lock().unwrap_or_else(|e| e.into_inner());
@@ -130,20 +142,10 @@ fn same_image(a: &Image, b: &Image) -> Result<(), String> {
 
 #[test]
 fn screenshot_equals_the_offline_render() {
-    let Some(xvfb) = display() else {
+    let Some((xvfb, dir)) = window_test("shot") else {
         return;
     };
-    let dir = out_dir("shot");
-    let common = [
-        "--scene",
-        "cornell",
-        "--method",
-        "world-restir",
-        "--size",
-        "48x40",
-        "--seed",
-        "3",
-    ];
+    let common = words("--scene cornell --method world-restir --size 48x40 --seed 3");
     let shot = dir.join("shot.png");
     let mut args = common.to_vec();
     let shot_arg = shot.to_str().unwrap();
@@ -187,7 +189,7 @@ fn screenshot_equals_the_offline_render() {
     assert!(max_step <= Some(1), "PNG differs by {max_step:?} levels");
     // Negative control: another seed is another image, and the check says so.
     let mut args = common.to_vec();
-    args[7] = "4";
+    args[7] = "4"; // --seed
     args.extend(["--frames", "30"]);
     render(&dir.join("other-seed"), &args);
     let other = read_exr(&dir.join("other-seed/cornell-world-restir-combined.exr")).unwrap();
@@ -219,20 +221,10 @@ fn accumulated_and_eye(stdout: &str) -> (u32, String) {
 
 #[test]
 fn a_camera_path_moves_the_camera_and_restarts_accumulation() {
-    let Some(xvfb) = display() else {
+    let Some((xvfb, dir)) = window_test("path") else {
         return;
     };
-    let dir = out_dir("path");
-    let common = [
-        "--scene",
-        "cornell",
-        "--method",
-        "nee",
-        "--size",
-        "24x24",
-        "--exit-after-frames",
-        "30",
-    ];
+    let common = words("--scene cornell --method nee --size 24x24 --exit-after-frames 30");
     // Negative control: a still camera accumulates every frame and stays where it was.
     let still = view(xvfb, &dir, &common);
     let (still_acc, still_eye) = accumulated_and_eye(&still);
@@ -310,11 +302,10 @@ fn without_a_display_it_says_so_and_suggests_render() {
 #[cfg(target_os = "linux")]
 #[test]
 fn closing_the_window_exits_0() {
-    use std::io::{BufRead, BufReader};
     use std::process::Stdio;
-    use std::time::{Duration, Instant};
+    use std::time::Duration;
     use x11rb::connection::Connection;
-    use x11rb::protocol::xproto::{AtomEnum, ClientMessageEvent, ConnectionExt, EventMask};
+    use x11rb::protocol::xproto::{ClientMessageEvent, ConnectionExt, EventMask};
 
     if display().is_none() {
         return;
@@ -329,7 +320,58 @@ fn closing_the_window_exits_0() {
     }
     let _one = XVFB.lock().unwrap_or_else(|e| e.into_inner());
     let dir = out_dir("close");
-    // -displayfd 1: the server picks a free display and prints its number once it is ready.
+    let (mut server, display) = start_xvfb();
+    let runtime = dir.join("xdg");
+    std::fs::create_dir_all(&runtime).unwrap();
+    let shot = dir.join("closed.png");
+    let mut child = Command::new(BIN)
+        .args([
+            "view", "--scene", "cornell", "--method", "nee", "--size", "16x16",
+        ])
+        .arg("--screenshot")
+        .arg(&shot)
+        .env("DISPLAY", &display)
+        .env_remove("WAYLAND_DISPLAY")
+        .env("XDG_RUNTIME_DIR", &runtime)
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let (conn, screen) = x11rb::connect(Some(&display)).unwrap();
+    let atom = |name: &[u8]| conn.intern_atom(false, name).unwrap().reply().unwrap().atom;
+    let (protocols, delete) = (atom(b"WM_PROTOCOLS"), atom(b"WM_DELETE_WINDOW"));
+    let window = view_window(&conn, conn.setup().roots[screen].root, &mut child);
+    // Let it render a few frames, then close it as a window manager would.
+    std::thread::sleep(Duration::from_secs(3));
+    // Negative control: without a --exit-after-frames it runs until closed.
+    assert!(child.try_wait().unwrap().is_none(), "view exited unclosed");
+    let event = ClientMessageEvent::new(32, window, protocols, [delete, 0, 0, 0, 0]);
+    conn.send_event(false, window, EventMask::NO_EVENT, event)
+        .unwrap();
+    conn.flush().unwrap();
+    let exited = wait_for_exit(&mut child, Duration::from_secs(60));
+    let _ = server.kill();
+    let _ = server.wait();
+    assert!(exited, "view did not exit after its window was closed");
+    let out = child.wait_with_output().unwrap();
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert_eq!(
+        out.status.code(),
+        Some(0),
+        "{stdout}\n{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(stdout.contains("view: wrote"), "{stdout}");
+    assert_eq!(read_exr(&dir.join("closed.exr")).unwrap().width, 16);
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// A bare Xvfb server of the test's own and its display name (`:N`): `-displayfd 1` makes it
+/// pick a free display and print its number once it is ready.
+#[cfg(target_os = "linux")]
+fn start_xvfb() -> (std::process::Child, String) {
+    use std::io::{BufRead, BufReader};
+    use std::process::Stdio;
     let mut server = Command::new("Xvfb")
         .args([
             "-displayfd",
@@ -348,29 +390,21 @@ fn closing_the_window_exits_0() {
     BufReader::new(server.stdout.take().unwrap())
         .read_line(&mut line)
         .unwrap();
-    let display = format!(":{}", line.trim());
-    let runtime = dir.join("xdg");
-    std::fs::create_dir_all(&runtime).unwrap();
-    let shot = dir.join("closed.png");
-    let mut child = Command::new(BIN)
-        .args([
-            "view", "--scene", "cornell", "--method", "nee", "--size", "16x16",
-        ])
-        .arg("--screenshot")
-        .arg(&shot)
-        .env("DISPLAY", &display)
-        .env_remove("WAYLAND_DISPLAY")
-        .env("XDG_RUNTIME_DIR", &runtime)
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .unwrap();
-    let (conn, screen) = x11rb::connect(Some(&display)).unwrap();
-    let root = conn.setup().roots[screen].root;
-    let atom = |name: &[u8]| conn.intern_atom(false, name).unwrap().reply().unwrap().atom;
-    let (protocols, delete) = (atom(b"WM_PROTOCOLS"), atom(b"WM_DELETE_WINDOW"));
+    (server, format!(":{}", line.trim()))
+}
+
+/// The window `view` (`child`) opens under `root`, once it is there; panics when `view` exits
+/// first or no window comes within two minutes.
+#[cfg(target_os = "linux")]
+fn view_window(
+    conn: &impl x11rb::connection::Connection,
+    root: u32,
+    child: &mut std::process::Child,
+) -> u32 {
+    use std::time::{Duration, Instant};
+    use x11rb::protocol::xproto::{AtomEnum, ConnectionExt};
     let start = Instant::now();
-    let window = loop {
+    loop {
         let children = conn.query_tree(root).unwrap().reply().unwrap().children;
         let found = children.into_iter().find(|&w| {
             conn.get_property(false, w, AtomEnum::WM_NAME, AtomEnum::ANY, 0, 256)
@@ -379,44 +413,30 @@ fn closing_the_window_exits_0() {
                 .is_some_and(|p| p.value.starts_with(b"restir-demo view"))
         });
         if let Some(w) = found {
-            break w;
+            return w;
         }
-        assert!(
-            child.try_wait().unwrap().is_none(),
-            "view exited before its window appeared: {:?}",
-            child.wait_with_output().unwrap()
-        );
+        if let Some(status) = child.try_wait().unwrap() {
+            let mut err = String::new();
+            if let Some(mut e) = child.stderr.take() {
+                let _ = std::io::Read::read_to_string(&mut e, &mut err);
+            }
+            panic!("view exited ({status}) before its window appeared: {err}");
+        }
         assert!(start.elapsed() < Duration::from_secs(120), "no window");
         std::thread::sleep(Duration::from_millis(100));
-    };
-    // Let it render a few frames, then close it as a window manager would.
-    std::thread::sleep(Duration::from_secs(3));
-    // Negative control: without a --exit-after-frames it runs until closed.
-    assert!(child.try_wait().unwrap().is_none(), "view exited unclosed");
-    let event = ClientMessageEvent::new(32, window, protocols, [delete, 0, 0, 0, 0]);
-    conn.send_event(false, window, EventMask::NO_EVENT, event)
-        .unwrap();
-    conn.flush().unwrap();
-    let deadline = Instant::now() + Duration::from_secs(60);
-    while child.try_wait().unwrap().is_none() {
-        if Instant::now() > deadline {
-            let _ = child.kill();
-            let _ = server.kill();
-            panic!("view did not exit after its window was closed");
-        }
-        std::thread::sleep(Duration::from_millis(50));
     }
-    let out = child.wait_with_output().unwrap();
-    let _ = server.kill();
-    let _ = server.wait();
-    let stdout = String::from_utf8_lossy(&out.stdout);
-    assert_eq!(
-        out.status.code(),
-        Some(0),
-        "{stdout}\n{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    assert!(stdout.contains("view: wrote"), "{stdout}");
-    assert_eq!(read_exr(&dir.join("closed.exr")).unwrap().width, 16);
-    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// Whether `child` exits within `limit` (it is killed when it does not).
+#[cfg(target_os = "linux")]
+fn wait_for_exit(child: &mut std::process::Child, limit: std::time::Duration) -> bool {
+    let deadline = std::time::Instant::now() + limit;
+    while child.try_wait().unwrap().is_none() {
+        if std::time::Instant::now() > deadline {
+            let _ = child.kill();
+            return false;
+        }
+        std::thread::sleep(std::time::Duration::from_millis(50));
+    }
+    true
 }

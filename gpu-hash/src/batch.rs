@@ -304,25 +304,18 @@ impl HashBatch {
     ) -> Result<BatchBinding, HashError> {
         check_io(table, input, output)?;
         let need_in = u64::from(n) * 16 * kernel.input_vec4s();
-        if input.size() < need_in {
-            return Err(HashError::BufferTooSmall {
-                name: "input",
-                have: input.size(),
-                need: need_in,
-            });
-        }
         let need_out = u64::from(n) * 4 * kernel.output_words();
-        if output.size() < need_out {
-            return Err(HashError::BufferTooSmall {
-                name: "output",
-                have: output.size(),
-                need: need_out,
-            });
+        let io = [("input", input, need_in), ("output", output, need_out)];
+        for (name, buffer, need) in io {
+            if buffer.size() < need {
+                let have = buffer.size();
+                return Err(HashError::BufferTooSmall { name, have, need });
+            }
         }
         // Bind exactly the ranges the kernel reads and writes, so a caller's buffer may be
         // larger than one binding; a range that itself exceeds the limit is an error here.
         let limit = device.limits().max_storage_buffer_binding_size;
-        for (name, bytes) in [("input", need_in), ("output", need_out)] {
+        for (name, _, bytes) in io {
             if bytes > limit {
                 return Err(HashError::BindingTooLarge { name, bytes, limit });
             }

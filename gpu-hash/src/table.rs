@@ -127,23 +127,25 @@ fn storage_entry(binding: u32, read_only: bool, size: u64) -> wgpu::BindGroupLay
 /// Layout entries of the table role (params, checksums, counters, stats) at
 /// `first_binding..first_binding + 4`, for [`crate::bindings_wgsl`].
 pub fn bind_group_layout_entries(first_binding: u32) -> Vec<wgpu::BindGroupLayoutEntry> {
-    let b = first_binding;
-    vec![
-        uniform_entry(b, size_of::<HashGridParams>() as u64),
-        storage_entry(b + 1, false, 4),
-        storage_entry(b + 2, false, 4),
-        storage_entry(b + 3, false, size_of::<HashStats>() as u64),
-    ]
+    let stats_size = size_of::<HashStats>() as u64;
+    let mut entries = table_entries(first_binding, false);
+    entries.push(storage_entry(first_binding + 3, false, stats_size));
+    entries
 }
 
 /// Layout entries of the lookup role (params, checksums, counters; read-only) at
 /// `first_binding..first_binding + 3`, for [`crate::lookup_bindings_wgsl`].
 pub fn lookup_bind_group_layout_entries(first_binding: u32) -> Vec<wgpu::BindGroupLayoutEntry> {
+    table_entries(first_binding, true)
+}
+
+/// The entries both roles have: params, checksums and counters from `first_binding` on.
+fn table_entries(first_binding: u32, read_only: bool) -> Vec<wgpu::BindGroupLayoutEntry> {
     let b = first_binding;
     vec![
         uniform_entry(b, size_of::<HashGridParams>() as u64),
-        storage_entry(b + 1, true, 4),
-        storage_entry(b + 2, true, 4),
+        storage_entry(b + 1, read_only, 4),
+        storage_entry(b + 2, read_only, 4),
     ]
 }
 
@@ -161,13 +163,9 @@ pub struct TableBuffers<'a> {
 impl<'a> TableBuffers<'a> {
     /// Bind group entries of the table role at `first_binding..first_binding + 4`.
     pub fn bind_group_entries(&self, first_binding: u32) -> Vec<wgpu::BindGroupEntry<'a>> {
-        let b = first_binding;
-        vec![
-            entry(b, self.params),
-            entry(b + 1, self.checksums),
-            entry(b + 2, self.counters),
-            entry(b + 3, self.stats),
-        ]
+        let mut entries = self.lookup_bind_group_entries(first_binding);
+        entries.push(entry(first_binding + 3, self.stats));
+        entries
     }
 
     /// Bind group entries of the lookup role at `first_binding..first_binding + 3`.

@@ -7,8 +7,11 @@ use crate::state;
 pub const COMMON_WGSL: &str = include_str!("wgsl/common.wgsl");
 /// The chained-scan kernel (tile loop, look-back, fallback).
 pub const SCAN_WGSL: &str = include_str!("wgsl/scan.wgsl");
-/// Workgroup scan without subgroups, with the entry point.
+/// Workgroup scan without subgroups (`wg_scan`; needs `SCAN_WG`, `SCAN_RAKE`, and `scan_t`
+/// set by the entry point).
 pub const WG_SHARED_WGSL: &str = include_str!("wgsl/wg_shared.wgsl");
+/// The entry point of the kernel without subgroups.
+pub const WG_SHARED_MAIN_WGSL: &str = include_str!("wgsl/wg_shared_main.wgsl");
 /// Workgroup scan with subgroup operations, with the entry point.
 pub const WG_SUBGROUP_WGSL: &str = include_str!("wgsl/wg_subgroup.wgsl");
 /// The indirect pre-pass.
@@ -80,18 +83,13 @@ impl KernelConfig {
 
     /// The composed scan kernel (entry point `scan_main`).
     pub fn scan_source(&self) -> String {
-        let variant = if self.subgroups {
-            WG_SUBGROUP_WGSL
-        } else {
-            WG_SHARED_WGSL
-        };
-        [
-            self.constants_header().as_str(),
-            COMMON_WGSL,
-            SCAN_WGSL,
-            variant,
-        ]
-        .join("\n")
+        let header = self.constants_header();
+        let mut parts = vec![header.as_str(), COMMON_WGSL, SCAN_WGSL];
+        match self.subgroups {
+            true => parts.push(WG_SUBGROUP_WGSL),
+            false => parts.extend([WG_SHARED_WGSL, WG_SHARED_MAIN_WGSL]),
+        }
+        parts.join("\n")
     }
 
     /// The composed indirect pre-pass (entry point `scan_prepare`).

@@ -12,7 +12,7 @@
 
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 use reservoir::{PackedReservoir, rng::Rng};
-use restir_world::gpu::{Access, BindingSet, Kernel, Pass, workgroup_size_wgsl};
+use restir_world::gpu::{Access, BindingSet, Pass};
 use tests::{bench, buffers, floors::CopyKernel, gpu};
 
 const WORKGROUP: u32 = 256;
@@ -63,24 +63,10 @@ impl MergeBench {
             .buffer("src", "array<PackedReservoir>", Access::Read)
             .buffer("dst", "array<PackedReservoir>", Access::ReadWrite)
             .buffer("params", "Params", Access::Uniform);
-        let source = format!(
-            "{}\n{}\n{}\n{}\n{KERNEL_WGSL}",
-            workgroup_size_wgsl(),
-            set.wgsl(0),
-            reservoir::wgsl(),
-            reservoir::rng::WGSL
-        );
         let device = &ctx.device;
-        let layout = set.layout(device);
         let entries = ["merge1", "merge4"];
-        let kernel = Kernel::with_workgroup_size(
-            device,
-            "reservoir bench",
-            &source,
-            &[&layout],
-            &entries,
-            WORKGROUP,
-        );
+        let (kernel, layout) =
+            gpu::reservoir_kernel("reservoir bench", &set, KERNEL_WGSL, &entries, WORKGROUP);
         let params = buffers::with_usage(
             device,
             "params",

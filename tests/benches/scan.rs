@@ -19,7 +19,7 @@ use std::time::Duration;
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 use gpu_scan::{Scan, ScanCounters, ScanDescriptor, ScanKind};
 use rand::{Rng, SeedableRng, rngs::StdRng};
-use tests::floors::{CopyKernel, ReduceThenScan};
+use tests::floors::{CopyKernel, ReduceThenScan, RtsStages};
 use tests::{bench, buffers, gpu};
 
 /// `SCAN_BENCH_SIZES`: comma-separated log2 sizes (default `20,24,25`).
@@ -100,8 +100,9 @@ fn scan_bench(c: &mut Criterion) {
             |enc: &mut wgpu::CommandEncoder| scan.encode(enc, &bound).expect("encode");
         let record_copy =
             |enc: &mut wgpu::CommandEncoder| copy.encode(&ctx.device, enc, &input, &output, n / 4);
-        let record_rts =
-            |enc: &mut wgpu::CommandEncoder| rts.encode(&ctx.device, enc, &input, &output, n);
+        let record_rts = |enc: &mut wgpu::CommandEncoder| {
+            rts.encode(&ctx.device, enc, &input, &output, n, RtsStages::All)
+        };
         let record_lampshade = |enc: &mut wgpu::CommandEncoder| {
             lampshade
                 .borrow_mut()
@@ -109,7 +110,14 @@ fn scan_bench(c: &mut Criterion) {
                 .expect("lampshade scan")
         };
         let record_tile = |enc: &mut wgpu::CommandEncoder| {
-            rts.encode_downsweep_only(&ctx.device, enc, &input, &output, n)
+            rts.encode(
+                &ctx.device,
+                enc,
+                &input,
+                &output,
+                n,
+                RtsStages::DownsweepOnly,
+            )
         };
 
         if with_criterion {

@@ -7,6 +7,28 @@
 //! Scaling the already measured number instead proves nothing: if |d| < b, then
 //! |(1 + d)(1 - k) - 1| >= b for every k >= 2b, always.
 
+use restir_world::methods::Composed;
+use restir_world::scene::{Camera, Scene};
+use restir_world::world_restir::WorldRestirConfig;
+
+use crate::gpu;
+
+/// Per channel: the mean over `seeds` of world-restir's (with `config`) accumulated indirect
+/// image mean after `frames` static frames of `s` seen from `cam`.
+pub fn world_restir_indirect_means(
+    s: &Scene,
+    cam: &Camera,
+    config: WorldRestirConfig,
+    seeds: std::ops::Range<u32>,
+    frames: u32,
+) -> [f64; 3] {
+    mean_over_seeds(seeds, |seed| {
+        let mut wr = Composed::world_restir(gpu::context(), s, cam, config, seed).expect("wr");
+        gpu::render(&mut wr, frames);
+        channel_means(&gpu::images(&wr).indirect)
+    })
+}
+
 /// Mean of an image per channel.
 pub fn channel_means(img: &[[f32; 3]]) -> [f64; 3] {
     let n = img.len() as f64;
@@ -18,9 +40,29 @@ pub fn relative(got: [f64; 3], want: [f64; 3]) -> [f64; 3] {
     [0, 1, 2].map(|c| got[c] / want[c] - 1.0)
 }
 
+/// The mean over `seeds` of a per-channel measurement of each seed.
+pub fn mean_over_seeds(
+    seeds: impl IntoIterator<Item = u32>,
+    mut measure: impl FnMut(u32) -> [f64; 3],
+) -> [f64; 3] {
+    let (mut sum, mut n) = ([0.0; 3], 0);
+    for seed in seeds {
+        let m = measure(seed);
+        (0..3).for_each(|c| sum[c] += m[c]);
+        n += 1;
+    }
+    sum.map(|s| s / f64::from(n.max(1)))
+}
+
 /// The check: every channel of `d` within `bound`.
 pub fn within(d: [f64; 3], bound: f64) -> bool {
     d.iter().all(|x| x.abs() < bound)
+}
+
+/// Asserts that the measurement `d` passes the check; prints it.
+pub fn assert_within(what: &str, d: [f64; 3], bound: f64) {
+    eprintln!("{what}: {d:+.4?} (bound {bound})");
+    assert!(within(d, bound), "{what}: {d:+.4?} beyond {bound}");
 }
 
 /// Asserts that the measurement `d` passes the check and the control `control` (the planted

@@ -3,7 +3,7 @@
 use std::sync::OnceLock;
 
 use restir_world::GpuContext;
-use restir_world::gpu::PassTimes;
+use restir_world::gpu::{BindGroupLayout, BindingSet, Kernel, PassTimes, workgroup_size_wgsl};
 use restir_world::methods::{
     FrameImages, FrameLoop, FrameMethod, MethodError, Readback, run_frames,
 };
@@ -124,4 +124,33 @@ pub fn images(m: &dyn FrameMethod) -> FrameImages {
 /// The last frame's images of `m`.
 pub fn last_frame(m: &dyn FrameMethod) -> FrameImages {
     m.read(context(), Readback::LastFrame).expect("last frame")
+}
+
+/// A kernel on the shared context composed as a user of the `reservoir` crate writes one: the
+/// workspace's `WORKGROUP_SIZE` / `Invocation` / `item_index` header, the reservoir library and
+/// its RNG, the buffers of `set` (group 0), then `kernel_src`, run `workgroup_size`
+/// invocations a workgroup. naga validates it first, so that a broken kernel fails with its
+/// diagnostic.
+pub fn reservoir_kernel(
+    label: &str,
+    set: &BindingSet,
+    kernel_src: &str,
+    entries: &[&str],
+    workgroup_size: u32,
+) -> (Kernel, BindGroupLayout) {
+    let source = format!(
+        "{}\n{}\n{}\n{}{kernel_src}",
+        workgroup_size_wgsl(),
+        reservoir::wgsl(),
+        reservoir::rng::WGSL,
+        set.wgsl(0)
+    );
+    if let Err(e) = crate::wgsl::validate(label, &source) {
+        panic!("{e}");
+    }
+    let device = &context().device;
+    let layout = set.layout(device);
+    let kernel =
+        Kernel::with_workgroup_size(device, label, &source, &[&layout], entries, workgroup_size);
+    (kernel, layout)
 }

@@ -8,7 +8,8 @@
 //! - [`gpu`]: the one shared [`GpuContext`] for a test binary; tests fail loudly when there is no
 //!   adapter and skip, with a printed reason, only for missing optional features.
 //! - [`bias`]: bias and equivalence checks with negative controls that can fail.
-//! - [`scenes`](mod@scenes): small scenes the GPU tests share.
+//! - [`scenes`](mod@scenes): small scenes the GPU tests share; [`cpu`]: the CPU reference as
+//!   tests call it.
 //! - [`floors`]: same-harness floor kernels (vec4 copy) that benchmarks compare against.
 //! - [`bench`](mod@bench): GPU-timestamp timing for criterion's `iter_custom` and the `RESULT` line.
 //!
@@ -17,6 +18,7 @@
 
 pub mod bench;
 pub mod bias;
+pub mod cpu;
 pub mod floors;
 pub mod gpu;
 pub mod scenes;

@@ -1,7 +1,20 @@
 //! Small scenes the GPU tests share.
 
 use glam::Vec3;
-use restir_world::scene::{Material, Scene};
+use restir_world::scene::{BuiltinOptions, Camera, Material, Scene, builtin};
+
+/// The built-in scene `name` at `side` x `side` (the rest of `opts` as given) and its default
+/// camera at that size.
+pub fn builtin_square(name: &str, side: u32, opts: BuiltinOptions) -> (Scene, Camera) {
+    let opts = BuiltinOptions {
+        width: side,
+        height: side,
+        ..opts
+    };
+    let s = builtin(name, &opts).expect("scene");
+    let cam = s.camera_or_default(side, side);
+    (s, cam)
+}
 
 /// A 4 x 4 slab of albedo 0.6 with a 1 x 1 x 1 block on it and a 0.3 x 0.3 emissive quad of
 /// radiance `lamp` above one corner: shadows from every light a test adds.

@@ -6,11 +6,11 @@
 use glam::Vec3;
 use restir_world::lights::{KIND_ENV, Lights};
 use restir_world::methods::{Composed, FrameMethod};
-use restir_world::reference::{ReferenceOptions, ReferenceRenderer};
 use restir_world::render::Renderer;
 use restir_world::sampling::Estimator;
 use restir_world::scene::{Camera, Environment, Material, Scene, environment};
 use restir_world::world_restir::WorldRestirConfig;
+use tests::bias::channel_means;
 use tests::gpu;
 
 const RHO: f32 = 0.5;
@@ -42,11 +42,6 @@ fn floor(env: Environment, side: u32) -> (Scene, Camera) {
     (s, cam)
 }
 
-fn means(img: &[[f32; 3]]) -> [f64; 3] {
-    let n = img.len() as f64;
-    [0, 1, 2].map(|c| img.iter().map(|p| f64::from(p[c])).sum::<f64>() / n)
-}
-
 fn rel_err(got: [f64; 3], want: [f64; 3]) -> f64 {
     (0..3)
         .map(|c| ((got[c] - want[c]) / want[c]).abs())
@@ -75,16 +70,32 @@ fn gpu_render_planted(
 }
 
 fn cpu_render(s: &Scene, cam: &Camera, method: Estimator, spp: u32) -> [Vec<[f32; 3]>; 2] {
-    let r = ReferenceRenderer::new(s).expect("reference");
-    let o = ReferenceOptions {
-        method,
-        spp,
-        seed: 5,
-        threads: 0,
-        ..Default::default()
-    };
-    let out = r.render(cam, &o, None).expect("render");
+    let out = tests::cpu::reference(s, cam, method, spp, 5);
     [out.direct.pixels, out.indirect.pixels]
+}
+
+/// The images of GPU nee and ris over `frames` frames and of CPU nee with `spp` samples.
+fn nee_ris_and_cpu(
+    s: &Scene,
+    cam: &Camera,
+    frames: u32,
+    spp: u32,
+) -> [(&'static str, [Vec<[f32; 3]>; 2]); 3] {
+    let ris = Estimator::Ris { candidates: 8 };
+    [
+        ("gpu nee", gpu_render(s, cam, Estimator::Nee, frames)),
+        ("gpu ris", gpu_render(s, cam, ris, frames)),
+        ("cpu nee", cpu_render(s, cam, Estimator::Nee, spp)),
+    ]
+}
+
+/// The mean of `direct`, asserted within `bound` of `want` (relative, every channel).
+fn check_direct(what: &str, direct: &[[f32; 3]], want: [f64; 3], bound: f64) -> [f64; 3] {
+    let d = channel_means(direct);
+    let err = rel_err(d, want);
+    eprintln!("{what}: direct {d:?} (want {want:?}) rel err {err:.4}");
+    assert!(err < bound, "{what}: direct {d:?} vs {want:?}");
+    d
 }
 
 /// White furnace under a constant sky L: a floor of albedo rho sees the whole upper hemisphere
@@ -111,17 +122,14 @@ fn constant_sky_furnace_is_analytic_on_gpu_and_cpu() {
         runs.push((format!("cpu {m:?}"), cpu_render(&s, &cam, m, 64)));
     }
     for (name, [direct, indirect]) in &runs {
-        let d = means(direct);
-        let err = rel_err(d, want);
-        eprintln!("sky furnace {name}: direct {d:?} (want {want:?}) rel err {err:.4}");
-        assert!(err < 0.015, "{name}: direct {d:?} vs {want:?}");
+        check_direct(&format!("sky furnace {name}"), direct, want, 0.015);
         assert!(
             indirect.iter().flatten().all(|&v| v == 0.0),
             "{name}: an escaped GI ray added light"
         );
     }
     let [direct, _] = gpu_render_planted(&s, &cam, Estimator::Nee, 128, (12, 1.04));
-    let err = rel_err(means(&direct), want);
+    let err = rel_err(channel_means(&direct), want);
     eprintln!("sky furnace control (4% brighter on the GPU): rel err {err:.4}");
     assert!(err >= 0.015, "the planted 4% went unnoticed: {err}");
     // Looking up: the sky itself, in every pixel, exactly.
@@ -197,18 +205,8 @@ fn environment_map_sampling_matches_the_quadrature() {
     }
     let wrong = floor_direct(&flipped, f64::from(RHO));
     let (s, cam) = floor(env, 48);
-    for (name, [direct, _]) in [
-        ("gpu nee", gpu_render(&s, &cam, Estimator::Nee, 32)),
-        (
-            "gpu ris",
-            gpu_render(&s, &cam, Estimator::Ris { candidates: 8 }, 32),
-        ),
-        ("cpu nee", cpu_render(&s, &cam, Estimator::Nee, 32)),
-    ] {
-        let d = means(&direct);
-        let err = rel_err(d, want);
-        eprintln!("sun map {name}: direct {d:?} (want {want:?}) rel err {err:.4}");
-        assert!(err < 0.02, "{name}: {d:?} vs {want:?}");
+    for (name, [direct, _]) in nee_ris_and_cpu(&s, &cam, 32, 32) {
+        let d = check_direct(&format!("sun map {name}"), &direct, want, 0.02);
         assert!(rel_err(d, wrong) >= 0.02, "{name}: the flipped map passed");
     }
     // The pixel table's probabilities are luminance x solid angle.
@@ -261,11 +259,11 @@ fn world_restir_reuses_sky_samples_without_bias() {
     let ctx = gpu::context();
     let mut r = Renderer::new(ctx, &s, &cam, Estimator::Ris { candidates: 16 }, 1000).unwrap();
     gpu::render(&mut r, 512);
-    let want = means(&gpu::images(&r).indirect);
+    let want = channel_means(&gpu::images(&r).indirect);
     let mut planted = Composed::world_restir(ctx, &s, &cam, Default::default(), 23).unwrap();
     planted.renderer().plant_scale(ctx, 1.0, 0.95);
     gpu::render(&mut planted, 128);
-    let control = rel_err(means(&gpu::images(&planted).indirect), want);
+    let control = rel_err(channel_means(&gpu::images(&planted).indirect), want);
     eprintln!("world-restir under a sky, control (5% darker on the GPU): {control:.4}");
     assert!(
         control >= 0.03,
@@ -276,7 +274,7 @@ fn world_restir_reuses_sky_samples_without_bias() {
         let mut wr =
             Composed::world_restir(ctx, &s, &cam, WorldRestirConfig::default(), seed).unwrap();
         gpu::render(&mut wr, 128);
-        let m = means(&gpu::images(&wr).indirect);
+        let m = channel_means(&gpu::images(&wr).indirect);
         for c in 0..3 {
             got[c] += m[c] / 2.0;
         }
@@ -317,18 +315,8 @@ fn tilted_shading_normals_see_the_sky_view_factor() {
     }
     let want = sky.map(|c| f64::from(RHO * c) * (1.0 + f64::from(alpha.cos())) / 2.0);
     let flat = sky.map(|c| f64::from(RHO * c));
-    for (name, [direct, indirect]) in [
-        ("gpu nee", gpu_render(&s, &cam, Estimator::Nee, 128)),
-        (
-            "gpu ris",
-            gpu_render(&s, &cam, Estimator::Ris { candidates: 8 }, 128),
-        ),
-        ("cpu nee", cpu_render(&s, &cam, Estimator::Nee, 64)),
-    ] {
-        let d = means(&direct);
-        let err = rel_err(d, want);
-        eprintln!("tilted normals {name}: direct {d:?} (want {want:?}) rel err {err:.4}");
-        assert!(err < 0.015, "{name}: {d:?} vs {want:?}");
+    for (name, [direct, indirect]) in nee_ris_and_cpu(&s, &cam, 128, 64) {
+        let d = check_direct(&format!("tilted normals {name}"), &direct, want, 0.015);
         assert!(
             indirect.iter().flatten().all(|&v| v == 0.0),
             "{name}: indirect"

@@ -4,8 +4,8 @@
 
 use glam::Vec3;
 use gpu_hash::{
-    CellSizing, CpuHashTable, HASH_FULL, HASH_NOT_FOUND, HASH_REJECTED, HashBatch, HashCell,
-    HashGridParams, HashKey, HashStats, HashTable, TableConfig, cell,
+    BatchKernel, CellSizing, CpuHashTable, HASH_FULL, HASH_NOT_FOUND, HASH_REJECTED, HashBatch,
+    HashCell, HashGridParams, HashKey, HashStats, HashTable, TableConfig, cell,
 };
 use rand::{Rng, SeedableRng, rngs::StdRng, seq::SliceRandom};
 use tests::{GpuContext, buffers, gpu};
@@ -49,72 +49,43 @@ impl Fixture {
     }
 
     fn keys_kernel(&self, t: &HashTable, keys: &[HashKey], insert: bool) -> Vec<u32> {
-        let d = &self.ctx.device;
-        let input = buffers::storage_from(d, "keys", keys);
-        let out = buffers::storage_zeroed(d, "slots", keys.len() as u64 * 4);
-        let n = keys.len() as u32;
-        gpu::run(self.ctx, |enc| {
-            if insert {
-                self.batch.bind_and_encode(
-                    d,
-                    enc,
-                    gpu_hash::BatchKernel::InsertKeys,
-                    t,
-                    &input,
-                    &out,
-                    n,
-                )
-            } else {
-                self.batch.bind_and_encode(
-                    d,
-                    enc,
-                    gpu_hash::BatchKernel::FindKeys,
-                    t,
-                    &input,
-                    &out,
-                    n,
-                )
-            }
-            .unwrap()
-        });
-        let mut v: Vec<u32> = buffers::read(self.ctx, &out).unwrap();
-        v.truncate(keys.len());
-        v
+        let kernel = match insert {
+            true => BatchKernel::InsertKeys,
+            false => BatchKernel::FindKeys,
+        };
+        let input = buffers::storage_from(&self.ctx.device, "keys", keys);
+        self.run_batch(t, kernel, &input, keys.len())
     }
 
     /// (slot, index in slot) per point on insert, (slot, count) on find.
     fn points_kernel(&self, t: &HashTable, points: &[Vec3], insert: bool) -> Vec<[u32; 2]> {
-        let d = &self.ctx.device;
+        let kernel = match insert {
+            true => BatchKernel::InsertPoints,
+            false => BatchKernel::FindPoints,
+        };
         let p4: Vec<[f32; 4]> = points.iter().map(|p| p.extend(1.0).to_array()).collect();
-        let input = buffers::storage_from(d, "points", &p4);
-        let out = buffers::storage_zeroed(d, "out", points.len() as u64 * 8);
-        let n = points.len() as u32;
+        let input = buffers::storage_from(&self.ctx.device, "points", &p4);
+        self.run_batch(t, kernel, &input, points.len())
+    }
+
+    /// Runs `kernel` on `t` over the first `n` items of `input`; returns one `T` per item.
+    fn run_batch<T: bytemuck::Pod>(
+        &self,
+        t: &HashTable,
+        kernel: BatchKernel,
+        input: &wgpu::Buffer,
+        n: usize,
+    ) -> Vec<T> {
+        let d = &self.ctx.device;
+        let out = buffers::storage_zeroed(d, "out", (n * size_of::<T>()) as u64);
         gpu::run(self.ctx, |enc| {
-            if insert {
-                self.batch.bind_and_encode(
-                    d,
-                    enc,
-                    gpu_hash::BatchKernel::InsertPoints,
-                    t,
-                    &input,
-                    &out,
-                    n,
-                )
-            } else {
-                self.batch.bind_and_encode(
-                    d,
-                    enc,
-                    gpu_hash::BatchKernel::FindPoints,
-                    t,
-                    &input,
-                    &out,
-                    n,
-                )
-            }
-            .unwrap()
+            self.batch
+                .bind_and_encode(d, enc, kernel, t, input, &out, n as u32)
+                .unwrap()
         });
-        let v: Vec<[u32; 2]> = buffers::read(self.ctx, &out).unwrap();
-        v[..points.len()].to_vec()
+        let mut v: Vec<T> = buffers::read(self.ctx, &out).unwrap();
+        v.truncate(n);
+        v
     }
 
     fn checksums(&self, t: &HashTable) -> Vec<u32> {
@@ -198,23 +169,8 @@ fn gpu_hashes_are_bit_identical_to_twins() {
     let mut values: Vec<u32> = (0..1 << 16).map(|_| rng.random()).collect();
     values.extend([0, 1, 2, 0x7fff_ffff, 0x8000_0000, u32::MAX]);
     let input: Vec<[u32; 4]> = values.iter().map(|&v| [v, 0, 0, 0]).collect();
-    let d = &f.ctx.device;
-    let inb = buffers::storage_from(d, "values", &input);
-    let out = buffers::storage_zeroed(d, "hashes", values.len() as u64 * 8);
-    gpu::run(f.ctx, |enc| {
-        f.batch
-            .bind_and_encode(
-                d,
-                enc,
-                gpu_hash::BatchKernel::HashValues,
-                &t,
-                &inb,
-                &out,
-                values.len() as u32,
-            )
-            .unwrap()
-    });
-    let got: Vec<[u32; 2]> = buffers::read(f.ctx, &out).unwrap();
+    let inb = buffers::storage_from(&f.ctx.device, "values", &input);
+    let got: Vec<[u32; 2]> = f.run_batch(&t, BatchKernel::HashValues, &inb, values.len());
     for (v, g) in values.iter().zip(&got) {
         assert_eq!(
             *g,
@@ -256,24 +212,9 @@ fn cell_keys_match_twin_on_1e5_positions_from_1e_3_to_1e4() {
         let dist = 10f32.powf(rng.random_range(-3.0..4.0));
         points.push(eye + dir.normalize() * dist);
     }
-    let d = &f.ctx.device;
     let p4: Vec<[f32; 4]> = points.iter().map(|q| q.extend(0.0).to_array()).collect();
-    let inb = buffers::storage_from(d, "points", &p4);
-    let out = buffers::storage_zeroed(d, "cells", points.len() as u64 * 32);
-    gpu::run(f.ctx, |enc| {
-        f.batch
-            .bind_and_encode(
-                d,
-                enc,
-                gpu_hash::BatchKernel::Cells,
-                &t,
-                &inb,
-                &out,
-                points.len() as u32,
-            )
-            .unwrap()
-    });
-    let got: Vec<HashCell> = buffers::read(f.ctx, &out).unwrap();
+    let inb = buffers::storage_from(&f.ctx.device, "points", &p4);
+    let got: Vec<HashCell> = f.run_batch(&t, BatchKernel::Cells, &inb, points.len());
     let mut mismatches = 0;
     let mut levels = std::collections::BTreeSet::new();
     for (q, g) in points.iter().zip(&got) {
@@ -342,23 +283,8 @@ fn jitter_matches_twin_and_stays_in_tangent_plane() {
         input.push([u[0], u[1], size, 0.0]);
         cases.push((pos, normal, u, size));
     }
-    let d = &f.ctx.device;
-    let inb = buffers::storage_from(d, "jitter in", &input);
-    let out = buffers::storage_zeroed(d, "jitter out", n as u64 * 16);
-    gpu::run(f.ctx, |enc| {
-        f.batch
-            .bind_and_encode(
-                d,
-                enc,
-                gpu_hash::BatchKernel::Jitter,
-                &t,
-                &inb,
-                &out,
-                n as u32,
-            )
-            .unwrap()
-    });
-    let got: Vec<[f32; 4]> = buffers::read(f.ctx, &out).unwrap();
+    let inb = buffers::storage_from(&f.ctx.device, "jitter in", &input);
+    let got: Vec<[f32; 4]> = f.run_batch(&t, BatchKernel::Jitter, &inb, n);
     for ((pos, normal, u, size), g) in cases.iter().zip(&got) {
         let g = Vec3::new(g[0], g[1], g[2]);
         let want = gpu_hash::jitter(*pos, *normal, *u, *size);
@@ -921,6 +847,18 @@ fn previous_frame_lookup_while_building_the_current_frame() {
     eprintln!("{hits} of {} lookups hit last frame's grid", frame_b.len());
 }
 
+/// `err` says the device has fewer than `needed` storage buffers per shader stage.
+fn assert_storage_buffer_limit(err: gpu_hash::HashError, needed: u64) {
+    let gpu_hash::HashError::DeviceLimit {
+        limit, needed: n, ..
+    } = &err
+    else {
+        panic!("not a device limit: {err}");
+    };
+    let want = ("max_storage_buffers_per_shader_stage", needed);
+    assert_eq!((*limit, *n), want, "{err}");
+}
+
 /// Issue 13.3: a device below the batch kernels' needs (5 storage buffers per stage) gets a
 /// typed error from `HashBatch::new`; the table itself (3 storage buffers) still works there,
 /// and a device below the table role's needs gets a typed error from `HashTable::new`.
@@ -936,33 +874,11 @@ fn downlevel_device_gets_typed_errors() {
         gpu::limits_with_storage_buffers(4),
     ] {
         let (device, queue) = gpu::device_with_limits(limits);
-        let err = HashBatch::new(&device).unwrap_err();
-        assert!(
-            matches!(
-                err,
-                gpu_hash::HashError::DeviceLimit {
-                    limit: "max_storage_buffers_per_shader_stage",
-                    needed: 5,
-                    ..
-                }
-            ),
-            "{err}"
-        );
+        assert_storage_buffer_limit(HashBatch::new(&device).unwrap_err(), 5);
         HashTable::new(&device, &queue, &p).unwrap();
     }
     let (device, queue) = gpu::device_with_limits(gpu::limits_with_storage_buffers(2));
-    let err = HashTable::new(&device, &queue, &p).unwrap_err();
-    assert!(
-        matches!(
-            err,
-            gpu_hash::HashError::DeviceLimit {
-                limit: "max_storage_buffers_per_shader_stage",
-                needed: 3,
-                ..
-            }
-        ),
-        "{err}"
-    );
+    assert_storage_buffer_limit(HashTable::new(&device, &queue, &p).unwrap_err(), 3);
     let (device, _queue) = gpu::device_with_limits(gpu::limits_with_storage_buffers(5));
     HashBatch::new(&device).unwrap();
 }

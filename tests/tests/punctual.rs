@@ -5,11 +5,11 @@
 
 use glam::Vec3;
 use restir_world::methods::Composed;
-use restir_world::reference::{ReferenceOptions, ReferenceRenderer};
 use restir_world::render::Renderer;
 use restir_world::sampling::Estimator;
 use restir_world::scene::{Camera, Material, PunctualKind, PunctualLight, Scene};
 use restir_world::world_restir::WorldRestirConfig;
+use tests::bias::channel_means;
 use tests::gpu;
 
 /// A unit geodesic sphere (icosahedron subdivided `level` times), albedo `rho`, no emission.
@@ -53,11 +53,6 @@ fn point(position: Vec3, intensity: f32) -> PunctualLight {
     }
 }
 
-fn means(img: &[[f32; 3]]) -> [f64; 3] {
-    let n = img.len() as f64;
-    [0, 1, 2].map(|c| img.iter().map(|p| f64::from(p[c])).sum::<f64>() / n)
-}
-
 fn rel(got: [f64; 3], want: f64) -> f64 {
     got.iter()
         .map(|g| ((g - want) / want).abs())
@@ -98,29 +93,21 @@ fn point_light_in_a_sphere_matches_the_closed_forms() {
         let img = gpu::images(&r);
         runs.push((
             format!("gpu {m:?}"),
-            means(&img.direct),
-            means(&img.indirect),
+            channel_means(&img.direct),
+            channel_means(&img.indirect),
         ));
-        let cpu = ReferenceRenderer::new(&s).unwrap();
-        let o = ReferenceOptions {
-            method: m,
-            spp: 32,
-            seed: 4,
-            threads: 0,
-            ..Default::default()
-        };
-        let out = cpu.render(&cam, &o, None).unwrap();
+        let out = tests::cpu::reference(&s, &cam, m, 32, 4);
         runs.push((
             format!("cpu {m:?}"),
-            means(&out.direct.pixels),
-            means(&out.indirect.pixels),
+            channel_means(&out.direct.pixels),
+            channel_means(&out.indirect.pixels),
         ));
     }
     let mut planted = Renderer::new(ctx, &s, &cam, Estimator::Nee, 6).unwrap();
     planted.plant_scale(ctx, 1.04, 1.04);
     gpu::render(&mut planted, 32);
     let img = gpu::images(&planted);
-    let (d, i) = (means(&img.direct), means(&img.indirect));
+    let (d, i) = (channel_means(&img.direct), channel_means(&img.indirect));
     eprintln!("point light in a sphere, control (4% brighter): {d:?} {i:?}");
     assert!(
         rel(d, want_d) >= 0.01 && rel(i, want_i) >= 0.01,
@@ -131,8 +118,8 @@ fn point_light_in_a_sphere_matches_the_closed_forms() {
     let img = gpu::images(&wr);
     runs.push((
         "world-restir".into(),
-        means(&img.direct),
-        means(&img.indirect),
+        channel_means(&img.direct),
+        channel_means(&img.indirect),
     ));
     for (name, d, i) in runs {
         let (ed, ei) = (rel(d, want_d), rel(i, want_i));
@@ -188,20 +175,9 @@ fn spot_and_directional_lights_match_the_cpu_reference() {
         if gpu_side {
             let mut r = Renderer::new(gpu::context(), s, &cam, m, 9).unwrap();
             gpu::render(&mut r, 64);
-            means(&gpu::images(&r).combined())
+            channel_means(&gpu::images(&r).combined())
         } else {
-            let o = ReferenceOptions {
-                method: m,
-                spp: 64,
-                seed: 2,
-                threads: 0,
-                ..Default::default()
-            };
-            let out = ReferenceRenderer::new(s)
-                .unwrap()
-                .render(&cam, &o, None)
-                .unwrap();
-            means(&out.combined.pixels)
+            channel_means(&tests::cpu::reference(s, &cam, m, 64, 2).combined.pixels)
         }
     };
     let mut planted = s.clone();

@@ -3,7 +3,7 @@
 
 use restir_world::image_io::Image;
 use restir_world::methods::render_frames;
-use restir_world::reference::{ReferenceOptions, ReferenceRenderer, Rendered};
+use restir_world::reference::Rendered;
 use restir_world::render::{Renderer, ris};
 use restir_world::sampling::Estimator;
 use restir_world::scene::{Scene, builtin, furnace};
@@ -146,24 +146,11 @@ fn gpu_matches_cpu_reference_on_cornell() {
     let scene = builtin("cornell", &Default::default()).expect("cornell");
     let (w, h, n) = (32, 32, 256);
     let camera = scene.camera_or_default(w, h);
-    let reference = ReferenceRenderer::new(&scene).expect("reference");
     for method in [Estimator::Nee, ris()] {
         let gpu_a = render(&scene, w, h, method, 21, n);
         let gpu_b = render(&scene, w, h, method, 22, n);
         let gpu_p = render_planted(&scene, (w, h), method, 24, n, 1.2);
-        let cpu = reference
-            .render(
-                &camera,
-                &ReferenceOptions {
-                    method,
-                    spp: n,
-                    seed: 23,
-                    threads: 0,
-                    ..Default::default()
-                },
-                None,
-            )
-            .expect("cpu reference");
+        let cpu = tests::cpu::reference(&scene, &camera, method, n, 23);
         // Pixels that see the light (red > 1 in any image), dilated by one pixel so that
         // edge pixels hit by only a few light samples are included.
         let bright: Vec<bool> = (0..cpu.direct.pixels.len())
@@ -331,20 +318,7 @@ fn scaled(scene: &Scene, s: f32) -> Scene {
 /// The CPU reference's images of `scene` (nee, `spp` samples, seed 9) at 32x32.
 fn cpu_render(scene: &Scene, spp: u32) -> Rendered {
     let camera = scene.camera_or_default(32, 32);
-    ReferenceRenderer::new(scene)
-        .expect("reference")
-        .render(
-            &camera,
-            &ReferenceOptions {
-                method: Estimator::Nee,
-                spp,
-                seed: 9,
-                threads: 0,
-                ..Default::default()
-            },
-            None,
-        )
-        .expect("cpu reference")
+    tests::cpu::reference(scene, &camera, Estimator::Nee, spp, 9)
 }
 
 /// Scale invariance (issue: small-unit scenes rendered black, because ray offsets were at least

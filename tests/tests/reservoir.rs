@@ -11,38 +11,37 @@ use std::sync::OnceLock;
 use reservoir::reference;
 use reservoir::rng::Rng;
 use reservoir::{NO_SAMPLE, PackedReservoir, Reservoir, SUM_MAX};
-use restir_world::gpu::{Access, BindGroupLayout, BindingSet, workgroup_size_wgsl};
+use restir_world::gpu::{Access, BindGroupLayout, BindingSet, WORKGROUP_SIZE};
 use tests::{buffers, gpu};
 
 // ---------------------------------------------------------------------------------------------
-// Harness: a compute kernel over storage bindings b0..bn (all read_write), one invocation per
-// index, composed as a consumer would: reservoir library + RNG + the test's own kernel, on the
-// workspace's Kernel/Pass vocabulary.
+// Harness: a compute kernel over named storage buffers (all read_write), one invocation per
+// index, composed as a consumer would: reservoir library + RNG + the buffers' declarations +
+// the test's own kernel, on the workspace's BindingSet/Kernel/Pass vocabulary.
 
 struct Kernel {
     kernel: restir_world::gpu::Kernel,
     layout: BindGroupLayout,
+    names: Vec<String>,
 }
 
 impl Kernel {
-    fn new(label: &str, kernel_src: &str, entries: &[&str], bindings: u32) -> Kernel {
-        let ctx = gpu::context();
-        let source = format!(
-            "{}\n{}\n{}\n{kernel_src}",
-            workgroup_size_wgsl(),
-            reservoir::wgsl(),
-            reservoir::rng::WGSL
-        );
-        if let Err(e) = tests::wgsl::validate(label, &source) {
-            panic!("{e}");
+    /// `kernel_src` with its `buffers` (name, WGSL type; all read_write, bindings 0.. of group
+    /// 0 in order) declared by a [`BindingSet`].
+    fn new(label: &str, kernel_src: &str, entries: &[&str], buffers: &[(&str, &str)]) -> Kernel {
+        let set = buffers
+            .iter()
+            .fold(BindingSet::new(label), |set, (name, ty)| {
+                set.buffer(name, ty, Access::ReadWrite)
+            });
+        let (kernel, layout) =
+            gpu::reservoir_kernel(label, &set, kernel_src, entries, WORKGROUP_SIZE);
+        let names = buffers.iter().map(|(name, _)| (*name).to_owned()).collect();
+        Kernel {
+            kernel,
+            layout,
+            names,
         }
-        let set = (0..bindings).fold(BindingSet::new(label), |s, b| {
-            s.buffer(&format!("b{b}"), "array<u32>", Access::ReadWrite)
-        });
-        let layout = set.layout(&ctx.device);
-        let kernel =
-            restir_world::gpu::Kernel::new(&ctx.device, label, &source, &[&layout], entries);
-        Kernel { kernel, layout }
     }
 
     /// Runs `entry` over `threads` invocations with `buffers` at bindings 0.., and waits.
@@ -53,8 +52,8 @@ impl Kernel {
     /// [`Kernel::run`] `times` times in a row (one compute pass each), then waits.
     fn run_repeated(&self, entry: &str, buffers: &[&wgpu::Buffer], threads: u32, times: u32) {
         let ctx = gpu::context();
-        let names: Vec<String> = (0..buffers.len()).map(|b| format!("b{b}")).collect();
-        let res = names
+        let res = self
+            .names
             .iter()
             .zip(buffers)
             .map(|(n, b)| (n.as_str(), (*b).into()));
@@ -63,12 +62,6 @@ impl Kernel {
         gpu::run(ctx, |enc| (0..times).for_each(|_| pass.record(enc)));
     }
 }
-
-const INDEX_WGSL: &str = "
-fn thread_index(gid: vec3<u32>, groups: vec3<u32>) -> u32 {
-    return gid.x + gid.y * groups.x * WORKGROUP_SIZE;
-}
-";
 
 fn read<T: bytemuck::Pod>(buffer: &wgpu::Buffer, len: usize) -> Vec<T> {
     let ctx = gpu::context();
@@ -94,14 +87,14 @@ fn reservoir_structs_match_naga_layouts() {
 // ---------------------------------------------------------------------------------------------
 // RNG: GPU vs twin.
 
-const RNG_WGSL: &str = "
-@group(0) @binding(0) var<storage, read_write> params: array<u32>;
-@group(0) @binding(1) var<storage, read_write> out: array<u32>;
+/// The buffers of [`RNG_WGSL`]: the stream parameters (n, frame, pass, index stride) and the
+/// output words.
+const RNG_BUFFERS: &[(&str, &str)] = &[("params", "array<u32>"), ("out", "array<u32>")];
 
+const RNG_WGSL: &str = "
 @compute @workgroup_size(WORKGROUP_SIZE)
-fn rng_stream(@builtin(global_invocation_id) gid: vec3<u32>,
-              @builtin(num_workgroups) groups: vec3<u32>) {
-    let i = thread_index(gid, groups);
+fn rng_stream(id: Invocation) {
+    let i = item_index(id);
     if i >= params[0] { return; }
     let index = i * params[3];
     var state = rng_seed(index, params[1], params[2]);
@@ -117,12 +110,7 @@ fn rng_stream(@builtin(global_invocation_id) gid: vec3<u32>,
 #[test]
 fn rng_matches_twin_bit_for_bit() {
     let ctx = gpu::context();
-    let kernel = Kernel::new(
-        "rng",
-        &format!("{INDEX_WGSL}{RNG_WGSL}"),
-        &["rng_stream"],
-        2,
-    );
+    let kernel = Kernel::new("rng", RNG_WGSL, &["rng_stream"], RNG_BUFFERS);
     let n = 20_000u32;
     // (frame, pass, index stride): includes 0, large frames and indices spread over 2^32.
     for (frame, pass, stride) in [(0u32, 0u32, 1u32), (1, 3, 1), (123_456, 7, 214_013)] {
@@ -168,19 +156,22 @@ const OP_CAP: u32 = 3;
 const OP_CLEAR: u32 = 4;
 const OP_REPACK: u32 = 5;
 
+/// The buffers of [`SCRIPT_WGSL`]: the scripts' ops and ranges, their selections and final
+/// registers, and the count.
+const SCRIPT_BUFFERS: &[(&str, &str)] = &[
+    ("ops", "array<Op>"),
+    ("ranges", "array<vec2<u32>>"),
+    ("selected", "array<u32>"),
+    ("regs_out", "array<Reservoir>"),
+    ("params", "array<u32>"),
+];
+
 const SCRIPT_WGSL: &str = "
 struct Op { kind: u32, dst: u32, src: u32, slot: u32, a: f32, b: f32 }
 
-@group(0) @binding(0) var<storage, read_write> ops: array<Op>;
-@group(0) @binding(1) var<storage, read_write> ranges: array<vec2<u32>>;
-@group(0) @binding(2) var<storage, read_write> selected: array<u32>;
-@group(0) @binding(3) var<storage, read_write> regs_out: array<Reservoir>;
-@group(0) @binding(4) var<storage, read_write> params: array<u32>;
-
 @compute @workgroup_size(WORKGROUP_SIZE)
-fn run_script(@builtin(global_invocation_id) gid: vec3<u32>,
-              @builtin(num_workgroups) groups: vec3<u32>) {
-    let i = thread_index(gid, groups);
+fn run_script(id: Invocation) {
+    let i = item_index(id);
     if i >= params[0] { return; }
     var regs: array<Reservoir, 4>;
     for (var k = 0u; k < 4u; k++) { regs[k] = reservoir_empty(); }
@@ -249,9 +240,9 @@ fn run_scripts_on_gpu(scripts: &[Vec<Op>]) -> GpuScripts {
     let kernel = KERNEL.get_or_init(|| {
         Kernel::new(
             "reservoir script",
-            &format!("{INDEX_WGSL}{SCRIPT_WGSL}"),
+            SCRIPT_WGSL,
             &["run_script"],
-            5,
+            SCRIPT_BUFFERS,
         )
     });
     let ctx = gpu::context();
@@ -655,17 +646,21 @@ fn hard_case_m_zero_merge_with_overflowing_p_hat_w_is_a_no_op() {
 // ---------------------------------------------------------------------------------------------
 // 10^7-long streams on the GPU against the twin and the f64 reference.
 
+/// The buffers of [`LONG_WGSL`]: params (updates per dispatch, streams), the streams'
+/// reservoirs and RNG states.
+const LONG_BUFFERS: &[(&str, &str)] = &[
+    ("params", "array<u32>"),
+    ("state", "array<Reservoir>"),
+    ("rngs", "array<u32>"),
+];
+
 const LONG_WGSL: &str = "
-@group(0) @binding(0) var<storage, read_write> params: array<u32>; // updates per dispatch, streams
-@group(0) @binding(1) var<storage, read_write> state: array<Reservoir>;
-@group(0) @binding(2) var<storage, read_write> rngs: array<u32>;
 
 // Continues stream i by params[0] updates: llvmpipe stops any invocation's loops after 65535
 // iterations in all, so a 10^7-long stream runs as many dispatches, its state kept in storage.
 @compute @workgroup_size(WORKGROUP_SIZE)
-fn long_stream(@builtin(global_invocation_id) gid: vec3<u32>,
-               @builtin(num_workgroups) groups: vec3<u32>) {
-    let i = thread_index(gid, groups);
+fn long_stream(id: Invocation) {
+    let i = item_index(id);
     if i >= params[1] { return; }
     var rng = rngs[i];
     var r = state[i];
@@ -688,12 +683,7 @@ fn ten_million_updates_on_gpu_match_twin_and_f64_reference() {
     // fine u: ~2e-8). Here: the GPU's final state equals the twin's bit for bit (so it made
     // the same 10^7 decisions), and its sum is within 2 f32 ulp of the f64 sum.
     let ctx = gpu::context();
-    let kernel = Kernel::new(
-        "long stream",
-        &format!("{INDEX_WGSL}{LONG_WGSL}"),
-        &["long_stream"],
-        3,
-    );
+    let kernel = Kernel::new("long stream", LONG_WGSL, &["long_stream"], LONG_BUFFERS);
     let n: u32 = 10_000_000;
     let (chunk, streams) = (50_000u32, 4u32);
     let params = buffers::storage_from(&ctx.device, "params", &[chunk, streams, 0, 0]);
@@ -735,10 +725,15 @@ const TRIALS: u32 = 1_000_000;
 const CHI2_999_DOF11: f64 = 31.264;
 const CHI2_999_DOF15: f64 = 37.697;
 
+/// The buffers of [`STATS_WGSL`]: the candidates' weights, params (trials, mode, seed, k) and
+/// one output word per trial.
+const STATS_BUFFERS: &[(&str, &str)] = &[
+    ("weights", "array<f32>"),
+    ("params", "array<u32>"),
+    ("out", "array<u32>"),
+];
+
 const STATS_WGSL: &str = "
-@group(0) @binding(0) var<storage, read_write> weights: array<f32>;
-@group(0) @binding(1) var<storage, read_write> params: array<u32>; // trials, mode, seed, k
-@group(0) @binding(2) var<storage, read_write> out: array<u32>;
 
 // Planted error: decides with the sum *before* adding the candidate (stale sum).
 fn stale_sum_update(r: ptr<function, Reservoir>, weight: f32, u: f32, slot: u32) -> bool {
@@ -752,9 +747,8 @@ fn stale_sum_update(r: ptr<function, Reservoir>, weight: f32, u: f32, slot: u32)
 }
 
 @compute @workgroup_size(WORKGROUP_SIZE)
-fn select_frequency(@builtin(global_invocation_id) gid: vec3<u32>,
-                    @builtin(num_workgroups) groups: vec3<u32>) {
-    let t = thread_index(gid, groups);
+fn select_frequency(id: Invocation) {
+    let t = item_index(id);
     if t >= params[0] { return; }
     var rng = rng_seed(t, params[2], 0u);
     var r = reservoir_empty();
@@ -778,9 +772,8 @@ fn ris_target(x: f32, mode: u32) -> f32 {
 }
 
 @compute @workgroup_size(WORKGROUP_SIZE)
-fn ris_estimate(@builtin(global_invocation_id) gid: vec3<u32>,
-                @builtin(num_workgroups) groups: vec3<u32>) {
-    let t = thread_index(gid, groups);
+fn ris_estimate(id: Invocation) {
+    let t = item_index(id);
     if t >= params[0] { return; }
     var rng = rng_seed(t, params[2], 1u);
     var r = reservoir_empty();
@@ -799,9 +792,8 @@ fn ris_estimate(@builtin(global_invocation_id) gid: vec3<u32>,
 // 1 streams 0..split into A and split..k into B (different M), finalizes both and merges them into C;
 // mode 2 is mode 1 with the planted error of merging with p_hat * W, without M.
 @compute @workgroup_size(WORKGROUP_SIZE)
-fn merge_vs_union(@builtin(global_invocation_id) gid: vec3<u32>,
-                  @builtin(num_workgroups) groups: vec3<u32>) {
-    let t = thread_index(gid, groups);
+fn merge_vs_union(id: Invocation) {
+    let t = item_index(id);
     if t >= params[0] { return; }
     var rng = rng_seed(t, params[2], 2u);
     let mode = params[1] & 0xffu;
@@ -847,9 +839,9 @@ fn stats_kernel() -> &'static Kernel {
     KERNEL.get_or_init(|| {
         Kernel::new(
             "reservoir stats",
-            &format!("{INDEX_WGSL}{STATS_WGSL}"),
+            STATS_WGSL,
             &["select_frequency", "ris_estimate", "merge_vs_union"],
-            3,
+            STATS_BUFFERS,
         )
     })
 }

@@ -8,10 +8,11 @@ use std::sync::Mutex;
 
 use restir_world::methods::{self, Composed, FrameMethod};
 use restir_world::restir_di::{self, DiParams, RestirDiConfig};
-use restir_world::scene::{BuiltinOptions, Camera, CameraPath, Scene, builtin};
+use restir_world::scene::{BuiltinOptions, Camera, CameraPath, Scene};
 use restir_world::world_restir::WorldRestirConfig;
-use tests::bias::{assert_checked, channel_means, relative, within};
+use tests::bias::{assert_checked, channel_means, mean_over_seeds, relative, within};
 use tests::gpu;
+use tests::scenes::builtin_square;
 
 /// Lights of the many-lights hall in these tests (the scene's default is 10,000; 2,000 as in
 /// world_restir.rs keeps its BVH and the runs short).
@@ -20,14 +21,10 @@ const MANY_LIGHTS: u32 = 2000;
 /// A built-in scene at side x side and its default camera.
 fn scene(name: &str, side: u32) -> (Scene, Camera) {
     let opts = BuiltinOptions {
-        width: side,
-        height: side,
         lights: MANY_LIGHTS,
         ..Default::default()
     };
-    let s = builtin(name, &opts).expect("scene");
-    let cam = s.camera_or_default(side, side);
-    (s, cam)
+    builtin_square(name, side, opts)
 }
 
 fn build(spec: &str, s: &Scene, cam: &Camera, seed: u32) -> Box<dyn FrameMethod> {
@@ -85,16 +82,45 @@ fn relative_bias(
     seeds: &[u32],
     planted: f32,
 ) -> [f64; 3] {
-    let mut b = [0.0; 3];
-    for &seed in seeds {
+    mean_over_seeds(seeds.iter().copied(), |seed| {
         let want = reference(name, side, frames, seed);
-        let got = direct_means(spec, name, side, frames, seed, planted);
-        let d = relative(got, want);
-        for c in 0..3 {
-            b[c] += d[c] / seeds.len() as f64;
+        relative(direct_means(spec, name, side, frames, seed, planted), want)
+    })
+}
+
+/// The bias of `spec` on every run of [`BIAS_RUNS`] is within `bound`, and its control, the
+/// many-lights run on seed 3 with the direct frames scaled by `planted` on the GPU, fails it.
+fn assert_bias_bounded(spec: &str, bound: f64, planted: f32) {
+    let darker = format!("{:.0}% darker on the GPU, seed 3", 100.0 * (1.0 - planted));
+    for (name, side, frames, seeds) in BIAS_RUNS {
+        let b = relative_bias(spec, name, side, frames, seeds, 1.0);
+        let what = format!("{spec} bias, {name}");
+        // The control runs on many-lights, the noisier scene.
+        if name == "many-lights" {
+            let c = relative_bias(spec, name, side, frames, &[3], planted);
+            assert_checked(&what, b, bound, c, &darker);
+        } else {
+            eprintln!("{what}: {b:+.4?} (bound {bound})");
+            assert!(within(b, bound), "{what}: {b:+.4?} beyond {bound}");
         }
     }
-    b
+}
+
+/// Equivalence margin of the reuse-off tests, per channel.
+const MARGIN: f64 = 0.015;
+
+/// `d(seeds, planted)`, a relative difference of image means averaged over `seeds` with the
+/// tested frames scaled on the GPU by `planted`, is within [`MARGIN`] on seeds 1 and 2, and
+/// its control, 4% darker on seed 3, is not.
+fn assert_equivalent(what: &str, d: impl Fn(&[u32], f32) -> [f64; 3]) {
+    let (measured, control) = (d(&[1, 2], 1.0), d(&[3], 0.96));
+    assert_checked(
+        what,
+        measured,
+        MARGIN,
+        control,
+        "4% darker on the GPU, seed 3",
+    );
 }
 
 /// The runs of the bias tests: (scene, side, frames, seeds). cornell converges fast; on
@@ -144,33 +170,18 @@ fn layouts_match_wgsl() {
 /// darkened by 4% on the GPU, at seed 3, must leave the margin.
 #[test]
 fn no_reuse_equals_ris_direct_in_expectation() {
-    const MARGIN: f64 = 0.015;
     let (side, frames) = (96, 128);
     let d = |seeds: &[u32], planted: f32| {
-        let mut d = [0.0; 3];
-        for &seed in seeds {
+        mean_over_seeds(seeds.iter().copied(), |seed| {
             let ris = direct_means("ris", "many-lights", side, frames, seed, 1.0);
-            let di = direct_means(
-                "restir-di:no-reuse",
-                "many-lights",
-                side,
-                frames,
-                seed,
-                planted,
-            );
-            let x = relative(di, ris);
-            (0..3).for_each(|c| d[c] += x[c] / seeds.len() as f64);
-        }
-        d
+            let spec = "restir-di:no-reuse";
+            relative(
+                direct_means(spec, "many-lights", side, frames, seed, planted),
+                ris,
+            )
+        })
     };
-    let what = "restir-di:no-reuse / ris - 1, direct, many-lights";
-    assert_checked(
-        what,
-        d(&[1, 2], 1.0),
-        MARGIN,
-        d(&[3], 0.96),
-        "4% darker on the GPU, seed 3",
-    );
+    assert_equivalent("restir-di:no-reuse / ris - 1, direct, many-lights", d);
 }
 
 /// With the light tiles feeding world-restir's generate pass too (`gi-tiles`) and no reuse,
@@ -181,7 +192,6 @@ fn no_reuse_equals_ris_direct_in_expectation() {
 /// its indirect frames darkened by 4% on the GPU, on seed 3, must fail the same margin.
 #[test]
 fn gi_tiles_feed_world_restir_generate_without_bias() {
-    const MARGIN: f64 = 0.015;
     let (side, frames) = (96, 128);
     let (s, cam) = scene("many-lights", side);
     let settings = methods::MethodSettings {
@@ -193,8 +203,7 @@ fn gi_tiles_feed_world_restir_generate_without_bias() {
         ..methods::parse_spec("world-restir+restir-di").expect("spec")
     };
     let d = |seeds: &[u32], planted: f32| {
-        let mut d = [0.0; 3];
-        for &seed in seeds {
+        mean_over_seeds(seeds.iter().copied(), |seed| {
             let mut ris = build("ris", &s, &cam, seed);
             gpu::render(ris.as_mut(), frames);
             let want = channel_means(&gpu::images(ris.as_ref()).indirect);
@@ -202,18 +211,12 @@ fn gi_tiles_feed_world_restir_generate_without_bias() {
                 .expect("world-restir with shared tiles");
             wr.renderer().plant_scale(gpu::context(), 1.0, planted);
             gpu::render(&mut wr, frames);
-            let x = relative(channel_means(&gpu::images(&wr).indirect), want);
-            (0..3).for_each(|c| d[c] += x[c] / seeds.len() as f64);
-        }
-        d
+            relative(channel_means(&gpu::images(&wr).indirect), want)
+        })
     };
-    let what = "world-restir:no-reuse from the shared tiles / ris - 1, indirect";
-    assert_checked(
-        what,
-        d(&[1, 2], 1.0),
-        MARGIN,
-        d(&[3], 0.96),
-        "4% darker on the GPU, seed 3",
+    assert_equivalent(
+        "world-restir:no-reuse from the shared tiles / ris - 1, indirect",
+        d,
     );
 }
 
@@ -228,18 +231,7 @@ fn gi_tiles_feed_world_restir_generate_without_bias() {
 /// default with its direct frames darkened by 3% on the GPU, at seed 3, must fail the bound.
 #[test]
 fn unbiased_default_matches_the_reference() {
-    const BOUND: f64 = 0.01;
-    for (name, side, frames, seeds) in BIAS_RUNS {
-        let b = relative_bias("restir-di", name, side, frames, seeds, 1.0);
-        let what = format!("restir-di bias, {name}");
-        if name == "many-lights" {
-            let c = relative_bias("restir-di", name, side, frames, &[3], 0.97);
-            assert_checked(&what, b, BOUND, c, "3% darker on the GPU, seed 3");
-        } else {
-            eprintln!("{what}: {b:+.4?} (bound {BOUND})");
-            assert!(within(b, BOUND), "{what}: {b:+.4?} beyond {BOUND}");
-        }
-    }
+    assert_bias_bounded("restir-di", 0.01, 0.97);
 }
 
 /// The biased mode (the paper's 1/M) darkens where a reused pixel could not have produced the
@@ -251,18 +243,7 @@ fn unbiased_default_matches_the_reference() {
 /// checked by `deterministic_and_the_indirect_path_is_intact`.)
 #[test]
 fn biased_mode_bias_is_bounded() {
-    const BOUND: f64 = 0.02;
-    for (name, side, frames, seeds) in BIAS_RUNS {
-        let b = relative_bias("restir-di:biased", name, side, frames, seeds, 1.0);
-        let what = format!("restir-di:biased bias, {name}");
-        if name == "many-lights" {
-            let c = relative_bias("restir-di:biased", name, side, frames, &[3], 0.96);
-            assert_checked(&what, b, BOUND, c, "4% darker on the GPU, seed 3");
-        } else {
-            eprintln!("{what}: {b:+.4?} (bound {BOUND})");
-            assert!(within(b, BOUND), "{what}: {b:+.4?} beyond {BOUND}");
-        }
-    }
+    assert_bias_bounded("restir-di:biased", 0.02, 0.96);
 }
 
 fn all_finite(img: &[[f32; 3]]) -> bool {

@@ -7,7 +7,7 @@
 use reservoir::PackedReservoir;
 use reservoir::reuse::{CANONICAL, Combination, Reuse, cap_m};
 use reservoir::rng::Rng;
-use restir_world::gpu::{Access, BindingSet, workgroup_size_wgsl};
+use restir_world::gpu::{Access, BindingSet, WORKGROUP_SIZE};
 use tests::{buffers, gpu};
 
 /// One receiver: its mode, own reservoir and target, and where its neighbours start.
@@ -124,18 +124,8 @@ fn run_on_gpu(kernel_src: &str, cases: &[Case], nbs: &[Neighbour]) -> Vec<Out> {
         .buffer("cases", "array<Case>", Access::Read)
         .buffer("neighbours", "array<Neighbour>", Access::Read)
         .buffer("outs", "array<Out>", Access::ReadWrite);
-    let source = format!(
-        "{}\n{}\n{}\n{kernel_src}",
-        workgroup_size_wgsl(),
-        reservoir::wgsl(),
-        set.wgsl(0)
-    );
-    if let Err(e) = tests::wgsl::validate("reuse test", &source) {
-        panic!("{e}");
-    }
-    let layout = set.layout(&ctx.device);
-    let kernel =
-        restir_world::gpu::Kernel::new(&ctx.device, "reuse", &source, &[&layout], &["combine"]);
+    let (kernel, layout) =
+        gpu::reservoir_kernel("reuse test", &set, kernel_src, &["combine"], WORKGROUP_SIZE);
     let case_buf = buffers::storage_from(&ctx.device, "cases", cases);
     let nb_buf = buffers::storage_from(&ctx.device, "neighbours", nbs);
     let bytes = (cases.len() * size_of::<Out>()) as u64;

@@ -403,6 +403,16 @@ fn indirect_length_read_on_the_gpu() {
     }
 }
 
+/// [`variants`] of a scan of up to 2^21 elements with `spin_limit` and debug counters.
+fn counted_variants(ctx: &GpuContext, spin_limit: u32, test: &str) -> Vec<(&'static str, Scan)> {
+    let desc = ScanDescriptor {
+        spin_limit,
+        debug_counters: true,
+        ..ScanDescriptor::new(1 << 21)
+    };
+    variants(ctx, desc, test)
+}
+
 fn read_counters(ctx: &GpuContext, scan: &Scan) -> ScanCounters {
     let words: Vec<u32> = buffers::read(ctx, scan.counters_buffer().unwrap()).unwrap();
     bytemuck::pod_read_unaligned(bytemuck::cast_slice(&words[..4]))
@@ -413,12 +423,7 @@ fn forced_fallback_is_exact() {
     // spin_limit 0: every tile reduces its predecessor itself and publishes it with atomicMax,
     // racing the predecessor's own publishes; the result must still be exact.
     let ctx = gpu::context();
-    let desc = ScanDescriptor {
-        spin_limit: 0,
-        debug_counters: true,
-        ..ScanDescriptor::new(1 << 21)
-    };
-    for (name, scan) in variants(ctx, desc, "forced_fallback_is_exact (subgroup half)") {
+    for (name, scan) in counted_variants(ctx, 0, "forced_fallback_is_exact (subgroup half)") {
         for (n, kind, seed) in [
             (33, ScanKind::Exclusive, 1),
             ((1 << 20) + 3, ScanKind::Inclusive, 2),
@@ -443,12 +448,7 @@ fn short_spin_limit_is_exact_and_counted() {
     // spin_limit 1: tiles fall back whenever a predecessor is not ready on the second poll,
     // the natural (not forced) fallback path, racing real publishes.
     let ctx = gpu::context();
-    let desc = ScanDescriptor {
-        spin_limit: 1,
-        debug_counters: true,
-        ..ScanDescriptor::new(1 << 21)
-    };
-    for (name, scan) in variants(ctx, desc, "short_spin_limit (subgroup half)") {
+    for (name, scan) in counted_variants(ctx, 1, "short_spin_limit (subgroup half)") {
         gpu::run(ctx, |enc| scan.clear_counters(enc));
         let n = (1 << 21) - 5;
         for seed in 0..4 {
@@ -669,14 +669,16 @@ fn params_layout_matches_wgsl() {
 #[test]
 fn reduce_then_scan_baseline_matches_cpu() {
     // The benchmark's baseline must be a correct scan too.
-    use tests::floors::ReduceThenScan;
+    use tests::floors::{ReduceThenScan, RtsStages};
     let ctx = gpu::context();
     let rts = ReduceThenScan::new(&ctx.device, 1 << 21);
     for n in [1, ReduceThenScan::TILE + 1, (1 << 21) - 3] {
         let input = make_input(Pattern::Random(u64::from(n)), n as usize);
         let in_buf = buffers::storage_from(&ctx.device, "input", &input);
         let out = buffers::storage_zeroed(&ctx.device, "output", u64::from(n) * 4);
-        gpu::run(ctx, |enc| rts.encode(&ctx.device, enc, &in_buf, &out, n));
+        gpu::run(ctx, |enc| {
+            rts.encode(&ctx.device, enc, &in_buf, &out, n, RtsStages::All)
+        });
         let got: Vec<u32> = buffers::read_range(ctx, &out, 0, u64::from(n) * 4).unwrap();
         assert_scan_eq(&got, &input, ScanKind::Exclusive, &format!("rts n={n}"));
     }

@@ -21,6 +21,11 @@ fn write(dir: &Path, name: &str, contents: impl AsRef<[u8]>) -> PathBuf {
     p
 }
 
+/// Writes `contents` as `name` into `dir` and loads it.
+fn load_written(dir: &Path, name: &str, contents: &str) -> scene::Loaded {
+    scene::load(&write(dir, name, contents)).unwrap()
+}
+
 /// Asserts the error names the file and contains `needle`.
 fn assert_err_names(e: &SceneError, path: &Path, needle: &str) {
     let msg = e.to_string();
@@ -38,13 +43,12 @@ const MTL: &str = "newmtl wall\nKd 0.5 0.25 0.125\nnewmtl lamp\nKd 0.1 0.1 0.1\n
 fn obj_reads_geometry_materials_and_emission() {
     let d = temp_dir("obj-ok");
     write(&d, "box.mtl", MTL);
-    let obj = write(
+    let l = load_written(
         &d,
         "box.obj",
         "mtllib box.mtl\nv 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv 0 0 1\nv 1 0 1\n\
          usemtl wall\nf 1 2 3 4\nusemtl lamp\nf 1 2 5\no other\nf 2 6 5\n",
     );
-    let l = scene::load(&obj).unwrap();
     assert!(l.report.is_clean(), "{}", l.report);
     assert_eq!(
         l.scene.triangles.len(),
@@ -66,13 +70,12 @@ fn obj_reads_geometry_materials_and_emission() {
 #[test]
 fn obj_bad_geometry_is_dropped_and_counted() {
     let d = temp_dir("obj-nan");
-    let obj = write(
+    let l = load_written(
         &d,
         "nan.obj",
         "v 0 0 0\nv 1 0 0\nv 0 1 0\nv nan 0 0\nv inf 1 1\nv 2 0 0\n\
          f 1 2 3\nf 1 4 2\nf 5 2 3\nf 1 2 6\nf 1 1 3\n",
     );
-    let l = scene::load(&obj).unwrap();
     assert_eq!(l.scene.triangles.len(), 1);
     assert_eq!(l.report.non_finite, 2, "{}", l.report);
     assert_eq!(l.report.degenerate, 2, "{}", l.report);
@@ -106,12 +109,11 @@ fn obj_errors_name_the_file() {
 #[test]
 fn obj_missing_material_library_warns_and_uses_grey() {
     let d = temp_dir("obj-nomtl");
-    let obj = write(
+    let l = load_written(
         &d,
         "a.obj",
         "mtllib nowhere.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nusemtl x\nf 1 2 3\n",
     );
-    let l = scene::load(&obj).unwrap();
     assert_eq!(l.warnings.len(), 1, "{:?}", l.warnings);
     assert!(l.warnings[0].contains("a.obj"));
     let m = l.scene.materials[l.scene.triangles[0].material as usize];

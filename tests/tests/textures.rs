@@ -4,7 +4,6 @@
 //! light sampling; each with a negative control.
 
 use glam::{Vec2, Vec3};
-use restir_world::reference::{ReferenceOptions, ReferenceRenderer};
 use restir_world::render::Renderer;
 use restir_world::sampling::Estimator;
 use restir_world::scene::{
@@ -82,6 +81,23 @@ fn column_expectation(side: u32, f: impl Fn(f64) -> f64) -> Vec<f64> {
         .collect()
 }
 
+/// The direct image's column means of `method` with `samples` samples per pixel (seed 1),
+/// rendered on the GPU and by the CPU reference.
+fn direct_columns(
+    s: &Scene,
+    cam: &Camera,
+    method: Estimator,
+    samples: u32,
+) -> [(&'static str, Vec<f64>); 2] {
+    let mut r = Renderer::new(gpu::context(), s, cam, method, 1).unwrap();
+    gpu::render(&mut r, samples);
+    let cpu = tests::cpu::reference(s, cam, method, samples, 1);
+    [
+        ("gpu", column_means(&gpu::images(&r).direct, cam.width)),
+        ("cpu", column_means(&cpu.direct.pixels, cam.width)),
+    ]
+}
+
 fn worst(got: &[f64], want: &[f64]) -> f64 {
     got.iter()
         .zip(want)
@@ -123,22 +139,7 @@ fn emissive_ramp_texture_matches_the_analytic_image() {
             };
             2.0 * (a + (b - a) * f)
         });
-        let mut r = Renderer::new(gpu::context(), &s, &cam, Estimator::Nee, 1).unwrap();
-        gpu::render(&mut r, 16);
-        let g = column_means(&gpu::images(&r).direct, side);
-        let o = ReferenceOptions {
-            method: Estimator::Nee,
-            spp: 16,
-            seed: 1,
-            threads: 0,
-            ..Default::default()
-        };
-        let out = ReferenceRenderer::new(&s)
-            .unwrap()
-            .render(&cam, &o, None)
-            .unwrap();
-        let c = column_means(&out.direct.pixels, side);
-        for (who, got) in [("gpu", &g), ("cpu", &c)] {
+        for (who, got) in &direct_columns(&s, &cam, Estimator::Nee, 16) {
             let e = worst(got, &want);
             eprintln!(
                 "ramp {name} {who}: worst column error {e:.5}; undecoded {:.4}, repeat {:.4}",
@@ -196,17 +197,7 @@ fn textured_emitters_light_the_furnace_by_their_texture() {
         let img = gpu::images(&r);
         runs.push((format!("gpu {m:?}"), mean(&img.direct), mean(&img.indirect)));
     }
-    let o = ReferenceOptions {
-        method: Estimator::Nee,
-        spp: 32,
-        seed: 3,
-        threads: 0,
-        ..Default::default()
-    };
-    let out = ReferenceRenderer::new(&s)
-        .unwrap()
-        .render(&cam, &o, None)
-        .unwrap();
+    let out = tests::cpu::reference(&s, &cam, Estimator::Nee, 32, 3);
     runs.push((
         "cpu nee".into(),
         mean(&out.direct.pixels),
@@ -247,22 +238,7 @@ fn base_colour_texture_reflects_the_sky_by_the_analytic_ramp() {
         2.0 * (188.0 / 255.0) * (2.0 * x - 0.5).clamp(0.0, 1.0)
     });
     let m = Estimator::Ris { candidates: 16 };
-    let mut r = Renderer::new(gpu::context(), &s, &cam, m, 1).unwrap();
-    gpu::render(&mut r, 64);
-    let g = column_means(&gpu::images(&r).direct, side);
-    let o = ReferenceOptions {
-        method: m,
-        spp: 64,
-        seed: 1,
-        threads: 0,
-        ..Default::default()
-    };
-    let out = ReferenceRenderer::new(&s)
-        .unwrap()
-        .render(&cam, &o, None)
-        .unwrap();
-    let c = column_means(&out.direct.pixels, side);
-    for (who, got) in [("gpu", &g), ("cpu", &c)] {
+    for (who, got) in &direct_columns(&s, &cam, m, 64) {
         let e = worst(got, &want);
         eprintln!(
             "base colour ramp {who}: worst column error {e:.5}; undecoded {:.4}",

@@ -5,24 +5,41 @@ use reservoir::reuse::Combination;
 use restir_world::methods::{Composed, FrameMethod};
 use restir_world::render::{DebugView, Renderer};
 use restir_world::sampling::Estimator;
-use restir_world::scene::{BuiltinOptions, Camera, CameraPath, Scene, builtin};
+use restir_world::scene::{BuiltinOptions, Camera, CameraPath, Scene};
 use restir_world::world_restir::{self, WorldRestirConfig, WrParams};
 use tests::gpu;
+use tests::scenes::builtin_square;
 
-fn scene(name: &str, w: u32, h: u32) -> Scene {
+/// A built-in scene (many-lights with 2,000 lights) at side x side and its default camera.
+fn scene(name: &str, side: u32) -> (Scene, Camera) {
     let opts = BuiltinOptions {
-        width: w,
-        height: h,
         lights: 2000,
         ..Default::default()
     };
-    builtin(name, &opts).expect("scene")
+    builtin_square(name, side, opts)
+}
+
+/// A table of 4 buckets of 2 slots: it overflows on every built-in scene.
+fn tiny_table() -> WorldRestirConfig {
+    WorldRestirConfig {
+        buckets: Some(4),
+        slots: 2,
+        ..Default::default()
+    }
+}
+
+/// A cut from `cam`: a step forward, turned round to look away from everything it saw.
+fn cut_from(cam: &Camera) -> Camera {
+    Camera {
+        eye: cam.target + (cam.target - cam.eye) * 0.3,
+        target: cam.target + (cam.target - cam.eye),
+        ..*cam
+    }
 }
 
 /// cornell at `side` x `side` with world-restir at its defaults.
 fn cornell_world_restir(side: u32, seed: u32) -> (Scene, Camera, Composed) {
-    let s = scene("cornell", side, side);
-    let cam = s.camera_or_default(side, side);
+    let (s, cam) = scene("cornell", side);
     let wr = Composed::world_restir(gpu::context(), &s, &cam, small(), seed).expect("world-restir");
     (s, cam, wr)
 }
@@ -30,6 +47,13 @@ fn cornell_world_restir(side: u32, seed: u32) -> (Scene, Camera, Composed) {
 /// The shipped defaults (the table is sized to the frame).
 fn small() -> WorldRestirConfig {
     WorldRestirConfig::default()
+}
+
+/// Vertices the last frame's hash grid left out.
+fn overflows_of(wr: &Composed) -> u32 {
+    wr.grid_overflows(gpu::context())
+        .expect("stats")
+        .expect("world-restir has a grid")
 }
 
 fn luminance(c: &[f32; 3]) -> f64 {
@@ -138,10 +162,9 @@ fn equivalent(a: &[f64], b: &[f64], margin: f64) -> (bool, f64, f64) {
 #[test]
 fn reuse_off_equals_ris_in_expectation() {
     let ctx = gpu::context();
-    let (w, h) = (48, 48);
+    let side = 48;
     for name in ["cornell", "many-lights"] {
-        let s = scene(name, w, h);
-        let cam = s.camera_or_default(w, h);
+        let (s, cam) = scene(name, side);
         let config = WorldRestirConfig {
             buckets: Some(4096),
             ..WorldRestirConfig::no_reuse()
@@ -173,8 +196,7 @@ fn reuse_off_equals_ris_in_expectation() {
 #[test]
 fn same_seed_same_images() {
     let ctx = gpu::context();
-    let s = scene("cornell", 32, 32);
-    let cam = s.camera_or_default(32, 32);
+    let (s, cam) = scene("cornell", 32);
     let run = |seed| {
         let mut wr = Composed::world_restir(ctx, &s, &cam, small(), seed).expect("world-restir");
         gpu::render(&mut wr, 3);
@@ -198,23 +220,13 @@ fn assert_finite(what: &str, img: &[[f32; 3]]) {
 #[test]
 fn no_nan_over_many_frames_overflow_and_camera_cut() {
     let ctx = gpu::context();
-    let (w, h) = (24, 24);
+    let side = 24;
     let frames = 60;
     for name in restir_world::scene::BUILTIN_NAMES {
-        let s = scene(name, w, h);
-        let cam = s.camera_or_default(w, h);
-        let tiny = WorldRestirConfig {
-            buckets: Some(4),
-            slots: 2,
-            ..Default::default()
-        };
-        for (label, config) in [("default", small()), ("tiny table", tiny)] {
+        let (s, cam) = scene(name, side);
+        for (label, config) in [("default", small()), ("tiny table", tiny_table())] {
             let mut wr = Composed::world_restir(ctx, &s, &cam, config, 1).expect("world-restir");
-            let cut = Camera {
-                eye: cam.target + (cam.target - cam.eye) * 0.3,
-                target: cam.target + (cam.target - cam.eye),
-                ..cam
-            };
+            let cut = cut_from(&cam);
             let mut overflows = 0u32;
             for f in 0..frames {
                 if f == frames / 2 {
@@ -224,13 +236,7 @@ fn no_nan_over_many_frames_overflow_and_camera_cut() {
                 let img = gpu::last_frame(&wr);
                 assert_finite(&format!("{name} {label} frame {f}"), &img.indirect);
                 assert_finite(&format!("{name} {label} frame {f}"), &img.direct);
-                overflows = overflows.max(
-                    wr.world()
-                        .unwrap()
-                        .grid_stats(ctx)
-                        .expect("stats")
-                        .overflows,
-                );
+                overflows = overflows.max(overflows_of(&wr));
             }
             eprintln!("{name} {label}: most overflows in a frame {overflows}");
             if label == "tiny table" {
@@ -282,19 +288,9 @@ fn orbit_and_debug_views() {
         o.iter().filter(|c| *c == &[1.0, 0.0, 0.0]).count() as u32
     };
     assert_eq!(red(&wr), 0, "no overflow expected with the defaults");
-    let tiny = WorldRestirConfig {
-        buckets: Some(4),
-        slots: 2,
-        ..small()
-    };
-    let mut wr = Composed::world_restir(ctx, &s, &cam, tiny, 2).expect("world-restir");
+    let mut wr = Composed::world_restir(ctx, &s, &cam, tiny_table(), 2).expect("world-restir");
     gpu::render(&mut wr, 2);
-    let overflows = wr
-        .world()
-        .unwrap()
-        .grid_stats(ctx)
-        .expect("stats")
-        .overflows;
+    let overflows = overflows_of(&wr);
     assert!(overflows > 0, "the tiny table did not overflow");
     assert_eq!(
         red(&wr),
@@ -309,8 +305,7 @@ fn orbit_and_debug_views() {
 #[test]
 fn other_knobs_render_finite_non_black() {
     let ctx = gpu::context();
-    let s = scene("cornell", 32, 32);
-    let cam = s.camera_or_default(32, 32);
+    let (s, cam) = scene("cornell", 32);
     let configs = [
         WorldRestirConfig {
             gi_stride: 2,
@@ -349,15 +344,12 @@ fn other_knobs_render_finite_non_black() {
 #[test]
 fn five_hundred_frames_every_scene_overflowing_with_cut() {
     let ctx = gpu::context();
-    let (w, h) = (16, 16);
+    let side = 16;
     for name in restir_world::scene::BUILTIN_NAMES {
-        let s = scene(name, w, h);
-        let cam = s.camera_or_default(w, h);
+        let (s, cam) = scene(name, side);
         let tiny = WorldRestirConfig {
-            buckets: Some(4),
-            slots: 2,
             projected_size: 2.0,
-            ..Default::default()
+            ..tiny_table()
         };
         let mut wr = Composed::world_restir(ctx, &s, &cam, tiny, 9).expect("world-restir");
         let orbit = CameraPath::Orbit {
@@ -365,19 +357,10 @@ fn five_hundred_frames_every_scene_overflowing_with_cut() {
             degrees: 40.0,
         };
         gpu::render(&mut wr, 1);
-        let overflows = wr
-            .world()
-            .unwrap()
-            .grid_stats(ctx)
-            .expect("stats")
-            .overflows;
+        let overflows = overflows_of(&wr);
         assert!(overflows > 0, "{name}: the tiny table did not overflow");
         gpu::render_path(&mut wr, 249, orbit);
-        let cut = Camera {
-            eye: cam.target + (cam.target - cam.eye) * 0.3,
-            target: cam.target + (cam.target - cam.eye),
-            ..cam
-        };
+        let cut = cut_from(&cam);
         wr.set_camera(&cut).expect("cut");
         gpu::render(&mut wr, 250);
         let img = gpu::images(&wr);

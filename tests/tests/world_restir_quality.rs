@@ -8,11 +8,13 @@ use restir_world::methods::FrameImages;
 use restir_world::metrics;
 use restir_world::render::Renderer;
 use restir_world::sampling::Estimator;
-use restir_world::scene::{BuiltinOptions, Camera, Scene, builtin};
+use restir_world::scene::{BuiltinOptions, Camera, Scene};
 use restir_world::world_restir::WorldRestirConfig;
 use std::sync::Mutex;
 
+use tests::bias::{assert_within, channel_means, relative, world_restir_indirect_means};
 use tests::gpu;
+use tests::scenes::builtin_square;
 
 /// Side of the bias test's images.
 const SIDE: u32 = 96;
@@ -25,14 +27,7 @@ const REFERENCE_FRAMES: u32 = 512;
 
 /// A built-in scene at its defaults (many-lights: 10,000 lights) and its default camera.
 fn scene(name: &str, side: u32) -> (Scene, Camera) {
-    let opts = BuiltinOptions {
-        width: side,
-        height: side,
-        ..Default::default()
-    };
-    let s = builtin(name, &opts).expect("scene");
-    let cam = s.camera_or_default(side, side);
-    (s, cam)
+    builtin_square(name, side, BuiltinOptions::default())
 }
 
 /// (scene name, side, reference images).
@@ -60,12 +55,6 @@ fn reference(name: &str, side: u32) -> Vec<[f32; 3]> {
     reference_images(name, side).indirect
 }
 
-/// Mean of an image per channel.
-fn channel_means(img: &[[f32; 3]]) -> [f64; 3] {
-    let n = img.len() as f64;
-    [0, 1, 2].map(|c| img.iter().map(|p| f64::from(p[c])).sum::<f64>() / n)
-}
-
 /// Per channel: (mean over `seeds` runs of the accumulated indirect image's mean) / (the
 /// reference's) - 1, for world-restir with `config` over `frames` static frames.
 fn relative_bias(
@@ -74,20 +63,12 @@ fn relative_bias(
     seeds: std::ops::Range<u32>,
     frames: u32,
 ) -> [f64; 3] {
-    let ctx = gpu::context();
     let (s, cam) = scene(name, SIDE);
     let want = channel_means(&reference(name, SIDE));
-    let runs = seeds.len() as f64;
-    let mut got = [0.0; 3];
-    for seed in seeds {
-        let mut wr = Composed::world_restir(ctx, &s, &cam, config, seed).expect("wr");
-        gpu::render(&mut wr, frames);
-        let m = channel_means(&gpu::images(&wr).indirect);
-        for c in 0..3 {
-            got[c] += m[c] / runs;
-        }
-    }
-    [0, 1, 2].map(|c| got[c] / want[c] - 1.0)
+    relative(
+        world_restir_indirect_means(&s, &cam, config, seeds, frames),
+        want,
+    )
 }
 
 /// Bias at the shipped defaults (pairwise MIS, table sized to the frame, 16 px cells, one
@@ -108,16 +89,8 @@ fn bias_at_the_defaults_is_within_two_percent() {
     const FRAMES: u32 = 256;
     for name in ["many-lights", "furnace"] {
         let bias = relative_bias(name, WorldRestirConfig::default(), 100..105, FRAMES);
-        eprintln!(
-            "bias {name} {SIDE}x{SIDE} (defaults, 5 seeds x {FRAMES} frames): {:+.4} {:+.4} {:+.4}",
-            bias[0], bias[1], bias[2]
-        );
-        for (c, b) in bias.iter().enumerate() {
-            assert!(
-                b.abs() < BOUND,
-                "{name} channel {c}: bias {b:+.4} beyond {BOUND}"
-            );
-        }
+        let what = format!("bias {name} {SIDE}x{SIDE} (defaults, 5 seeds x {FRAMES} frames)");
+        assert_within(&what, bias, BOUND);
     }
     let paper = WorldRestirConfig {
         combine: Combination::OneOverM,
@@ -251,14 +224,8 @@ fn unified_cache_is_unbiased_for_direct_and_indirect_light() {
     eprintln!(
         "unified cache {SIDE}x{SIDE}, 3 seeds x {FRAMES} frames: direct {direct:+.4?} indirect {indirect:+.4?}"
     );
-    for (what, b) in [("direct", direct), ("indirect", indirect)] {
-        for (c, b) in b.iter().enumerate() {
-            assert!(
-                b.abs() < BOUND,
-                "{what} channel {c}: bias {b:+.4} beyond {BOUND}"
-            );
-        }
-    }
+    assert_within("unified cache, direct", direct, BOUND);
+    assert_within("unified cache, indirect", indirect, BOUND);
     let paper = WorldRestirConfig {
         combine: Combination::OneOverM,
         ..unified

@@ -5,19 +5,15 @@
 //! planted darkening that must fail the same bound). Sponza is skipped with a printed reason
 //! when the public scenes are absent.
 
-use restir_world::methods::Composed;
 use restir_world::render::Renderer;
 use restir_world::sampling::Estimator;
 use restir_world::scene::{self, BuiltinOptions, Camera, Environment, Scene};
 use restir_world::world_restir::WorldRestirConfig;
+use tests::bias::{channel_means, mean_over_seeds, relative, world_restir_indirect_means};
 use tests::gpu;
+use tests::scenes::builtin_square;
 
 const SIDE: u32 = 64;
-
-fn channel_means(img: &[[f32; 3]]) -> [f64; 3] {
-    let n = img.len() as f64;
-    [0, 1, 2].map(|c| img.iter().map(|p| f64::from(p[c])).sum::<f64>() / n)
-}
 
 /// Per channel: (mean over `seeds` of world-restir's accumulated indirect mean over `frames`)
 /// / (the mean of `reference_runs` ris references of 512 frames) - 1.
@@ -29,27 +25,16 @@ fn relative_bias(
     frames: u32,
 ) -> [f64; 3] {
     let ctx = gpu::context();
-    let mut want = [0.0; 3];
-    for seed in 1000..1000 + reference_runs {
+    let want = mean_over_seeds(1000..1000 + reference_runs, |seed| {
         let mut r = Renderer::new(ctx, s, cam, Estimator::Ris { candidates: 16 }, seed).unwrap();
         gpu::render(&mut r, 512);
-        let m = channel_means(&gpu::images(&r).indirect);
-        for c in 0..3 {
-            want[c] += m[c] / f64::from(reference_runs);
-        }
-    }
-    let runs = seeds.len() as f64;
-    let mut got = [0.0; 3];
-    for seed in seeds {
-        let mut wr =
-            Composed::world_restir(ctx, s, cam, WorldRestirConfig::default(), seed).unwrap();
-        gpu::render(&mut wr, frames);
-        let m = channel_means(&gpu::images(&wr).indirect);
-        for c in 0..3 {
-            got[c] += m[c] / runs;
-        }
-    }
-    [0, 1, 2].map(|c| got[c] / want[c] - 1.0)
+        channel_means(&gpu::images(&r).indirect)
+    });
+    let config = WorldRestirConfig::default();
+    relative(
+        world_restir_indirect_means(s, cam, config, seeds, frames),
+        want,
+    )
 }
 
 fn check(name: &str, bias: [f64; 3], bound: f64) {
@@ -78,13 +63,7 @@ fn check(name: &str, bias: [f64; 3], bound: f64) {
 /// four. Measured: +0.07/+0.45/+0.24%.
 #[test]
 fn colonnade_bias_at_the_defaults() {
-    let opts = BuiltinOptions {
-        width: SIDE,
-        height: SIDE,
-        ..Default::default()
-    };
-    let s = scene::builtin("colonnade", &opts).unwrap();
-    let cam = s.camera_or_default(SIDE, SIDE);
+    let (s, cam) = builtin_square("colonnade", SIDE, BuiltinOptions::default());
     check("colonnade", relative_bias(&s, &cam, 4, 100..104, 256), 0.03);
 }
 

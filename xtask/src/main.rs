@@ -191,16 +191,21 @@ fn cargo(args: &[&str]) -> Result<(), String> {
 
 fn cargo_with_env(args: &[&str], envs: &[(&str, &str)]) -> Result<(), String> {
     let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
-    let status = Command::new(&cargo)
+    let mut cmd = Command::new(&cargo);
+    cmd.envs(envs.iter().copied()).current_dir(workspace_root());
+    run(&mut cmd, "cargo", args)
+}
+
+/// Runs `cmd` (the program `name`) with `args`; an error unless it exits 0.
+fn run(cmd: &mut Command, name: &str, args: &[&str]) -> Result<(), String> {
+    let status = cmd
         .args(args)
-        .envs(envs.iter().copied())
-        .current_dir(workspace_root())
         .status()
-        .map_err(|e| format!("could not run {cargo}: {e}"))?;
+        .map_err(|e| format!("could not run {name}: {e}"))?;
     if status.success() {
         Ok(())
     } else {
-        Err(format!("`cargo {}` failed ({status})", args.join(" ")))
+        Err(format!("`{name} {}` failed ({status})", args.join(" ")))
     }
 }
 
@@ -242,13 +247,7 @@ fn ensure_vulkan() -> Result<(), String> {
     eprintln!(
         "xtask: no Vulkan driver found; installing lavapipe{from}: apt-get update && {install}"
     );
-    run_apt(&["update", "-qq"])?;
-    let mut install_args = vec!["install", "-y", "-qq", "--no-install-recommends"];
-    if backports {
-        install_args.extend(["-t", "bookworm-backports"]);
-    }
-    install_args.extend(LAVAPIPE_PACKAGES);
-    run_apt(&install_args)?;
+    apt_install(&LAVAPIPE_PACKAGES, backports.then_some(BACKPORTS))?;
     if vulkan_present() {
         eprintln!("xtask: lavapipe installed");
         Ok(())
@@ -256,6 +255,9 @@ fn ensure_vulkan() -> Result<(), String> {
         Err("installed lavapipe but still found no Vulkan loader and driver".into())
     }
 }
+
+/// The Debian 12 suite lavapipe with ray queries (Mesa 25) comes from.
+const BACKPORTS: &str = "bookworm-backports";
 
 /// The first Mesa whose lavapipe exposes wgpu's `EXPERIMENTAL_RAY_QUERY`.
 const RAY_QUERY_MESA_MAJOR: u32 = 25;
@@ -295,11 +297,7 @@ fn ensure_ray_query_mesa() -> Result<(), String> {
         return Ok(());
     }
     eprintln!("xtask: installing lavapipe from bookworm-backports (Mesa 25: ray queries)");
-    run_apt(&["update", "-qq"])?;
-    let mut install = vec!["install", "-y", "-qq", "--no-install-recommends"];
-    install.extend(["-t", "bookworm-backports"]);
-    install.extend(LAVAPIPE_PACKAGES);
-    run_apt(&install)?;
+    apt_install(&LAVAPIPE_PACKAGES, Some(BACKPORTS))?;
     match mesa_major() {
         Some(m) if m >= RAY_QUERY_MESA_MAJOR => Ok(()),
         m => Err(format!(
@@ -386,10 +384,7 @@ fn ensure_xvfb() -> Result<bool, String> {
         ));
     }
     eprintln!("xtask: no xvfb-run or X11 libraries found; installing: apt-get update && {install}");
-    run_apt(&["update", "-qq"])?;
-    let mut install_args = vec!["install", "-y", "-qq", "--no-install-recommends"];
-    install_args.extend(XVFB_PACKAGES);
-    run_apt(&install_args)?;
+    apt_install(&XVFB_PACKAGES, None)?;
     if xvfb_present() {
         eprintln!("xtask: xvfb installed");
         Ok(true)
@@ -407,17 +402,21 @@ fn xvfb_present() -> bool {
     on_path("xvfb-run") && X11_LIBRARIES.iter().all(|l| libs.contains(l))
 }
 
-fn run_apt(args: &[&str]) -> Result<(), String> {
-    let status = Command::new("apt-get")
-        .args(args)
-        .env("DEBIAN_FRONTEND", "noninteractive")
-        .status()
-        .map_err(|e| format!("could not run apt-get: {e}"))?;
-    if status.success() {
-        Ok(())
-    } else {
-        Err(format!("`apt-get {}` failed ({status})", args.join(" ")))
+/// `apt-get update`, then an install of `packages` (from the suite `suite` when given).
+fn apt_install(packages: &[&str], suite: Option<&str>) -> Result<(), String> {
+    run_apt(&["update", "-qq"])?;
+    let mut args = vec!["install", "-y", "-qq", "--no-install-recommends"];
+    if let Some(suite) = suite {
+        args.extend(["-t", suite]);
     }
+    args.extend(packages);
+    run_apt(&args)
+}
+
+fn run_apt(args: &[&str]) -> Result<(), String> {
+    let mut cmd = Command::new("apt-get");
+    cmd.env("DEBIAN_FRONTEND", "noninteractive");
+    run(&mut cmd, "apt-get", args)
 }
 
 /// A Vulkan loader (`libvulkan.so.1`) and at least one installable client driver manifest.

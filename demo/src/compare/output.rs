@@ -7,7 +7,9 @@ use anyhow::Result;
 use restir_world::image_io::{self, tone_map};
 use restir_world::metrics;
 
-use super::{Err2, Report, plot};
+use super::reference::Reference;
+use super::report::{EqualTime, Err2, ImageKind, MethodRun, Report, SceneReport};
+use super::{Rgb, TIMING_WARMUP_FRAMES, plot};
 
 /// One scene's row of the image strip: reference | each method's last frame | each method's
 /// FLIP error map.
@@ -15,9 +17,29 @@ use super::{Err2, Report, plot};
 pub struct StripRow {
     pub width: u32,
     pub height: u32,
-    pub reference: Vec<[f32; 3]>,
-    pub methods: Vec<(String, Option<Vec<[f32; 3]>>)>,
+    pub reference: Rgb,
+    pub methods: Vec<(String, Option<Rgb>)>,
     pub exposure: f32,
+}
+
+impl StripRow {
+    /// The row of a scene's reference and each method's last image. The strip shows the
+    /// methods without a variant (one column each), all when every listed method is a
+    /// variant: variants live in the tables and the plot.
+    pub fn new(reference: &Reference, lasts: Vec<(String, Option<Rgb>)>, exposure: f32) -> Self {
+        let plain: Vec<_> = lasts
+            .iter()
+            .filter(|(n, _)| !n.contains(':'))
+            .cloned()
+            .collect();
+        Self {
+            width: reference.width,
+            height: reference.height,
+            reference: reference.combined.clone(),
+            methods: if plain.is_empty() { lasts } else { plain },
+            exposure,
+        }
+    }
 }
 
 pub fn write_all(out: &Path, report: &Report, strip: &[StripRow]) -> Result<()> {
@@ -112,20 +134,47 @@ fn rgb(v: Option<[f64; 3]>) -> String {
     )
 }
 
-fn rel(e: Option<Err2>) -> Option<f64> {
-    e.map(|e| e.rel_mse)
+/// relMSE with the trimmed relMSE in parentheses.
+fn rel_trimmed(e: Option<Err2>) -> String {
+    format!(
+        "{} ({})",
+        sci(e.map(|e| e.rel_mse)),
+        sci(e.map(|e| e.rel_mse_trimmed))
+    )
 }
 
-fn trim(e: Option<Err2>) -> Option<f64> {
-    e.map(|e| e.rel_mse_trimmed)
+/// A value with another in parentheses (a plain and a trimmed ratio).
+fn pair(a: Option<f64>, b: Option<f64>) -> String {
+    format!("{} ({})", sci(a), sci(b))
 }
 
-fn mse(e: Option<Err2>) -> Option<f64> {
-    e.map(|e| e.mse)
+/// A Markdown table: the header, its separator and one line per row.
+fn table(s: &mut String, header: &[String], rows: impl IntoIterator<Item = Vec<String>>) {
+    let line = |cells: &[String]| format!("| {} |", cells.join(" | "));
+    let _ = writeln!(s, "{}", line(header));
+    let _ = writeln!(s, "|{}", "---|".repeat(header.len()));
+    for row in rows {
+        let _ = writeln!(s, "{}", line(&row));
+    }
+    s.push('\n');
+}
+
+fn strings(v: &[&str]) -> Vec<String> {
+    v.iter().map(|s| (*s).to_owned()).collect()
 }
 
 fn markdown(r: &Report, strip: &[StripRow]) -> String {
     let mut s = String::new();
+    write_header(&mut s, r);
+    for sc in &r.scenes {
+        write_scene(&mut s, sc);
+    }
+    write_images_section(&mut s, r, strip);
+    s
+}
+
+/// The title, the device, the command and what the numbers mean.
+fn write_header(s: &mut String, r: &Report) {
     let _ = writeln!(s, "# Speed against error\n");
     let _ = writeln!(
         s,
@@ -154,183 +203,196 @@ fn markdown(r: &Report, strip: &[StripRow]) -> String {
     );
     let _ = writeln!(
         s,
-        "Errors against the reference, linear HDR: MSE and relMSE = mean((I-R)^2/(R^2+{})) per \
-         channel; FLIP (mean, NVIDIA's implementation via `nv-flip`) on images tone-mapped with \
-         the exposure that maps the reference's 99th-percentile luminance to 1. *Frame* errors \
-         are single frames (the mean over the evaluated frames of the second half of the run); \
-         *accumulated* errors are of the average of all frames (static camera only). GPU \
-         times leave out the first {} frames of each run (pipeline compilation and first-use \
-         costs); equal-time budgets use the median. *Bias* is the mean of the method's images \
-         over the reference's, per channel, over the evaluated frames. *Trimmed* \
-         relMSE leaves out the 0.1% of pixels with the largest error: with many small lights \
-         the estimators are heavy-tailed (1/d^2 next to a light) and a handful of fireflies can \
-         decide the plain mean, and so which method looks better.\n",
-        r.rel_mse_eps,
-        super::TIMING_WARMUP_FRAMES,
+        "Errors against the reference, linear HDR, for each image (direct, indirect and \
+         combined; the direct reference is the reference's combined image minus its indirect \
+         one): MSE and relMSE = mean((I-R)^2/(R^2+{})) per channel; FLIP (mean, NVIDIA's \
+         implementation via `nv-flip`) on images tone-mapped with the exposure that maps the \
+         reference image's 99th-percentile luminance to 1. *Frame* errors are single frames \
+         (the mean over the evaluated frames of the second half of the run); *accumulated* \
+         errors are of the average of all frames (static camera only). GPU times leave out \
+         the first {} frames of each run (pipeline compilation and first-use costs); \
+         equal-time budgets use the median. *Bias* is the mean of the method's images over \
+         the reference's, per channel, over the evaluated frames. *Trimmed* relMSE (in \
+         parentheses) leaves out the 0.1% of pixels with the largest error: with many small \
+         lights the estimators are heavy-tailed (1/d^2 next to a light) and a handful of \
+         fireflies can decide the plain mean, and so which method looks better.\n",
+        r.rel_mse_eps, TIMING_WARMUP_FRAMES,
     );
-    if let Some(sc) = r
-        .scenes
+    if let Some(sc) = r.scenes.iter().find(|sc| sc.frames <= TIMING_WARMUP_FRAMES) {
+        let _ = writeln!(
+            s,
+            "**This run has {} frames, not more than the {TIMING_WARMUP_FRAMES} warm-up \
+             frames: its GPU times include the warm-up frames (all but the first of them), so \
+             they hold pipeline compilation and first-use costs.** Run more --frames for \
+             times.\n",
+            sc.frames,
+        );
+    }
+}
+
+/// A scene's section: its reference, the methods' times, their errors image by image and the
+/// equal-time comparison.
+fn write_scene(s: &mut String, sc: &SceneReport) {
+    let _ = writeln!(
+        s,
+        "## {} ({}x{}, {} frames, camera {:?}, {} triangles, {} emissive)\n",
+        sc.scene, sc.width, sc.height, sc.frames, sc.camera, sc.triangles, sc.emissive_triangles
+    );
+    let rf = &sc.reference;
+    let moving = match rf.count {
+        1 => String::new(),
+        n => format!(", {n} references for the moving camera"),
+    };
+    let own: Vec<String> = rf
+        .self_rel_mse
         .iter()
-        .find(|sc| sc.frames <= super::TIMING_WARMUP_FRAMES)
+        .filter_map(|(k, e)| e.map(|e| format!("{} {}", k.name(), sci(Some(e)))))
+        .collect();
+    let _ = writeln!(
+        s,
+        "Reference: {} ({}, {} spp{moving}); its own estimated relMSE: {}.\n",
+        rf.source,
+        rf.estimator,
+        rf.samples,
+        if own.is_empty() {
+            "-".into()
+        } else {
+            own.join(", ")
+        },
+    );
+    write_times(s, &sc.methods);
+    for kind in ImageKind::ALL {
+        write_errors(s, &sc.methods, kind);
+    }
+    if let Some(eq) = &sc.equal_time {
+        write_equal_time(s, eq, &sc.methods);
+    }
+}
+
+/// The method's name, with its planted bias (a negative control).
+fn method_name(m: &MethodRun) -> String {
+    match m.planted_bias {
+        Some(b) => format!("{} (planted bias x{b})", m.method),
+        None => m.method.clone(),
+    }
+}
+
+fn write_times(s: &mut String, methods: &[MethodRun]) {
+    let header = strings(&[
+        "method",
+        "spp/frame",
+        "ms/frame median (mean)",
+        "median ms by stage",
+        "grid overflows (most in a frame)",
+    ]);
+    let rows = methods.iter().map(|m| {
+        let stages: Vec<String> = m
+            .ms_per_frame_by_stage_median
+            .iter()
+            .map(|st| format!("{} {}", st.name, sci(Some(st.ms))))
+            .collect();
+        vec![
+            method_name(m),
+            m.spp_per_frame.to_string(),
+            pair(m.ms_per_frame_median, m.ms_per_frame),
+            stages.join(", "),
+            m.max_grid_overflows
+                .map_or_else(|| "-".to_owned(), |o| o.to_string()),
+        ]
+    });
+    table(s, &header, rows);
+}
+
+/// Every method's errors on the image `kind`.
+fn write_errors(s: &mut String, methods: &[MethodRun], kind: ImageKind) {
+    let _ = writeln!(s, "{} image:\n", kind.name());
+    let header = strings(&[
+        "method",
+        "frame relMSE (trimmed)",
+        "frame MSE",
+        "frame FLIP",
+        "accum. relMSE (trimmed)",
+        "accum. FLIP",
+        "bias (mean / reference, RGB)",
+    ]);
+    let rows = methods.iter().map(|m| {
+        let e = m.images.get(kind);
+        vec![
+            method_name(m),
+            rel_trimmed(e.frame),
+            sci(e.frame.map(|e| e.mse)),
+            sci(e.frame_flip),
+            rel_trimmed(e.accumulated),
+            sci(e.accumulated_flip),
+            rgb(e.bias),
+        ]
+    });
+    table(s, &header, rows);
+}
+
+fn write_equal_time(s: &mut String, eq: &EqualTime, methods: &[MethodRun]) {
+    let target_errors: Vec<String> = eq
+        .target_frame
+        .iter()
+        .map(|(k, e)| format!("{} {}", k.name(), rel_trimmed(*e)))
+        .collect();
+    let _ = writeln!(
+        s,
+        "### Equal time against `{}` ({} ms/frame; frame relMSE (trimmed) {})\n",
+        eq.target,
+        sci(Some(eq.target_ms_per_frame)),
+        target_errors.join(", "),
+    );
+    let mut header = strings(&["method", "spp/frame in the same time", "ms/frame"]);
+    for kind in ImageKind::ALL {
+        let k = kind.name();
+        header.push(format!("{k}: frame relMSE (trimmed)"));
+        header.push(format!("{k}: relMSE ratio, method/{} (trimmed)", eq.target));
+        header.push(format!(
+            "{k}: equal-error speed-up of {} (trimmed)",
+            eq.target
+        ));
+    }
+    let rows = eq.entries.iter().map(|e| {
+        let mut row = vec![
+            e.method.clone(),
+            e.spp_per_frame.to_string(),
+            sci(e.ms_per_frame),
+        ];
+        for (_, i) in e.images.iter() {
+            row.push(rel_trimmed(i.frame));
+            row.push(pair(i.rel_mse_ratio, i.rel_mse_trimmed_ratio));
+            row.push(pair(i.equal_error_speedup, i.equal_error_speedup_trimmed));
+        }
+        row
+    });
+    table(s, &header, rows);
+    if let Some(t) = methods.iter().find(|m| m.method == eq.target)
+        && let Some(total) = t.ms_per_frame.filter(|&ms| ms > 0.0)
     {
+        let shares: Vec<String> = t
+            .ms_per_frame_by_stage
+            .iter()
+            .map(|st| format!("{} {:.1}%", st.name, 100.0 * st.ms / total))
+            .collect();
         let _ = writeln!(
             s,
-            "**This run has {} frames, not more than the {} warm-up frames: its GPU times \
-             include the warm-up frames (all but the first of them), so they hold pipeline \
-             compilation and first-use costs.** Run more --frames for times.\n",
-            sc.frames,
-            super::TIMING_WARMUP_FRAMES
+            "`{}` frame by stage (share of its GPU time): {}.\n",
+            eq.target,
+            shares.join(", ")
         );
     }
-    for sc in &r.scenes {
-        let _ = writeln!(
-            s,
-            "## {} ({}x{}, {} frames, camera {:?}, {} triangles, {} emissive)\n",
-            sc.scene,
-            sc.width,
-            sc.height,
-            sc.frames,
-            sc.camera,
-            sc.triangles,
-            sc.emissive_triangles
-        );
-        let rf = &sc.reference;
-        let _ = writeln!(
-            s,
-            "Reference: {} ({}, {} spp{}); its own estimated relMSE: combined {}, indirect {}.\n",
-            rf.source,
-            rf.estimator,
-            rf.samples,
-            if rf.count > 1 {
-                format!(", {} references for the moving camera", rf.count)
-            } else {
-                String::new()
-            },
-            sci(rf.self_rel_mse_combined),
-            sci(rf.self_rel_mse_indirect),
-        );
-        let _ = writeln!(
-            s,
-            "| method | spp/frame | ms/frame median (mean) | median ms by stage | frame relMSE \
-             indirect | frame relMSE indirect, 0.1% trimmed | frame relMSE direct (trimmed) | \
-             frame relMSE combined (trimmed) | frame MSE indirect | frame MSE combined | frame \
-             FLIP combined | accum. relMSE indirect | accum. relMSE combined | accum. FLIP \
-             combined | bias indirect (mean / reference, RGB) | bias direct | bias combined | \
-             grid overflows (most in a frame) |"
-        );
-        let _ = writeln!(
-            s,
-            "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"
-        );
-        for m in &sc.methods {
-            let stages: Vec<String> = m
-                .ms_per_frame_by_stage_median
-                .iter()
-                .map(|st| format!("{} {}", st.name, sci(Some(st.ms))))
-                .collect();
-            let _ = writeln!(
-                s,
-                "| {}{} | {} | {} ({}) | {} | {} | {} | {} ({}) | {} ({}) | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} |",
-                m.method,
-                m.planted_bias
-                    .map(|b| format!(" (planted bias x{b})"))
-                    .unwrap_or_default(),
-                m.spp_per_frame,
-                sci(m.ms_per_frame_median),
-                sci(m.ms_per_frame),
-                stages.join(", "),
-                sci(rel(m.frame_indirect)),
-                sci(trim(m.frame_indirect)),
-                sci(rel(m.frame_direct)),
-                sci(trim(m.frame_direct)),
-                sci(rel(m.frame_combined)),
-                sci(trim(m.frame_combined)),
-                sci(mse(m.frame_indirect)),
-                sci(mse(m.frame_combined)),
-                sci(m.frame_flip_combined),
-                sci(rel(m.accumulated_indirect)),
-                sci(rel(m.accumulated_combined)),
-                sci(m.accumulated_flip_combined),
-                rgb(m.bias_indirect),
-                rgb(m.bias_direct),
-                rgb(m.bias_combined),
-                m.max_grid_overflows
-                    .map_or_else(|| "-".to_owned(), |o| o.to_string()),
-            );
-        }
-        s.push('\n');
-        if let Some(eq) = &sc.equal_time {
-            let _ = writeln!(
-                s,
-                "### Equal time against `{}` ({} ms/frame; frame relMSE indirect {} (trimmed {}), \
-                 direct {} (trimmed {}), combined {} (trimmed {}))\n",
-                eq.target,
-                sci(Some(eq.target_ms_per_frame)),
-                sci(rel(eq.target_frame_indirect)),
-                sci(trim(eq.target_frame_indirect)),
-                sci(rel(eq.target_frame_direct)),
-                sci(trim(eq.target_frame_direct)),
-                sci(rel(eq.target_frame_combined)),
-                sci(trim(eq.target_frame_combined)),
-            );
-            let _ = writeln!(
-                s,
-                "| method | spp/frame in the same time | ms/frame | frame relMSE indirect | \
-                 frame relMSE indirect, trimmed | frame relMSE combined | relMSE ratio indirect \
-                 (method/{t}) | same, trimmed | relMSE ratio direct | same, trimmed | relMSE \
-                 ratio combined | same, trimmed | equal-error speed-up of {t}, indirect | same, \
-                 trimmed | equal-error speed-up, combined |",
-                t = eq.target
-            );
-            let _ = writeln!(
-                s,
-                "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"
-            );
-            for e in &eq.entries {
-                let _ = writeln!(
-                    s,
-                    "| {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} |",
-                    e.method,
-                    e.spp_per_frame,
-                    sci(e.ms_per_frame),
-                    sci(rel(e.frame_indirect)),
-                    sci(trim(e.frame_indirect)),
-                    sci(rel(e.frame_combined)),
-                    sci(e.rel_mse_ratio_indirect),
-                    sci(e.rel_mse_trimmed_ratio_indirect),
-                    sci(e.rel_mse_ratio_direct),
-                    sci(e.rel_mse_trimmed_ratio_direct),
-                    sci(e.rel_mse_ratio_combined),
-                    sci(e.rel_mse_trimmed_ratio_combined),
-                    sci(e.equal_error_speedup_indirect),
-                    sci(e.equal_error_speedup_indirect_trimmed),
-                    sci(e.equal_error_speedup_combined),
-                );
-            }
-            if let Some(t) = sc.methods.iter().find(|m| m.method == eq.target)
-                && let Some(total) = t.ms_per_frame.filter(|&ms| ms > 0.0)
-            {
-                let shares: Vec<String> = t
-                    .ms_per_frame_by_stage
-                    .iter()
-                    .map(|st| format!("{} {:.1}%", st.name, 100.0 * st.ms / total))
-                    .collect();
-                let _ = writeln!(
-                    s,
-                    "\n`{}` frame by stage (share of its GPU time): {}.",
-                    eq.target,
-                    shares.join(", ")
-                );
-            }
-            let _ = writeln!(
-                s,
-                "\nEqual-error speed-up: the GPU time the method needs to reach the target's \
-                 frame relMSE, from its equal-time error and the 1/N variance law of independent \
-                 samples, divided by the target's time per frame. Values below 1 mean the target \
-                 is slower at equal error.\n"
-            );
-        }
-    }
+    let _ = writeln!(
+        s,
+        "Equal-error speed-up: the GPU time the method needs to reach the target's frame \
+         relMSE, from its equal-time error and the 1/N variance law of independent samples, \
+         divided by the target's time per frame. Values below 1 mean the target is slower at \
+         equal error.\n"
+    );
+}
+
+/// Where the plot and the image strip are, and what each strip row shows.
+fn write_images_section(s: &mut String, r: &Report, strip: &[StripRow]) {
     let _ = writeln!(
         s,
         "## Plots and images\n\n![relMSE against cumulative GPU time](error_vs_time.svg)\n\n\
@@ -348,5 +410,4 @@ fn markdown(r: &Report, strip: &[StripRow]) -> String {
             names.join(" | ")
         );
     }
-    s
 }

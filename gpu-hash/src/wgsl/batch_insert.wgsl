@@ -2,12 +2,9 @@
 
 // out[i] = find_or_insert(key i): a slot or HASH_FULL.
 @compute @workgroup_size(WORKGROUP_SIZE)
-fn insert_keys(@builtin(global_invocation_id) gid: vec3<u32>,
-               @builtin(num_workgroups) groups: vec3<u32>) {
-    let i = batch_index(gid, groups);
-    if i >= batch_params.n {
-        return;
-    }
+fn insert_keys(id: BatchInvocation) {
+    let i = batch_index(id);
+    if i >= batch_params.n { return; }
     let key = batch_key(i);
     batch_out[i] = hash_find_or_insert(hash_bucket_of(key, hash_params.num_buckets), hash_checksum_of(key));
 }
@@ -15,12 +12,9 @@ fn insert_keys(@builtin(global_invocation_id) gid: vec3<u32>,
 // out[2i] = slot of point i (or HASH_FULL / HASH_REJECTED), out[2i + 1] = its index in the
 // slot (Algorithm 2's atomic counter), HASH_NOT_FOUND when there is no slot.
 @compute @workgroup_size(WORKGROUP_SIZE)
-fn insert_points(@builtin(global_invocation_id) gid: vec3<u32>,
-                 @builtin(num_workgroups) groups: vec3<u32>) {
-    let i = batch_index(gid, groups);
-    if i >= batch_params.n {
-        return;
-    }
+fn insert_points(id: BatchInvocation) {
+    let i = batch_index(id);
+    if i >= batch_params.n { return; }
     let slot = hash_insert_position(bitcast<vec4<f32>>(batch_in[i]).xyz);
     var index = HASH_NOT_FOUND;
     if hash_is_slot(slot) {
@@ -36,10 +30,8 @@ var<workgroup> stats_full: atomic<u32>;
 
 // One invocation per bucket: used slots, fullest bucket, number of full buckets.
 @compute @workgroup_size(WORKGROUP_SIZE)
-fn table_stats(@builtin(global_invocation_id) gid: vec3<u32>,
-               @builtin(num_workgroups) groups: vec3<u32>,
-               @builtin(local_invocation_index) local: u32) {
-    let bucket = batch_index(gid, groups);
+fn table_stats(id: BatchInvocation, @builtin(local_invocation_index) local: u32) {
+    let bucket = batch_index(id);
     let spb = hash_params.slots_per_bucket;
     if bucket < hash_params.num_buckets {
         var fill = 0u;

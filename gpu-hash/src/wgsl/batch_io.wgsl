@@ -12,8 +12,15 @@ struct BatchParams {
 @group(1) @binding(1) var<storage, read> batch_in: array<vec4<u32>>;
 @group(1) @binding(2) var<storage, read_write> batch_out: array<u32>;
 
-fn batch_index(gid: vec3<u32>, groups: vec3<u32>) -> u32 {
-    return gid.x + gid.y * groups.x * WORKGROUP_SIZE;
+// What every batch kernel takes: where its invocation is in the (2D) grid of workgroups.
+struct BatchInvocation {
+    @builtin(global_invocation_id) gid: vec3<u32>,
+    @builtin(num_workgroups) groups: vec3<u32>,
+}
+
+// The item of an invocation (the grid is 2D when the items exceed one dimension's groups).
+fn batch_index(id: BatchInvocation) -> u32 {
+    return id.gid.x + id.gid.y * id.groups.x * WORKGROUP_SIZE;
 }
 
 fn batch_key(i: u32) -> HashKey {

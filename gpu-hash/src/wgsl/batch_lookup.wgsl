@@ -3,24 +3,18 @@
 
 // out[i] = find(key i): a slot or HASH_NOT_FOUND.
 @compute @workgroup_size(WORKGROUP_SIZE)
-fn find_keys(@builtin(global_invocation_id) gid: vec3<u32>,
-             @builtin(num_workgroups) groups: vec3<u32>) {
-    let i = batch_index(gid, groups);
-    if i >= batch_params.n {
-        return;
-    }
+fn find_keys(id: BatchInvocation) {
+    let i = batch_index(id);
+    if i >= batch_params.n { return; }
     let key = batch_key(i);
     batch_out[i] = hash_lookup_find(hash_bucket_of(key, hash_lookup_params.num_buckets), hash_checksum_of(key));
 }
 
 // out[2i] = slot of point i (or HASH_NOT_FOUND / HASH_REJECTED), out[2i + 1] = items in it.
 @compute @workgroup_size(WORKGROUP_SIZE)
-fn find_points(@builtin(global_invocation_id) gid: vec3<u32>,
-               @builtin(num_workgroups) groups: vec3<u32>) {
-    let i = batch_index(gid, groups);
-    if i >= batch_params.n {
-        return;
-    }
+fn find_points(id: BatchInvocation) {
+    let i = batch_index(id);
+    if i >= batch_params.n { return; }
     let slot = hash_lookup_position(bitcast<vec4<f32>>(batch_in[i]).xyz);
     var count = 0u;
     if hash_lookup_is_slot(slot) {
@@ -32,12 +26,9 @@ fn find_points(@builtin(global_invocation_id) gid: vec3<u32>,
 
 // out[8i..8i+8] = HashCell of point i (coords, level, bucket, checksum, cell_size bits, status).
 @compute @workgroup_size(WORKGROUP_SIZE)
-fn cells(@builtin(global_invocation_id) gid: vec3<u32>,
-         @builtin(num_workgroups) groups: vec3<u32>) {
-    let i = batch_index(gid, groups);
-    if i >= batch_params.n {
-        return;
-    }
+fn cells(id: BatchInvocation) {
+    let i = batch_index(id);
+    if i >= batch_params.n { return; }
     let c = hash_lookup_cell(bitcast<vec4<f32>>(batch_in[i]).xyz);
     let o = 8u * i;
     batch_out[o] = bitcast<u32>(c.coords.x);
@@ -52,12 +43,9 @@ fn cells(@builtin(global_invocation_id) gid: vec3<u32>,
 
 // out[2i] = pcg(in[i].x), out[2i + 1] = xxhash32(in[i].x).
 @compute @workgroup_size(WORKGROUP_SIZE)
-fn hash_values(@builtin(global_invocation_id) gid: vec3<u32>,
-               @builtin(num_workgroups) groups: vec3<u32>) {
-    let i = batch_index(gid, groups);
-    if i >= batch_params.n {
-        return;
-    }
+fn hash_values(id: BatchInvocation) {
+    let i = batch_index(id);
+    if i >= batch_params.n { return; }
     let v = batch_in[i].x;
     batch_out[2u * i] = hash_pcg(v);
     batch_out[2u * i + 1u] = hash_xxhash32(v);
@@ -66,12 +54,9 @@ fn hash_values(@builtin(global_invocation_id) gid: vec3<u32>,
 // Item i reads in[3i] = position, in[3i + 1] = normal, in[3i + 2] = (u.x, u.y, cell_size):
 // out[4i..4i+3] = jittered position.
 @compute @workgroup_size(WORKGROUP_SIZE)
-fn jitter(@builtin(global_invocation_id) gid: vec3<u32>,
-          @builtin(num_workgroups) groups: vec3<u32>) {
-    let i = batch_index(gid, groups);
-    if i >= batch_params.n {
-        return;
-    }
+fn jitter(id: BatchInvocation) {
+    let i = batch_index(id);
+    if i >= batch_params.n { return; }
     let p = bitcast<vec4<f32>>(batch_in[3u * i]).xyz;
     let n = bitcast<vec4<f32>>(batch_in[3u * i + 1u]).xyz;
     let u = bitcast<vec4<f32>>(batch_in[3u * i + 2u]).xyz;

@@ -1,6 +1,8 @@
 // gpu-scan workgroup scan without subgroups: raking over the SCAN_WG thread totals in workgroup
 // memory (SCAN_WG / SCAN_RAKE threads each scan SCAN_RAKE totals, one thread scans the chunk
-// sums). Defines the entry point `scan_main`. Composed after scan.wgsl.
+// sums). Needs the constants SCAN_WG and SCAN_RAKE; the entry point sets `scan_t` (the
+// thread's index in the workgroup) before the first `wg_scan`. Composed after scan.wgsl, with
+// wg_shared_main.wgsl; the reduce-then-scan floor of the benchmarks uses it as well.
 
 var<private> scan_t: u32;
 var<workgroup> scan_wg_sums: array<u32, SCAN_WG>;
@@ -35,10 +37,4 @@ fn wg_scan(x: u32) -> vec2<u32> {
     workgroupBarrier();
     let excl = scan_wg_spine[scan_t / SCAN_RAKE] + scan_wg_sums[scan_t] - x;
     return vec2<u32>(excl, scan_wg_total);
-}
-
-@compute @workgroup_size(SCAN_WG)
-fn scan_main(@builtin(local_invocation_index) li: u32) {
-    scan_t = li;
-    scan_tile(li);
 }

@@ -191,12 +191,40 @@ pub struct PassTimes {
 impl PassTimes {
     /// Adds spans (same names add up, new names go last; frames are counted by the caller).
     pub fn add(&mut self, times: &SpanTimes) {
-        for (name, ms) in &times.0 {
+        self.add_passes(&times.0);
+    }
+
+    /// Adds another's frames and pass totals.
+    pub fn merge(&mut self, other: &PassTimes) {
+        self.add_passes(&other.passes);
+        self.frames += other.frames;
+    }
+
+    /// The frames of `runs` together.
+    pub fn sum<'a>(runs: impl IntoIterator<Item = &'a PassTimes>) -> PassTimes {
+        let mut sum = PassTimes::default();
+        for r in runs {
+            sum.merge(r);
+        }
+        sum
+    }
+
+    fn add_passes(&mut self, passes: &[(String, f64)]) {
+        for (name, ms) in passes {
             match self.passes.iter_mut().find(|(n, _)| n == name) {
                 Some((_, total)) => *total += ms,
                 None => self.passes.push((name.clone(), *ms)),
             }
         }
+    }
+
+    /// Total milliseconds of the pass `name` (0 when it did not run).
+    pub fn pass_ms(&self, name: &str) -> f64 {
+        self.passes
+            .iter()
+            .filter(|(n, _)| n == name)
+            .map(|(_, ms)| ms)
+            .sum()
     }
 
     /// Total over all passes and frames.
@@ -218,6 +246,26 @@ impl PassTimes {
             .collect()
     }
 
+    /// The median over `runs` of each run's milliseconds per frame (`None` without runs):
+    /// robust to the odd slow frame where the mean is not.
+    pub fn median_ms_per_frame(runs: &[PassTimes]) -> Option<f64> {
+        median(runs.iter().map(PassTimes::ms_per_frame).collect())
+    }
+
+    /// Per pass (in the order of [`PassTimes::sum`]), the median over `runs` of its
+    /// milliseconds per frame; a run without the pass counts 0 ms.
+    pub fn median_per_frame(runs: &[PassTimes]) -> Vec<(String, f64)> {
+        let per_frame = |r: &PassTimes, name: &str| r.pass_ms(name) / f64::from(r.frames.max(1));
+        PassTimes::sum(runs)
+            .passes
+            .into_iter()
+            .map(|(name, _)| {
+                let ms = median(runs.iter().map(|r| per_frame(r, &name)).collect());
+                (name, ms.unwrap_or(0.0))
+            })
+            .collect()
+    }
+
     /// `name=ms ...` per frame, for logs.
     pub fn line(&self) -> String {
         self.per_frame()
@@ -225,5 +273,60 @@ impl PassTimes {
             .map(|(n, ms)| format!("{n}={ms:.3}"))
             .collect::<Vec<_>>()
             .join(" ")
+    }
+}
+
+/// The middle value (the mean of the two middle ones for an even count); `None` when empty.
+fn median(mut v: Vec<f64>) -> Option<f64> {
+    if v.is_empty() {
+        return None;
+    }
+    v.sort_by(f64::total_cmp);
+    let n = v.len();
+    Some(match n % 2 {
+        1 => v[n / 2],
+        _ => 0.5 * (v[n / 2 - 1] + v[n / 2]),
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn frame(passes: &[(&str, f64)]) -> PassTimes {
+        PassTimes {
+            frames: 1,
+            passes: passes
+                .iter()
+                .map(|(n, ms)| ((*n).to_owned(), *ms))
+                .collect(),
+        }
+    }
+
+    /// Sums keep the first-recorded order; medians count a missing pass as 0 ms and take
+    /// the middle of an even count.
+    #[test]
+    fn sums_and_medians_of_frames() {
+        let runs = [
+            frame(&[("a", 1.0), ("b", 2.0)]),
+            frame(&[("b", 4.0), ("c", 1.0)]),
+            frame(&[("a", 3.0), ("b", 9.0)]),
+            frame(&[("a", 5.0), ("b", 1.0)]),
+        ];
+        let sum = PassTimes::sum(&runs);
+        assert_eq!(sum.frames, 4);
+        assert_eq!(
+            sum.passes,
+            [("a".into(), 9.0), ("b".into(), 16.0), ("c".into(), 1.0)]
+        );
+        assert_eq!(sum.ms_per_frame(), 26.0 / 4.0);
+        // Totals 3, 5, 12, 6.
+        assert_eq!(PassTimes::median_ms_per_frame(&runs), Some(5.5));
+        assert_eq!(
+            PassTimes::median_per_frame(&runs),
+            [("a".into(), 2.0), ("b".into(), 3.0), ("c".into(), 0.0)]
+        );
+        assert_eq!(PassTimes::median_ms_per_frame(&[]), None);
+        assert!(PassTimes::median_per_frame(&[]).is_empty());
     }
 }

@@ -1,6 +1,5 @@
 // vec4<u32> copy: reads n words and writes n words, the floor for any scan of n words.
-
-override WORKGROUP_SIZE: u32 = 256u;
+// Composed after the workspace's WORKGROUP_SIZE / Invocation / item_index header.
 
 struct Params {
     n_vec4: u32,
@@ -11,9 +10,8 @@ struct Params {
 @group(0) @binding(2) var<uniform> params: Params;
 
 @compute @workgroup_size(WORKGROUP_SIZE)
-fn copy_vec4(@builtin(global_invocation_id) gid: vec3<u32>,
-             @builtin(num_workgroups) groups: vec3<u32>) {
-    let i = gid.x + gid.y * groups.x * WORKGROUP_SIZE;
+fn copy_vec4(id: Invocation) {
+    let i = item_index(id);
     if i < params.n_vec4 {
         dst[i] = src[i];
     }

@@ -1,8 +1,7 @@
 // Random-access floors (the hash benchmark's): per item one random 128-byte line read
 // (`random_read_128`, the find floor) or one random atomic add (`random_atomic`, the insert
 // floor), each followed by one coalesced u32 write. Indices come from a pcg hash of the item.
-
-override WORKGROUP_SIZE: u32 = 256u;
+// Composed after the workspace's WORKGROUP_SIZE / Invocation / item_index header.
 
 struct RandomParams {
     n: u32,
@@ -22,17 +21,10 @@ fn floor_pcg(v: u32) -> u32 {
     return (word >> 22u) ^ word;
 }
 
-fn item_index(gid: vec3<u32>, groups: vec3<u32>) -> u32 {
-    return gid.x + gid.y * groups.x * WORKGROUP_SIZE;
-}
-
 @compute @workgroup_size(WORKGROUP_SIZE)
-fn random_read_128(@builtin(global_invocation_id) gid: vec3<u32>,
-                   @builtin(num_workgroups) groups: vec3<u32>) {
-    let i = item_index(gid, groups);
-    if i >= params.n {
-        return;
-    }
+fn random_read_128(id: Invocation) {
+    let i = item_index(id);
+    if i >= params.n { return; }
     let base = (floor_pcg(i ^ params.seed) % params.lines) * 8u;
     var acc = vec4<u32>(0u);
     for (var k = 0u; k < 8u; k++) {
@@ -42,11 +34,8 @@ fn random_read_128(@builtin(global_invocation_id) gid: vec3<u32>,
 }
 
 @compute @workgroup_size(WORKGROUP_SIZE)
-fn random_atomic(@builtin(global_invocation_id) gid: vec3<u32>,
-                 @builtin(num_workgroups) groups: vec3<u32>) {
-    let i = item_index(gid, groups);
-    if i >= params.n {
-        return;
-    }
+fn random_atomic(id: Invocation) {
+    let i = item_index(id);
+    if i >= params.n { return; }
     out[i] = atomicAdd(&words[floor_pcg(i ^ params.seed) % params.words], 1u);
 }

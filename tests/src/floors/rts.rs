@@ -3,24 +3,32 @@
 //! workgroup scan (no subgroups) as the single-pass kernel, so the difference measured is the
 //! extra pass over the input and the extra dispatches.
 
-use wgpu::util::DeviceExt;
+use gpu_scan::shaders::WG_SHARED_WGSL;
 
 pub(crate) const SOURCE: &str = include_str!("rts.wgsl");
 const WORKGROUP_SIZE: u32 = 256;
 const ITEMS: u32 = 16;
+/// Chunk length of the workgroup scan: gpu-scan's for this workgroup size.
 const RAKE: u32 = 16;
 
-/// The composed module: generated constants + `rts.wgsl`.
+/// The composed module: generated constants, gpu-scan's workgroup scan, `rts.wgsl`.
 pub(crate) fn composed() -> String {
     format!(
         "const RTS_WG: u32 = {WORKGROUP_SIZE}u;\nconst RTS_ITEMS: u32 = {ITEMS}u;\n\
-         const RTS_RAKE: u32 = {RAKE}u;\n{SOURCE}"
+         const SCAN_WG: u32 = RTS_WG;\nconst SCAN_RAKE: u32 = {RAKE}u;\n{WG_SHARED_WGSL}\n\
+         {SOURCE}"
     )
 }
 
-#[derive(Debug, Clone, Copy)]
-struct Stages {
-    reduce: bool,
+/// What [`ReduceThenScan::encode`] records.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum RtsStages {
+    /// The whole scan: reduce, spine, downsweep.
+    All,
+    /// Only the downsweep (with whatever the partials hold): the per-tile work of a scan
+    /// (load, workgroup scan, store) without any inter-tile communication. Benchmarks use it
+    /// to separate a single-pass scan's tile cost from its look-back cost.
+    DownsweepOnly,
 }
 
 /// Three-dispatch exclusive scan of `u32` (modulo 2^32).
@@ -86,7 +94,8 @@ impl ReduceThenScan {
         }
     }
 
-    /// Records an exclusive scan of the first `n` (<= max_len, > 0) elements of `input`.
+    /// Records `stages` of an exclusive scan of the first `n` (<= max_len, > 0) elements of
+    /// `input`.
     pub fn encode(
         &self,
         device: &wgpu::Device,
@@ -94,40 +103,11 @@ impl ReduceThenScan {
         input: &wgpu::Buffer,
         output: &wgpu::Buffer,
         n: u32,
-    ) {
-        self.record(device, encoder, input, output, n, Stages { reduce: true });
-    }
-
-    /// Records only the downsweep (with whatever the partials hold): the per-tile work of a
-    /// scan (load, workgroup scan, store) without any inter-tile communication. Benchmarks use
-    /// it to separate a single-pass scan's tile cost from its look-back cost.
-    pub fn encode_downsweep_only(
-        &self,
-        device: &wgpu::Device,
-        encoder: &mut wgpu::CommandEncoder,
-        input: &wgpu::Buffer,
-        output: &wgpu::Buffer,
-        n: u32,
-    ) {
-        self.record(device, encoder, input, output, n, Stages { reduce: false });
-    }
-
-    fn record(
-        &self,
-        device: &wgpu::Device,
-        encoder: &mut wgpu::CommandEncoder,
-        input: &wgpu::Buffer,
-        output: &wgpu::Buffer,
-        n: u32,
-        stages: Stages,
+        stages: RtsStages,
     ) {
         assert!(n > 0 && n <= self.max_len, "n = {n} out of range");
         let tiles = n.div_ceil(Self::TILE);
-        let params = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-            label: Some("floors/rts params"),
-            contents: bytemuck::cast_slice(&[n, tiles, 0, 0]),
-            usage: wgpu::BufferUsages::UNIFORM,
-        });
+        let params = super::params(device, "floors/rts params", [n, tiles, 0, 0]);
         let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("floors/rts"),
             layout: &self.layout,
@@ -157,7 +137,7 @@ impl ReduceThenScan {
             timestamp_writes: None,
         });
         pass.set_bind_group(0, &bind_group, &[]);
-        if stages.reduce {
+        if stages == RtsStages::All {
             pass.set_pipeline(&self.reduce);
             pass.dispatch_workgroups(x, y, 1);
             pass.set_pipeline(&self.spine);

@@ -1,6 +1,7 @@
 // Reduce-then-scan prefix sum in three dispatches: the classic baseline a single-pass scan must
 // beat. Reads the input twice, writes the output once, plus the tile partials.
-// Composed as: constants header (RTS_WG, RTS_ITEMS, RTS_RAKE from rts.rs) + this file.
+// Composed as: constants header (RTS_WG, RTS_ITEMS, SCAN_WG, SCAN_RAKE from rts.rs) +
+// gpu-scan's workgroup scan without subgroups (wg_shared.wgsl: `wg_scan`, `scan_t`) + this file.
 //   rts_reduce:    partials[tile] = sum of the tile
 //   rts_spine:     one workgroup: exclusive scan of the partials in place
 //   rts_downsweep: out = partials[tile] + exclusive scan of the tile
@@ -18,54 +19,28 @@ struct RtsParams {
 const RTS_TILE: u32 = RTS_WG * RTS_ITEMS;
 
 var<workgroup> rts_tile_buf: array<u32, RTS_TILE + RTS_TILE / 32u>;
-var<workgroup> rts_sums: array<u32, RTS_WG>;
-var<workgroup> rts_spine: array<u32, RTS_WG>;
-var<workgroup> rts_total: u32;
 
 fn rts_pad(i: u32) -> u32 {
     return i + (i >> 5u);
 }
 
-// (exclusive prefix of x over threads 0..t, workgroup sum), raking in workgroup memory.
-fn rts_wg_scan(t: u32, x: u32) -> vec2<u32> {
-    workgroupBarrier();
-    rts_sums[t] = x;
-    workgroupBarrier();
-    let chunks = RTS_WG / RTS_RAKE;
-    if t < chunks {
-        var s = 0u;
-        for (var r = 0u; r < RTS_RAKE; r++) {
-            s += rts_sums[t * RTS_RAKE + r];
-            rts_sums[t * RTS_RAKE + r] = s;
-        }
-        rts_spine[t] = s;
-    }
-    workgroupBarrier();
-    if t == 0u {
-        var s = 0u;
-        for (var c = 0u; c < chunks; c++) {
-            let v = rts_spine[c];
-            rts_spine[c] = s;
-            s += v;
-        }
-        rts_total = s;
-    }
-    workgroupBarrier();
-    return vec2<u32>(rts_spine[t / RTS_RAKE] + rts_sums[t] - x, rts_total);
+// Where a tile's workgroup is: its thread and its place in the (2D) grid of tiles.
+struct TileInvocation {
+    @builtin(local_invocation_index) li: u32,
+    @builtin(workgroup_id) wid: vec3<u32>,
+    @builtin(num_workgroups) groups: vec3<u32>,
 }
 
-fn rts_tile_id(wid: vec3<u32>, groups: vec3<u32>) -> u32 {
-    return wid.x + wid.y * groups.x;
+fn rts_tile(id: TileInvocation) -> u32 {
+    return id.wid.x + id.wid.y * id.groups.x;
 }
 
 @compute @workgroup_size(RTS_WG)
-fn rts_reduce(@builtin(local_invocation_index) li: u32,
-              @builtin(workgroup_id) wid: vec3<u32>,
-              @builtin(num_workgroups) groups: vec3<u32>) {
-    let tile = rts_tile_id(wid, groups);
-    if tile >= rts_params.num_tiles {
-        return;
-    }
+fn rts_reduce(id: TileInvocation) {
+    let tile = rts_tile(id);
+    if tile >= rts_params.num_tiles { return; }
+    let li = id.li;
+    scan_t = li;
     let base = tile * RTS_TILE;
     var x = 0u;
     for (var k = 0u; k < RTS_ITEMS; k++) {
@@ -74,7 +49,7 @@ fn rts_reduce(@builtin(local_invocation_index) li: u32,
             x += rts_in[g];
         }
     }
-    let r = rts_wg_scan(li, x);
+    let r = wg_scan(x);
     if li == 0u {
         rts_partials[tile] = r.y;
     }
@@ -82,6 +57,7 @@ fn rts_reduce(@builtin(local_invocation_index) li: u32,
 
 @compute @workgroup_size(RTS_WG)
 fn rts_spine_scan(@builtin(local_invocation_index) li: u32) {
+    scan_t = li;
     var carry = 0u;
     let m = rts_params.num_tiles;
     for (var base = 0u; base < m; base += RTS_TILE) {
@@ -96,7 +72,7 @@ fn rts_spine_scan(@builtin(local_invocation_index) li: u32) {
             }
             x += items[j];
         }
-        let r = rts_wg_scan(li, x);
+        let r = wg_scan(x);
         var s = carry + r.x;
         for (var j = 0u; j < RTS_ITEMS; j++) {
             let g = base + li * RTS_ITEMS + j;
@@ -110,13 +86,11 @@ fn rts_spine_scan(@builtin(local_invocation_index) li: u32) {
 }
 
 @compute @workgroup_size(RTS_WG)
-fn rts_downsweep(@builtin(local_invocation_index) li: u32,
-                 @builtin(workgroup_id) wid: vec3<u32>,
-                 @builtin(num_workgroups) groups: vec3<u32>) {
-    let tile = rts_tile_id(wid, groups);
-    if tile >= rts_params.num_tiles {
-        return;
-    }
+fn rts_downsweep(id: TileInvocation) {
+    let tile = rts_tile(id);
+    if tile >= rts_params.num_tiles { return; }
+    let li = id.li;
+    scan_t = li;
     let base = tile * RTS_TILE;
     let n = rts_params.n;
     for (var k = 0u; k < RTS_ITEMS; k++) {
@@ -134,7 +108,7 @@ fn rts_downsweep(@builtin(local_invocation_index) li: u32,
         items[j] = x; // exclusive within the thread
         x += rts_tile_buf[rts_pad(li * RTS_ITEMS + j)];
     }
-    let r = rts_wg_scan(li, x);
+    let r = wg_scan(x);
     let offset = rts_partials[tile] + r.x;
     for (var j = 0u; j < RTS_ITEMS; j++) {
         rts_tile_buf[rts_pad(li * RTS_ITEMS + j)] = offset + items[j];
