@@ -1,6 +1,7 @@
 //! `restir-demo`: render, compare and inspect world-space ReSTIR GI.
 
 mod compare;
+mod paths;
 
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -11,6 +12,7 @@ use glam::Vec3;
 use indicatif::{ProgressBar, ProgressStyle};
 use restir_world::gpu::{Access, BindingSet, Kernel, Tracer, buffers, workgroup_size_wgsl};
 use restir_world::lights::Lights;
+use restir_world::render::RenderOptions;
 use restir_world::sampling::Estimator;
 use restir_world::scene::Scene;
 use restir_world::{GpuContext, GpuTimer, image_io, reference, render};
@@ -155,6 +157,8 @@ struct CompareArgs {
     /// No progress bar.
     #[arg(long)]
     quiet: bool,
+    #[command(flatten)]
+    paths: paths::PathArgs,
 }
 
 fn parse_bias(s: &str) -> Result<(String, f32), String> {
@@ -199,6 +203,8 @@ struct RenderArgs {
     size: Option<(u32, u32)>,
     #[arg(long, default_value_t = 0)]
     seed: u32,
+    #[command(flatten)]
+    paths: paths::PathArgs,
     /// Output directory.
     #[arg(long, default_value = "out")]
     out: PathBuf,
@@ -572,7 +578,7 @@ fn render_into(
                     spp: samples,
                     seed: args.seed,
                     threads: args.threads,
-                    ..Default::default()
+                    paths: args.paths.paths()?,
                 },
                 Some(&|rows| pb.set_position(u64::from(rows))),
             )?;
@@ -591,7 +597,10 @@ fn render_into(
             scene,
             camera,
             samples,
-            args.seed,
+            &RenderOptions {
+                seed: args.seed,
+                paths: args.paths.paths()?,
+            },
             &args.out,
             &format!("{scene_tag}-{method_tag}"),
         )?,
@@ -724,6 +733,7 @@ fn compare_cmd(a: CompareArgs) -> Result<()> {
         cache: (!a.no_cache).then_some(a.cache),
         scene_opts: a.scene_opts,
         seed: a.seed,
+        paths: a.paths.paths()?,
         equal_time_frames: a.equal_time_frames,
         equal_time_to: a.equal_time_to,
         eval_every: a.eval_every,

@@ -9,7 +9,7 @@ use clap::Args;
 use restir_world::image_io::{Image, write_png};
 use restir_world::methods::{self, FrameLoop, MethodError, Readback, run_frames};
 use restir_world::reference::Rendered;
-use restir_world::render::DebugView;
+use restir_world::render::{DebugView, RenderOptions};
 use restir_world::scene::{Camera, Scene};
 
 use crate::camera::Motion;
@@ -71,13 +71,13 @@ pub fn render_method(
     scene: &Scene,
     camera: &Camera,
     frames: u32,
-    seed: u32,
+    options: &RenderOptions,
     out: &Path,
     tag: &str,
 ) -> Result<Rendered> {
     let ctx = crate::gpu_context()?;
     eprintln!("{}", ctx.describe());
-    let mut m = methods::build_method(spec, &ctx, scene, camera, seed)?;
+    let mut m = methods::parse_spec(spec)?.build_with(&ctx, scene, camera, options)?;
     let l = FrameLoop {
         path: args
             .animation

@@ -20,7 +20,7 @@ use restir_world::knobs::KnobKind;
 use restir_world::methods::{
     self, FrameLoop, FrameMethod, MethodError, MethodSettings, Readback, run_frames,
 };
-use restir_world::render::DebugView;
+use restir_world::render::{DebugView, Paths, RenderOptions};
 use restir_world::scene::{Camera, CameraPath, Scene};
 use winit::application::ApplicationHandler;
 use winit::event::WindowEvent;
@@ -51,6 +51,8 @@ pub struct ViewArgs {
     scale: f32,
     #[arg(long, default_value_t = 0)]
     seed: u32,
+    #[command(flatten)]
+    paths: crate::paths::PathArgs,
     /// Exposure multiplier of the shown image and of screenshot PNGs (EXRs stay linear).
     #[arg(long, default_value_t = 1.0)]
     exposure: f32,
@@ -129,6 +131,8 @@ struct Setup {
     base_size: (u32, u32),
     settings: MethodSettings,
     spec: String,
+    /// The depth of the paths at start (`--bounces`, `--roulette-from`, `--mis`).
+    paths: Paths,
     args: ViewArgs,
     /// (PNG, EXR) of --screenshot.
     screenshot: Option<(PathBuf, PathBuf)>,
@@ -218,6 +222,7 @@ fn check(args: ViewArgs, created: &mut Vec<PathBuf>) -> Result<Setup> {
         anyhow::bail!("--camera-path-frames must be at least 2 (frame 0 is the start)");
     }
     let settings = methods::parse_spec(&args.method)?;
+    let paths = args.paths.paths()?;
     let screenshot = args
         .screenshot
         .as_deref()
@@ -245,6 +250,7 @@ fn check(args: ViewArgs, created: &mut Vec<PathBuf>) -> Result<Setup> {
         camera,
         base_size,
         settings,
+        paths,
         spec: args.method.clone(),
         args,
         screenshot,
@@ -341,6 +347,8 @@ struct Controls {
     spec_text: String,
     /// Knob values being typed (KNOBS order).
     knob_text: Vec<String>,
+    /// The depth of the paths (bounces, MIS).
+    paths: Paths,
 }
 
 /// What the last overlay pass asked for.
@@ -421,6 +429,8 @@ struct Viewer {
     setup: Setup,
     method: Box<dyn FrameMethod>,
     settings: MethodSettings,
+    /// The depth of the paths the method was built with.
+    paths: Paths,
     /// The render-resolution scale the method was built at.
     scale: f32,
     camera: Camera,
@@ -454,9 +464,13 @@ impl Viewer {
         );
         let egui_renderer =
             egui_wgpu::Renderer::new(&ctx.device, surface_config.format, Default::default());
+        let options = RenderOptions {
+            seed: setup.args.seed,
+            paths: setup.paths,
+        };
         let method = setup
             .settings
-            .build(&ctx, &setup.scene, &setup.camera, setup.args.seed)?;
+            .build_with(&ctx, &setup.scene, &setup.camera, &options)?;
         let controls = Controls {
             exposure: setup.args.exposure,
             scale: setup.args.scale,
@@ -466,6 +480,7 @@ impl Viewer {
             speed: 1.0,
             spec_text: setup.spec.clone(),
             knob_text: knob_texts(&setup.settings),
+            paths: setup.paths,
         };
         Ok(Self {
             window,
@@ -476,6 +491,7 @@ impl Viewer {
             egui_renderer,
             texture: None,
             settings: setup.settings,
+            paths: setup.paths,
             scale: setup.args.scale,
             camera: setup.camera,
             start_camera: setup.camera,
@@ -581,10 +597,15 @@ impl Viewer {
             height,
             ..camera
         };
-        match settings.build(&self.ctx, &self.setup.scene, &camera, self.setup.args.seed) {
+        let options = RenderOptions {
+            seed: self.setup.args.seed,
+            paths: self.controls.paths,
+        };
+        match settings.build_with(&self.ctx, &self.setup.scene, &camera, &options) {
             Ok(m) => {
                 self.method = m;
                 self.settings = settings;
+                self.paths = self.controls.paths;
                 self.scale = self.controls.scale;
                 self.camera = camera;
                 self.controls.knob_text = knob_texts(&settings);
@@ -598,6 +619,7 @@ impl Viewer {
             }
             Err(e) => {
                 self.controls.knob_text = knob_texts(&self.settings);
+                self.controls.paths = self.paths;
                 self.controls.scale = self.scale;
                 self.stats.message = Some(format!("not applied: {e}"));
             }
@@ -780,13 +802,16 @@ impl Viewer {
         let c = &self.camera;
         let v = |v: Vec3| format!("{},{},{}", v.x, v.y, v.z);
         format!(
-            "restir-demo render --scene {} --method {} --size {}x{} --seed {} --frames {} \
-             --eye {} --target {} --up {} --fov {}",
+            "restir-demo render --scene {} --method {} --size {}x{} --seed {} --bounces {} \
+             --roulette-from {} --mis {} --frames {} --eye {} --target {} --up {} --fov {}",
             self.setup.scene_name,
             self.settings.spec(),
             c.width,
             c.height,
             self.setup.args.seed,
+            self.paths.bounces,
+            self.paths.roulette_from,
+            if self.paths.mis { "on" } else { "off" },
             self.method.renderer().accumulated().max(1),
             v(c.eye),
             v(c.target),
@@ -1191,6 +1216,10 @@ fn image_ui(ui: &mut egui::Ui, info: &Info, c: &mut Controls, a: &mut Actions) {
             }
         });
     a.rebuild |= c.scale != before;
+    let paths = c.paths;
+    ui.add(egui::Slider::new(&mut c.paths.bounces, 1..=16).text("bounces"));
+    ui.checkbox(&mut c.paths.mis, "MIS of emission hits");
+    a.rebuild |= c.paths != paths;
     let acc = c.accumulate;
     ui.checkbox(&mut c.accumulate, "accumulate while still");
     a.restart |= acc != c.accumulate;

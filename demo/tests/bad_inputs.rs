@@ -928,6 +928,27 @@ fn cases(tmp: &Path, gen_dir: &Path) -> Vec<Case> {
             1,
             "--reference-spp must be at least 2",
         ),
+        // 24 (paths): the depth is checked before any work, by flag.
+        cornell("bounces-0", &["--bounces", "0"], 1, "--bounces"),
+        cornell(
+            "bounces-65",
+            &["--bounces", "65"],
+            1,
+            "bounces 65 must be in 1..=64",
+        ),
+        cornell(
+            "roulette-from-1",
+            &["--roulette-from", "1"],
+            1,
+            "--roulette-from",
+        ),
+        cornell("mis-maybe", &["--mis", "maybe"], 2, "expected on or off"),
+        case_of(
+            "compare-bounces-0",
+            compare(&["--bounces", "0"]),
+            1,
+            "--bounces",
+        ),
         case_of(
             "methods-twice",
             compare(&["--methods", "nee,nee"]),

@@ -9,6 +9,7 @@ use restir_world::gpu::PassTimes;
 use restir_world::images::FrameImages;
 use restir_world::methods::{self, FrameLoop, Readback, run_frames};
 use restir_world::metrics;
+use restir_world::render::RenderOptions;
 use restir_world::scene::{Camera, Scene};
 
 use super::reference::{Reference, Refs};
@@ -69,7 +70,12 @@ impl SceneRuns<'_> {
 
     fn run(&self, run: &RunSpec) -> Result<Finished> {
         let (ctx, opts) = (self.ctx, self.opts);
-        let mut m = methods::build_method(run.spec, ctx, self.scene, &self.base, opts.seed)?;
+        let options = RenderOptions {
+            seed: opts.seed,
+            paths: opts.paths,
+        };
+        let settings = methods::parse_spec(run.spec)?;
+        let mut m = settings.build_with(ctx, self.scene, &self.base, &options)?;
         let pixels = (self.base.width * self.base.height) as usize;
         let static_camera = opts.camera == CameraMode::Static;
         let mut tally = Tally::new(static_camera.then(|| Accumulator::new(pixels)));

@@ -18,6 +18,7 @@ use restir_world::GpuContext;
 use restir_world::image_io::{self, Image};
 use restir_world::methods;
 use restir_world::metrics;
+use restir_world::render::Paths;
 use restir_world::scene::{self, Scene};
 
 use method_run::SceneRuns;
@@ -43,6 +44,8 @@ pub struct CompareOptions {
     pub cache: Option<PathBuf>,
     pub scene_opts: crate::scenes::SceneArgs,
     pub seed: u32,
+    /// The depth of every method's paths and of the reference's.
+    pub paths: Paths,
     pub equal_time_frames: u32,
     pub equal_time_to: Option<String>,
     pub eval_every: u32,
@@ -344,6 +347,9 @@ fn run_scenes(
         version: env!("CARGO_PKG_VERSION").into(),
         command,
         rel_mse_eps: metrics::REL_MSE_EPS,
+        bounces: opts.paths.bounces,
+        roulette_from: opts.paths.roulette_from,
+        mis: opts.paths.mis,
         scenes,
     };
     output::write_all(&opts.out, &report, &strip)?;

@@ -189,6 +189,18 @@ fn write_header(s: &mut String, r: &Report) {
             " (unavailable on this adapter: times are missing)"
         }
     );
+    let roulette = match r.roulette_from {
+        0 => "no Russian roulette".to_owned(),
+        d => format!("Russian roulette from bounce {d}"),
+    };
+    let mis = if r.mis { ", MIS of emission hits" } else { "" };
+    let _ = writeln!(
+        s,
+        "Paths: **{} bounce{}** of indirect light ({roulette}{mis}), for every method and the \
+         reference.\n",
+        r.bounces,
+        if r.bounces == 1 { "" } else { "s" }
+    );
     if r.device_type.contains("Cpu") {
         let _ = writeln!(
             s,

@@ -95,6 +95,7 @@ pub fn make_references(
     }
     let settings = ReferenceSettings {
         spp: opts.reference_spp,
+        paths: opts.paths,
         ..Default::default()
     };
     let mut rendered = Vec::new();

@@ -271,5 +271,11 @@ pub struct Report {
     pub version: String,
     pub command: String,
     pub rel_mse_eps: f64,
+    /// Bounces of indirect light of every method and the reference.
+    pub bounces: u32,
+    /// Russian roulette from this bounce on (0: never).
+    pub roulette_from: u32,
+    /// Multiple importance sampling of emission hits.
+    pub mis: bool,
     pub scenes: Vec<SceneReport>,
 }

@@ -625,41 +625,26 @@ mod tests {
         assert_eq!(offset_of!(BvhNode, p), offset_of!(CwBvhNode, p));
         assert_eq!(offset_of!(BvhNode, e_imask), offset_of!(CwBvhNode, e));
         assert_eq!(offset_of!(CwBvhNode, imask), offset_of!(CwBvhNode, e) + 3);
-        assert_eq!(
-            offset_of!(BvhNode, child_base_idx),
-            offset_of!(CwBvhNode, child_base_idx)
-        );
-        assert_eq!(
-            offset_of!(BvhNode, primitive_base_idx),
-            offset_of!(CwBvhNode, primitive_base_idx)
-        );
-        assert_eq!(
-            offset_of!(BvhNode, child_meta),
-            offset_of!(CwBvhNode, child_meta)
-        );
-        assert_eq!(
-            offset_of!(BvhNode, child_min_x),
-            offset_of!(CwBvhNode, child_min_x)
-        );
-        assert_eq!(
-            offset_of!(BvhNode, child_max_x),
-            offset_of!(CwBvhNode, child_max_x)
-        );
-        assert_eq!(
-            offset_of!(BvhNode, child_min_y),
-            offset_of!(CwBvhNode, child_min_y)
-        );
-        assert_eq!(
-            offset_of!(BvhNode, child_max_y),
-            offset_of!(CwBvhNode, child_max_y)
-        );
-        assert_eq!(
-            offset_of!(BvhNode, child_min_z),
-            offset_of!(CwBvhNode, child_min_z)
-        );
-        assert_eq!(
-            offset_of!(BvhNode, child_max_z),
-            offset_of!(CwBvhNode, child_max_z)
+        // The fields both structs name alike sit at the same offsets.
+        macro_rules! same_offsets {
+            ($($field:ident),*) => {
+                $(assert_eq!(
+                    offset_of!(BvhNode, $field),
+                    offset_of!(CwBvhNode, $field),
+                    stringify!($field)
+                );)*
+            };
+        }
+        same_offsets!(
+            child_base_idx,
+            primitive_base_idx,
+            child_meta,
+            child_min_x,
+            child_max_x,
+            child_min_y,
+            child_max_y,
+            child_min_z,
+            child_max_z
         );
     }
 
