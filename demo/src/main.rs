@@ -86,7 +86,7 @@ enum Command {
     },
     /// Speed against error: run methods over the same frames and camera, measure per-stage
     /// GPU time and the error against a converged reference, compare at equal time, and write
-    /// report.md, report.json, error_vs_time.svg and strip.png into --out.
+    /// report.md, report.json, error_vs_time.svg and strip.jpg into --out.
     Compare(Box<CompareArgs>),
     /// An interactive window onto a method, live: fly camera, method and knob switches,
     /// per-stage GPU times, debug views, screenshots (needs a display; `render` does not).
@@ -363,10 +363,20 @@ pub(crate) fn write_all_or_none(
 fn info(scene_name: Option<&str>, opts: &scenes::SceneArgs) -> Result<()> {
     let ctx = gpu_context()?;
     print_adapter(&ctx);
+    print_methods();
     if let Some(name) = scene_name {
         print_scene(name, &scenes::load(name, opts, None)?);
     }
     Ok(())
+}
+
+/// The registry: every method with what its `name:` variant accepts.
+fn print_methods() {
+    println!("methods (--method name or name:variant):");
+    for e in restir_world::methods::registry() {
+        println!("  {}: {}", e.name, e.about);
+        println!("    variants: {}", e.variants_help());
+    }
 }
 
 /// The adapter, its tracers, the limits that size our buffers and its subgroup sizes.

@@ -691,11 +691,11 @@ fn new_input_cases(tmp: &Path, g: &Path) -> Vec<Case> {
     }));
 
     // 17: compare --out equal to a scene's directory.
-    let scene = scene_dir(g, "out_is_scene_dir", gltf("strip.png"), |d| {
-        write_png(&d.join("strip.png"))
+    let scene = scene_dir(g, "out_is_scene_dir", gltf("strip.jpg"), |d| {
+        write_png(&d.join("strip.jpg"))
     });
     let dir = g.join("out_is_scene_dir");
-    let strip = std::fs::read(dir.join("strip.png")).unwrap();
+    let strip = std::fs::read(dir.join("strip.jpg")).unwrap();
     v.push(
         case_of(
             "27-17-compare-out-is-scene-dir",
@@ -706,9 +706,9 @@ fn new_input_cases(tmp: &Path, g: &Path) -> Vec<Case> {
             1,
             "--out",
         )
-        .after(move |_| match std::fs::read(dir.join("strip.png")) {
+        .after(move |_| match std::fs::read(dir.join("strip.jpg")) {
             Ok(b) if b == strip => Ok(()),
-            _ => Err("the scene's strip.png was overwritten".into()),
+            _ => Err("the scene's strip.jpg was overwritten".into()),
         }),
     );
 

@@ -158,7 +158,7 @@ fn check_files(out: &Path) {
         "report.md",
         "report.json",
         "error_vs_time.svg",
-        "strip.png",
+        "strip.jpg",
         "reference_cornell.exr",
         "reference_cornell.indirect.exr",
     ] {

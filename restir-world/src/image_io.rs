@@ -154,6 +154,19 @@ pub fn write_png8(path: &Path, img: impl Into<image::DynamicImage>) -> Result<()
     write_atomically(path, &encode(path, &img.into(), image::ImageFormat::Png)?)
 }
 
+/// Writes `img` as a JPEG of `quality` (1-100), whole or not at all: for large previews that
+/// need not be exact.
+pub fn write_jpeg(path: &Path, img: &image::RgbImage, quality: u8) -> Result<(), ImageIoError> {
+    let mut bytes = Vec::new();
+    image::codecs::jpeg::JpegEncoder::new_with_quality(&mut bytes, quality)
+        .encode_image(img)
+        .map_err(|source| ImageIoError::Codec {
+            path: path.to_owned(),
+            source,
+        })?;
+    write_atomically(path, &bytes)
+}
+
 /// Writes `bytes` to `path`, whole or not at all (reports, plots).
 pub fn write_bytes(path: &Path, bytes: &[u8]) -> Result<(), ImageIoError> {
     write_atomically(path, bytes)

@@ -1,7 +1,7 @@
 //! `restir-demo compare`: speed against error. Runs each method of the registry over the same
 //! frames and camera, records per-stage GPU time and the error of every frame against a
 //! converged reference, runs the equal-time comparison, and writes report.md, report.json,
-//! error_vs_time.svg and strip.png.
+//! error_vs_time.svg and strip.jpg.
 
 mod equal_time;
 mod method_run;
@@ -265,7 +265,7 @@ pub fn check(opts: &CompareOptions) -> Result<()> {
     Ok(())
 }
 
-/// `--out` must not be a scene file's directory (report.md, strip.png, ... would overwrite
+/// `--out` must not be a scene file's directory (report.md, strip.jpg, ... would overwrite
 /// files next to the scene, its textures among them); `--cache` must be a directory that can
 /// be created and written (checked by creating it, then removing what was created).
 fn check_out_and_cache(opts: &CompareOptions) -> Result<()> {
@@ -280,7 +280,7 @@ fn check_out_and_cache(opts: &CompareOptions) -> Result<()> {
             if dir.canonicalize().is_ok_and(|d| d == out) {
                 bail!(
                     "--out {}: is the directory of the scene file {sc}: the outputs (report.md, \
-                     strip.png, reference EXRs) would overwrite files next to it (its \
+                     strip.jpg, reference EXRs) would overwrite files next to it (its \
                      textures); choose another directory",
                     opts.out.display()
                 );

@@ -1,4 +1,4 @@
-//! The files of a compare run: report.json, report.md, error_vs_time.svg, strip.png.
+//! The files of a compare run: report.json, report.md, error_vs_time.svg, strip.jpg.
 
 use std::fmt::Write as _;
 use std::path::Path;
@@ -48,7 +48,7 @@ pub fn write_all(out: &Path, report: &Report, strip: &[StripRow]) -> Result<()> 
     write(out, "report.json", json.as_bytes())?;
     write(out, "report.md", markdown(report, strip).as_bytes())?;
     write(out, "error_vs_time.svg", plot::svg(report)?.as_bytes())?;
-    write_strip(&out.join("strip.png"), strip)?;
+    write_strip(&out.join("strip.jpg"), strip)?;
     Ok(())
 }
 
@@ -107,7 +107,7 @@ fn write_strip(path: &Path, rows: &[StripRow]) -> Result<()> {
         }
         y0 += row.height + GAP;
     }
-    Ok(image_io::write_png8(path, img)?)
+    Ok(image_io::write_jpeg(path, &img, 90)?)
 }
 
 fn sci(v: Option<f64>) -> String {
@@ -410,13 +410,13 @@ fn write_images_section(s: &mut String, r: &Report, strip: &[StripRow]) {
         "## Plots and images\n\n![relMSE against cumulative GPU time](error_vs_time.svg)\n\n\
          `error_vs_time.svg`: relMSE of the accumulated image (static camera; per-frame error for \
          a moving camera) against cumulative GPU time, log-log, one curve per method; left: \
-         indirect, right: combined.\n\n![image strip](strip.png)\n"
+         indirect, right: combined.\n\n![image strip](strip.jpg)\n"
     );
     for (row, sc) in strip.iter().zip(&r.scenes) {
         let names: Vec<&str> = row.methods.iter().map(|(n, _)| n.as_str()).collect();
         let _ = writeln!(
             s,
-            "`strip.png`, row {}: reference | {} (last frame, combined) | FLIP error maps of \
+            "`strip.jpg`, row {}: reference | {} (last frame, combined) | FLIP error maps of \
              the same, in the same order (dark = no visible error).\n",
             sc.scene,
             names.join(" | ")
