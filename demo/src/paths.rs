@@ -17,8 +17,9 @@ pub struct PathArgs {
     pub roulette_from: u32,
     /// Multiple importance sampling of the light reached both ways (a light sample and a ray
     /// that hits the emitter): on or off.
-    #[arg(long, default_value = if Paths::default().mis { "on" } else { "off" },
-          value_parser = parse_on_off)]
+    // `Set`: a bool field would default to a flag (`SetTrue`) and hand the parser "true".
+    #[arg(long, action = clap::ArgAction::Set, value_parser = parse_on_off,
+          default_value = if Paths::default().mis { "on" } else { "off" })]
     pub mis: bool,
 }
 
@@ -43,5 +44,42 @@ impl PathArgs {
             bail!("--bounces / --roulette-from: {e} (--bounces at most {MAX_BOUNCES})");
         }
         Ok(p)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use clap::Parser;
+
+    #[derive(Parser)]
+    struct Cli {
+        #[command(flatten)]
+        paths: PathArgs,
+    }
+
+    fn parse(args: &[&str]) -> Result<Paths, String> {
+        let cli = Cli::try_parse_from(std::iter::once("x").chain(args.iter().copied()))
+            .map_err(|e| e.to_string())?;
+        cli.paths.paths().map_err(|e| e.to_string())
+    }
+
+    #[test]
+    fn flags_parse_to_paths() {
+        assert_eq!(parse(&[]).unwrap(), Paths::default());
+        let p = parse(&["--bounces", "5", "--roulette-from", "0", "--mis", "on"]).unwrap();
+        assert_eq!((p.bounces, p.roulette_from, p.mis), (5, 0, true));
+        assert!(!parse(&["--mis", "off"]).unwrap().mis);
+        assert!(
+            parse(&["--mis", "maybe"])
+                .unwrap_err()
+                .contains("expected on or off")
+        );
+        assert!(parse(&["--mis"]).is_err());
+        assert!(
+            parse(&["--bounces", "65"])
+                .unwrap_err()
+                .contains("--bounces")
+        );
     }
 }
