@@ -51,7 +51,7 @@ pub struct GpuReference {
     pub height: u32,
     /// Linear HDR, combined (direct + indirect).
     pub combined: Vec<[f32; 3]>,
-    /// Linear HDR one-bounce indirect; `None` for an external reference given without one.
+    /// Linear HDR indirect (bounces 1..N); `None` for an external reference given without one.
     pub indirect: Option<Vec<[f32; 3]>>,
     /// Samples per pixel (0 when unknown: external).
     pub samples: u32,
@@ -207,11 +207,14 @@ pub fn cache_key(scene: &Scene, camera: &Camera, settings: &ReferenceSettings) -
     for x in [settings.spp.div_ceil(2) * 2, m, k, settings.seed] {
         h.bytes(&x.to_le_bytes());
     }
-    // Paths beyond one bounce change the image: hashed when deeper (one bounce keeps its key).
-    if settings.paths != Paths::default() {
+    // Paths change the image: hashed unless one bounce without MIS (which keeps the key it had
+    // before paths had a depth, whatever the default depth).
+    let p = settings.paths;
+    if p.bounces != 1 || p.mis {
         h.bytes(b"paths")
-            .bytes(&settings.paths.bounces.to_le_bytes())
-            .bytes(&settings.paths.roulette_from.to_le_bytes());
+            .bytes(&p.bounces.to_le_bytes())
+            .bytes(&p.roulette_from.to_le_bytes())
+            .bytes(&[u8::from(p.mis)]);
     }
     format!("{:016x}", h.finish())
 }

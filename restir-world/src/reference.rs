@@ -502,7 +502,8 @@ mod tests {
     use super::*;
     use crate::scene::{self, Material};
 
-    /// Renders `s` and returns the channel means of (direct - Le, indirect).
+    /// Renders `s` at one bounce (whose analytic values these tests know) and returns the
+    /// channel means of (direct - Le, indirect).
     fn furnace_means(s: &Scene, method: Estimator, spp: u32, seed: u32) -> ([f64; 3], [f64; 3]) {
         let r = ReferenceRenderer::new(s).unwrap();
         let out = r
@@ -513,7 +514,7 @@ mod tests {
                     spp,
                     seed,
                     threads: 0,
-                    ..Default::default()
+                    paths: Paths::bounces(1),
                 },
                 None,
             )

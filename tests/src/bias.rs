@@ -7,7 +7,7 @@
 //! Scaling the already measured number instead proves nothing: if |d| < b, then
 //! |(1 + d)(1 - k) - 1| >= b for every k >= 2b, always.
 
-use restir_world::methods::Composed;
+use restir_world::methods::{Composed, FrameMethod};
 use restir_world::scene::{Camera, Scene};
 use restir_world::world_restir::WorldRestirConfig;
 
@@ -22,8 +22,22 @@ pub fn world_restir_indirect_means(
     seeds: std::ops::Range<u32>,
     frames: u32,
 ) -> [f64; 3] {
+    world_restir_planted_means(s, cam, config, seeds, frames, 1.0)
+}
+
+/// [`world_restir_indirect_means`] with the indirect frames scaled on the GPU by `planted` as
+/// they are accumulated (a negative control's planted defect; 1: none).
+pub fn world_restir_planted_means(
+    s: &Scene,
+    cam: &Camera,
+    config: WorldRestirConfig,
+    seeds: std::ops::Range<u32>,
+    frames: u32,
+    planted: f32,
+) -> [f64; 3] {
     mean_over_seeds(seeds, |seed| {
         let mut wr = Composed::world_restir(gpu::context(), s, cam, config, seed).expect("wr");
+        wr.renderer().plant_scale(gpu::context(), 1.0, planted);
         gpu::render(&mut wr, frames);
         channel_means(&gpu::images(&wr).indirect)
     })

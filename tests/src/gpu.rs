@@ -7,6 +7,7 @@ use restir_world::gpu::{BindGroupLayout, BindingSet, Kernel, PassTimes, workgrou
 use restir_world::methods::{
     FrameImages, FrameLoop, FrameMethod, MethodError, Readback, run_frames,
 };
+use restir_world::render::{Paths, RenderOptions};
 use restir_world::scene::CameraPath;
 
 /// The shared context. Panics with the fix (install lavapipe) when no adapter exists: GPU tests
@@ -153,4 +154,17 @@ pub fn reservoir_kernel(
     let kernel =
         Kernel::with_workgroup_size(device, label, &source, &[&layout], entries, workgroup_size);
     (kernel, layout)
+}
+
+/// Render options of one bounce without MIS seeded by `seed` (the paths every method had before
+/// paths had a depth), for tests whose subject is direct light or the one-bounce estimate and
+/// whose tolerances were calibrated there: depth and MIS are checked per estimator in paths.rs.
+pub fn one_bounce(seed: u32) -> RenderOptions {
+    RenderOptions {
+        seed,
+        paths: Paths {
+            mis: false,
+            ..Paths::bounces(1)
+        },
+    }
 }

@@ -35,3 +35,10 @@ pub fn lit_slab(lamp: [f32; 3]) -> Scene {
     );
     s
 }
+
+/// The indirect radiance of a closed furnace of albedo `rho` per unit of the radiance its walls
+/// send out first (Le, or the light a point source makes them reflect, over rho), at paths of
+/// `bounces`: bounce k adds rho^(k+1), so rho^2 + ... + rho^(bounces+1).
+pub fn furnace_indirect(rho: f64, bounces: u32) -> f64 {
+    (2..=bounces as i32 + 1).map(|k| rho.powi(k)).sum()
+}

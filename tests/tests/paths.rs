@@ -12,6 +12,7 @@ use restir_world::sampling::Estimator;
 use restir_world::scene::{Scene, builtin, furnace_sphere};
 use tests::bias::{channel_means, relative};
 use tests::gpu;
+use tests::scenes::furnace_indirect;
 
 /// The furnace's albedo: high enough that every bounce up to 8 carries more than the bound
 /// (rho^9 / sum is 5% of the indirect light at N = 8).
@@ -21,8 +22,7 @@ const SIDE: u32 = 24;
 /// The closed furnace (albedo rho, emission Le on every surface): direct = Le (1 + rho),
 /// indirect(N) = Le (rho^2 + ... + rho^(N+1)).
 fn furnace_want(rho: f64, bounces: u32) -> (f64, f64) {
-    let indirect = (2..=bounces + 1).map(|k| rho.powi(k as i32)).sum();
-    (1.0 + rho, indirect)
+    (1.0 + rho, furnace_indirect(rho, bounces))
 }
 
 /// The largest relative error of (direct, indirect) means against the furnace's values.

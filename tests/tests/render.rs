@@ -1,5 +1,6 @@
 //! GPU renderer (`nee`, `ris`): furnace against the analytic values, no NaN without emitters,
-//! determinism for a seed.
+//! determinism for a seed. At one bounce, whose analytic values and CPU comparisons these are;
+//! paths.rs checks every depth.
 
 use restir_world::image_io::Image;
 use restir_world::methods::render_frames;
@@ -25,7 +26,8 @@ fn render_planted(
 ) -> Rendered {
     let ctx = gpu::context();
     let camera = scene.camera_or_default(w, h);
-    let mut r = Renderer::new(ctx, scene, &camera, method, seed).expect("renderer");
+    let options = gpu::one_bounce(seed);
+    let mut r = Renderer::with_options(ctx, scene, &camera, method, &options).expect("renderer");
     r.plant_scale(ctx, planted, planted);
     let (images, times) = render_frames(ctx, &mut r, frames).expect("render");
     if let Some(t) = times {
@@ -150,7 +152,7 @@ fn gpu_matches_cpu_reference_on_cornell() {
         let gpu_a = render(&scene, w, h, method, 21, n);
         let gpu_b = render(&scene, w, h, method, 22, n);
         let gpu_p = render_planted(&scene, (w, h), method, 24, n, 1.2);
-        let cpu = tests::cpu::reference(&scene, &camera, method, n, 23);
+        let cpu = cpu_reference(&scene, &camera, method, n, 23);
         // Pixels that see the light (red > 1 in any image), dilated by one pixel so that
         // edge pixels hit by only a few light samples are included.
         let bright: Vec<bool> = (0..cpu.direct.pixels.len())
@@ -318,7 +320,19 @@ fn scaled(scene: &Scene, s: f32) -> Scene {
 /// The CPU reference's images of `scene` (nee, `spp` samples, seed 9) at 32x32.
 fn cpu_render(scene: &Scene, spp: u32) -> Rendered {
     let camera = scene.camera_or_default(32, 32);
-    tests::cpu::reference(scene, &camera, Estimator::Nee, spp, 9)
+    cpu_reference(scene, &camera, Estimator::Nee, spp, 9)
+}
+
+/// The CPU reference at one bounce, like [`render`].
+fn cpu_reference(
+    scene: &Scene,
+    camera: &restir_world::scene::Camera,
+    method: Estimator,
+    spp: u32,
+    seed: u32,
+) -> Rendered {
+    let one = gpu::one_bounce(seed).paths;
+    tests::cpu::reference_at(scene, camera, method, spp, seed, one)
 }
 
 /// Scale invariance (issue: small-unit scenes rendered black, because ray offsets were at least

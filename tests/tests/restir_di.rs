@@ -6,7 +6,7 @@
 
 use std::sync::Mutex;
 
-use restir_world::methods::{self, Composed, FrameMethod};
+use restir_world::methods::{self, Composed, FrameMethod, MethodSettings};
 use restir_world::restir_di::{self, DiParams, RestirDiConfig};
 use restir_world::scene::{BuiltinOptions, Camera, CameraPath, Scene};
 use restir_world::world_restir::WorldRestirConfig;
@@ -27,8 +27,26 @@ fn scene(name: &str, side: u32) -> (Scene, Camera) {
     builtin_square(name, side, opts)
 }
 
+/// `spec` at one bounce: these tests check direct light (and that the indirect path is left
+/// intact), so deeper paths would only add cost (`ris:128`'s candidates at every vertex).
 fn build(spec: &str, s: &Scene, cam: &Camera, seed: u32) -> Box<dyn FrameMethod> {
-    methods::build_method(spec, gpu::context(), s, cam, seed).expect(spec)
+    let settings = methods::parse_spec(spec).expect(spec);
+    Box::new(composed(&settings, s, cam, seed))
+}
+
+/// `settings` at one bounce (see [`build`]).
+fn composed(settings: &MethodSettings, s: &Scene, cam: &Camera, seed: u32) -> Composed {
+    Composed::with_options(gpu::context(), s, cam, settings, &gpu::one_bounce(seed))
+        .expect("method")
+}
+
+/// `restir-di` with `config` at one bounce.
+fn restir_di(config: RestirDiConfig, s: &Scene, cam: &Camera, seed: u32) -> Composed {
+    let settings = MethodSettings {
+        di: Some(config),
+        ..methods::parse_spec("restir-di").expect("spec")
+    };
+    composed(&settings, s, cam, seed)
 }
 
 /// The accumulated direct image's channel means of `spec` over `frames` static frames at
@@ -207,8 +225,7 @@ fn gi_tiles_feed_world_restir_generate_without_bias() {
             let mut ris = build("ris", &s, &cam, seed);
             gpu::render(ris.as_mut(), frames);
             let want = channel_means(&gpu::images(ris.as_ref()).indirect);
-            let mut wr = Composed::new(gpu::context(), &s, &cam, &settings, seed)
-                .expect("world-restir with shared tiles");
+            let mut wr = composed(&settings, &s, &cam, seed);
             wr.renderer().plant_scale(gpu::context(), 1.0, planted);
             gpu::render(&mut wr, frames);
             relative(channel_means(&gpu::images(&wr).indirect), want)
@@ -263,7 +280,7 @@ fn camera_motion_and_a_cut_stay_finite() {
     let (s, cam) = scene("many-lights", side);
     let ctx = gpu::context();
     let config = RestirDiConfig::default();
-    let mut m = Composed::restir_di(ctx, &s, &cam, config, 7).expect("restir-di");
+    let mut m = restir_di(config, &s, &cam, 7);
     let orbit = CameraPath::Orbit {
         frames: 100,
         degrees: 360.0,
@@ -461,7 +478,7 @@ fn every_light_kind_is_reused_without_bias() {
         let mut b = [0.0; 3];
         for &seed in seeds {
             let config = RestirDiConfig::default();
-            let mut di = Composed::restir_di(ctx, &s, &cam, config, seed).unwrap();
+            let mut di = restir_di(config, &s, &cam, seed);
             di.renderer().plant_scale(ctx, planted, 1.0);
             gpu::render(&mut di, frames);
             let got = channel_means(&gpu::images(&di).direct);

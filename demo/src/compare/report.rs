@@ -5,7 +5,7 @@ use serde::Serialize;
 
 use super::CameraMode;
 
-/// Which image of a render: direct light, one-bounce indirect light, or their sum.
+/// Which image of a render: direct light, indirect light (bounces 1..N), or their sum.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum ImageKind {
     Direct,

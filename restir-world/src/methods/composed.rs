@@ -26,7 +26,7 @@ pub struct Composed {
 }
 
 impl Composed {
-    /// Builds `settings` for `scene` seen by `camera`, seeded by `seed` (one-bounce paths).
+    /// Builds `settings` for `scene` seen by `camera`, seeded by `seed` (the default paths).
     pub fn new(
         ctx: &GpuContext,
         scene: &Scene,

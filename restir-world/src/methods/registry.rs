@@ -224,7 +224,7 @@ impl MethodSettings {
         Ok(next)
     }
 
-    /// Builds the method, seeded by `seed` (one-bounce paths).
+    /// Builds the method, seeded by `seed` (the default paths).
     pub fn build(
         &self,
         ctx: &GpuContext,

@@ -24,7 +24,7 @@
 //! point, or to infinity for the environment and directional lights); [`Estimator::Ris`] draws
 //! K candidates, resamples one by RIS (target: luminance of the unshadowed contribution) and
 //! traces one shadow ray. Outputs: `direct` = emission seen (the environment where a camera ray
-//! escapes) + reflected direct light, `indirect` = one-bounce indirect light (a GI ray that
+//! escapes) + reflected direct light, `indirect` = indirect light of bounces 1..N ([`Paths`]; a GI ray that
 //! escapes adds nothing: the environment it sees is direct light at the primary vertex,
 //! estimated by NEE there), linear HDR. Emitters are two-sided. Shading uses the interpolated
 //! vertex normals where a triangle has them ([`TriangleAttributes`], `GVertex::shading`): the
@@ -71,7 +71,9 @@ pub fn check_candidates(candidates: u32) -> Result<(), String> {
         ))
     }
 }
-pub use crate::sampling::{DEFAULT_ROULETTE_FROM, MAX_BOUNCES, Paths};
+pub use crate::sampling::{
+    DEFAULT_BOUNCES, DEFAULT_MIS, DEFAULT_ROULETTE_FROM, MAX_BOUNCES, Paths,
+};
 
 /// How a render runs, whatever the method: the seed of its random streams and the depth of
 /// its indirect paths.
@@ -82,7 +84,7 @@ pub struct RenderOptions {
 }
 
 impl RenderOptions {
-    /// `seed` and one-bounce paths.
+    /// `seed` and the default paths.
     pub fn seeded(seed: u32) -> Self {
         Self {
             seed,
