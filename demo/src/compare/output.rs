@@ -11,6 +11,9 @@ use super::reference::Reference;
 use super::report::{EqualTime, Err2, ImageKind, MethodRun, Report, SceneReport};
 use super::{Rgb, TIMING_WARMUP_FRAMES, plot};
 
+/// JPEG quality of the strip image: two 256-pixel rows of twelve images stay under 500 kB.
+const STRIP_JPEG_QUALITY: u8 = 70;
+
 /// One scene's row of the image strip: reference | each method's last frame | each method's
 /// FLIP error map.
 #[derive(Debug)]
@@ -107,7 +110,7 @@ fn write_strip(path: &Path, rows: &[StripRow]) -> Result<()> {
         }
         y0 += row.height + GAP;
     }
-    Ok(image_io::write_jpeg(path, &img, 90)?)
+    Ok(image_io::write_jpeg(path, &img, STRIP_JPEG_QUALITY)?)
 }
 
 fn sci(v: Option<f64>) -> String {
