@@ -6,14 +6,16 @@
 //! Size: `WR_BENCH_SIZE` (default 128: the demo's default 256x256 takes too long per frame on
 //! lavapipe with 2 shared cores); many-lights with 10,000 lights. One `RESULT` line per
 //! world-restir variant of the method registry (`variant=default` first: the shipped defaults),
-//! each with the same frame's baselines measured in the same run.
+//! each with the same frame's baselines measured in the same run; one `RESULT bounces` line per
+//! method (nee, ris, world-restir) with the GPU cost of each bounce beyond the first.
+//! `WR_BENCH_CRITERION=0` skips the criterion group: only the RESULT runs.
 
 use criterion::{Criterion, criterion_group, criterion_main};
 use restir_world::GpuContext;
 use restir_world::gpu::{FrameEncoder, PassTimes};
 use restir_world::knobs::parse_config;
 use restir_world::methods::{Composed, FrameLoop, FrameMethod, MethodError, run_frames};
-use restir_world::render::Renderer;
+use restir_world::render::{Paths, RenderOptions, Renderer};
 use restir_world::sampling::Estimator;
 use restir_world::scene::{BuiltinOptions, builtin};
 use restir_world::world_restir::{self, WorldRestirConfig};
@@ -68,19 +70,24 @@ fn world_restir(c: &mut Criterion) {
     let mut ris = Renderer::new(ctx, &scene, &cam, ris, 1).expect("ris");
     let mut nee = Renderer::new(ctx, &scene, &cam, Estimator::Nee, 1).expect("nee");
 
-    let mut group = c.benchmark_group("world_restir_frame");
-    group.sample_size(10);
-    group.warm_up_time(std::time::Duration::from_secs(1));
-    group.measurement_time(std::time::Duration::from_secs(3));
-    group.bench_function(format!("world-restir_{side}"), |b| {
-        b.iter_custom(|iters| bench::gpu_time(ctx, iters, |enc| frame(ctx, &mut wr, enc)))
-    });
-    for (name, r) in [("ris", &mut ris), ("nee", &mut nee)] {
-        group.bench_function(format!("{name}_{side}"), |b| {
-            b.iter_custom(|iters| bench::gpu_time(ctx, iters, |enc| frame(ctx, r, enc)))
+    if std::env::var("WR_BENCH_CRITERION").map_or(true, |v| v != "0") {
+        let mut group = c.benchmark_group("world_restir_frame");
+        group.sample_size(10);
+        group.warm_up_time(std::time::Duration::from_secs(1));
+        group.measurement_time(std::time::Duration::from_secs(3));
+        group.bench_function(format!("world-restir_{side}"), |b| {
+            b.iter_custom(|iters| bench::gpu_time(ctx, iters, |enc| frame(ctx, &mut wr, enc)))
         });
+        for (name, r) in [("ris", &mut ris), ("nee", &mut nee)] {
+            group.bench_function(format!("{name}_{side}"), |b| {
+                b.iter_custom(|iters| bench::gpu_time(ctx, iters, |enc| frame(ctx, r, enc)))
+            });
+        }
+        group.finish();
     }
-    group.finish();
+    for spec in ["nee", "ris", "world-restir"] {
+        bounce_result(ctx, &scene, &cam, spec, side);
+    }
 
     let t_ris = frame_times(ctx, &mut ris);
     let t_nee = frame_times(ctx, &mut nee);
@@ -147,6 +154,7 @@ fn stage_result(
             ("shade_ms", f(ms(&t_wr, &["shade"]))),
             ("trace_ms", f(ms(&t_wr, &["primary", "gi"]))),
             ("direct_ms", f(ms(&t_wr, &["shade_direct"]))),
+            ("path_ms", f(ms(&t_wr, &["path"]))),
             ("frame_ms", f(frame_wr)),
             ("build_share", format!("{:.3}", build / frame_wr)),
             ("vs_ris_frame", format!("{:.3}", frame_wr / frame_ris)),
@@ -158,6 +166,59 @@ fn stage_result(
             ("overflows", stats.overflows.to_string()),
         ],
     );
+}
+
+/// Bounces timed by [`bounce_result`]: 1 to 4, without Russian roulette (every path runs the
+/// whole depth, so the cost per bounce is the full one).
+const BOUNCES: [u32; 4] = [1, 2, 3, 4];
+
+/// One `RESULT bounces` line: GPU ms per frame of `spec` at 1..=4 bounces, and the cost of each
+/// bounce beyond the first (least-squares slope of frame time against bounces), as a ratio to
+/// the one-bounce frame too.
+fn bounce_result(
+    ctx: &GpuContext,
+    scene: &restir_world::scene::Scene,
+    cam: &restir_world::scene::Camera,
+    spec: &str,
+    side: u32,
+) {
+    let settings = restir_world::methods::parse_spec(spec).expect(spec);
+    let frame_ms = BOUNCES.map(|bounces| {
+        let options = RenderOptions {
+            seed: 1,
+            paths: Paths {
+                bounces,
+                roulette_from: 0,
+                mis: false,
+            },
+        };
+        let mut m = settings.build_with(ctx, scene, cam, &options).expect(spec);
+        frame_times(ctx, m.as_mut()).ms_per_frame()
+    });
+    let n = BOUNCES.len() as f64;
+    let mean_b = BOUNCES.iter().map(|&b| f64::from(b)).sum::<f64>() / n;
+    let mean_t = frame_ms.iter().sum::<f64>() / n;
+    let (mut sxy, mut sxx) = (0.0, 0.0);
+    for (&b, &t) in BOUNCES.iter().zip(&frame_ms) {
+        sxy += (f64::from(b) - mean_b) * (t - mean_t);
+        sxx += (f64::from(b) - mean_b).powi(2);
+    }
+    let per_bounce = sxy / sxx;
+    let mut pairs = vec![
+        ("method", spec.to_string()),
+        ("scene", "many-lights".into()),
+        ("size", format!("{side}x{side}")),
+        ("ms_per_bounce", format!("{per_bounce:.3}")),
+        ("vs_one_bounce", format!("{:.3}", per_bounce / frame_ms[0])),
+    ];
+    let names = ["frame_ms_1", "frame_ms_2", "frame_ms_3", "frame_ms_4"];
+    pairs.extend(
+        names
+            .iter()
+            .zip(frame_ms)
+            .map(|(k, t)| (*k, format!("{t:.3}"))),
+    );
+    bench::print_result(ctx, "bounces", &pairs);
 }
 
 criterion_group!(benches, world_restir);
