@@ -107,20 +107,26 @@ pub fn render_method(
         );
     }
     if args.debug_views {
+        let mut written = 0;
         for (view, name) in [
             (DebugView::Cells, "debug-cells"),
             (DebugView::M, "debug-m"),
             (DebugView::Overflow, "debug-overflow"),
+            (DebugView::Rejected, "debug-rejected"),
         ] {
+            // Each method draws the views it has.
             let Some(px) = m.debug_image(&ctx, view)? else {
-                eprintln!("warning: {spec} has no debug views");
-                break;
+                continue;
             };
+            written += 1;
             let img = Image::from_pixels(camera.width, camera.height, px)
                 .map_err(|e| anyhow::anyhow!("{e}"))?;
             let file = out.join(format!("{tag}-{name}.png"));
             write_png(&file, &img, 1.0)?;
             println!("wrote {}", file.display());
+        }
+        if written == 0 {
+            eprintln!("warning: {spec} has no debug views");
         }
     }
     Ok(m.read(&ctx, Readback::Accumulated)?.into_rendered()?)

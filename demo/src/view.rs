@@ -84,20 +84,23 @@ pub enum Shown {
     Indirect,
     /// Debug view: a colour per hash-grid cell (world-restir).
     Cells,
-    /// Debug view: heat map of the reservoirs' M (world-restir).
+    /// Debug view: heat map of the reservoirs' M (world-restir, restir-gi).
     M,
     /// Debug view: vertices that found their bucket full (world-restir).
     Overflow,
+    /// Debug view: the share of each pixel's reconnections rejected (restir-gi).
+    Rejected,
 }
 
 impl Shown {
-    const ALL: [(Shown, &'static str); 6] = [
+    const ALL: [(Shown, &'static str); 7] = [
         (Shown::Combined, "combined"),
         (Shown::Direct, "direct"),
         (Shown::Indirect, "indirect"),
         (Shown::Cells, "debug: cells"),
         (Shown::M, "debug: M heat map"),
         (Shown::Overflow, "debug: overflow"),
+        (Shown::Rejected, "debug: rejected reconnections"),
     ];
 
     fn debug(self) -> Option<DebugView> {
@@ -105,6 +108,7 @@ impl Shown {
             Shown::Cells => Some(DebugView::Cells),
             Shown::M => Some(DebugView::M),
             Shown::Overflow => Some(DebugView::Overflow),
+            Shown::Rejected => Some(DebugView::Rejected),
             _ => None,
         }
     }

@@ -69,8 +69,9 @@ fn balance(a: f32, b: f32) -> f32 {
 /// Protocol, for neighbour n's sample `y_n` and the receiver's own `y_c`:
 /// 1. [`Reuse::begin`] with the receiver's finalized reservoir, `p_own = p_c(y_c)`, the number
 ///    k of neighbours to merge and their total capped confidence.
-/// 2. [`Reuse::neighbour`] per neighbour, with `p_here = p_c(T(y_n)) |J_n->c|` (the receiver's
-///    target at n's sample shifted to it, times the shift's Jacobian: 1 for light samples),
+/// 2. [`Reuse::neighbour`] per neighbour, with `p_here = p_c(T(y_n))` (the receiver's target
+///    at n's sample, for light samples, which need no shift), or [`Reuse::neighbour_shifted`]
+///    with the target at the shifted sample and the shift's Jacobian `|J_n->c|` apart,
 ///    `p_n_y = p_n(y_n)` and `p_n_own = p_n(T^-1(y_c)) |J_c->n|` (pairwise only).
 /// 3. 1/Z only: [`Reuse::count_z`] per neighbour with its target at the selected sample.
 /// 4. [`Reuse::finish`]: W and the stored M (the sum of the merged, capped M); then
@@ -94,7 +95,7 @@ pub struct Reuse {
     pub p_own: f32,
     /// Pairwise: the canonical's random number.
     pub u_own: f32,
-    /// The receiver's target at the selected sample.
+    /// The receiver's target at the selected sample (without a shift's Jacobian).
     pub p_hat: f32,
 }
 
@@ -157,6 +158,25 @@ impl Reuse {
         p_n_own: f32,
         u: f32,
     ) -> bool {
+        self.neighbour_shifted(n, other, p_here, 1.0, p_n_y, p_n_own, u)
+    }
+
+    /// [`Reuse::neighbour`] for a sample shifted to the receiver with Jacobian `jacobian`
+    /// (`|J_n->c|`): `p_target = p_c(T(y_n))` without it. The resampling and MIS weights take
+    /// `p_target * jacobian`; the final W divides by `p_target` alone (GRIS: the Jacobian
+    /// converts the neighbour's density, not the receiver's target).
+    #[allow(clippy::too_many_arguments)]
+    pub fn neighbour_shifted(
+        &mut self,
+        n: u32,
+        other: PackedReservoir,
+        p_target: f32,
+        jacobian: f32,
+        p_n_y: f32,
+        p_n_own: f32,
+        u: f32,
+    ) -> bool {
+        let p_here = p_target * jacobian;
         let selected = if self.mode == Combination::Pairwise {
             let w = self.pairwise_weights(other.m as f32, p_here, p_n_y, p_n_own);
             self.canonical += w[1];
@@ -165,7 +185,7 @@ impl Reuse {
             self.r.merge(&other.unpack(n), p_here, u)
         };
         if selected {
-            self.p_hat = p_here;
+            self.p_hat = p_target;
         }
         selected
     }
@@ -380,6 +400,118 @@ mod statistics {
             match mode {
                 Combination::OneOverM => assert!(z < -4.0, "1/M should be caught low: {mean}"),
                 _ => assert!(z.abs() < 4.0, "{mode} is biased: {mean}"),
+            }
+        }
+    }
+}
+
+/// Statistical check of a shifted reuse (fixed seeds, the twin): three neighbours draw their
+/// samples u in [0, 1) in their own domain, which the shift x = T(u) = u^2 (|J| = 2u) maps onto
+/// the receiver's; their target is the receiver's integrand carried back, f(u^2) 2u. Pairwise
+/// MIS with [`Reuse::neighbour_shifted`] must estimate the integral 1.5 of f(x) = 1 + x; the
+/// control, the same reuse with the Jacobian folded into the receiver's target (so W divides
+/// by it too), must be caught by the same check.
+#[cfg(test)]
+mod shifted {
+    use super::*;
+    use crate::rng::Rng;
+
+    const NEIGHBOURS: u32 = 3;
+    const CANDIDATES: u32 = 4;
+
+    fn f(x: f32) -> f32 {
+        1.0 + x
+    }
+
+    fn p_neighbour(u: f32) -> f32 {
+        f(u * u) * 2.0 * u
+    }
+
+    fn ris(target: fn(f32) -> f32, rng: &mut Rng) -> (PackedReservoir, f32) {
+        let mut r = Reservoir::empty();
+        let mut y = 0.0;
+        for _ in 0..CANDIDATES {
+            let x = rng.next_f32();
+            if r.update(target(x), rng.next_f32()) {
+                y = x;
+            }
+        }
+        r.finalize(target(y));
+        (r.pack(), y)
+    }
+
+    /// (mean, standard error) of f(Y) W; `folded`: the planted defect.
+    fn estimate(folded: bool, trials: u32) -> (f64, f64) {
+        let mut rng = Rng::seed(11, 0, u32::from(folded));
+        let (mut sum, mut sum2) = (0.0f64, 0.0f64);
+        for _ in 0..trials {
+            let (own, x_own) = ris(f, &mut rng);
+            let neighbours: Vec<_> = (0..NEIGHBOURS)
+                .map(|_| ris(p_neighbour, &mut rng))
+                .collect();
+            let m_n = neighbours.iter().map(|(r, _)| r.m).sum();
+            let mut c = Reuse::begin(
+                Combination::Pairwise,
+                own,
+                f(x_own),
+                NEIGHBOURS,
+                m_n,
+                rng.next_f32(),
+            );
+            let mut x = x_own;
+            // The receiver's sample carried to a neighbour: u = sqrt(x), |J_c->n| = 1 / (2u).
+            let u_own = x_own.sqrt();
+            let p_n_own = if u_own > 0.0 {
+                p_neighbour(u_own) / (2.0 * u_own)
+            } else {
+                0.0
+            };
+            for (n, (r, u_n)) in neighbours.iter().enumerate() {
+                let (x_n, jacobian) = (u_n * u_n, 2.0 * u_n);
+                let (target, jacobian) = match folded {
+                    false => (f(x_n), jacobian),
+                    true => (f(x_n) * jacobian, 1.0),
+                };
+                let u = rng.next_f32();
+                if c.neighbour_shifted(
+                    n as u32,
+                    *r,
+                    target,
+                    jacobian,
+                    p_neighbour(*u_n),
+                    p_n_own,
+                    u,
+                ) {
+                    x = x_n;
+                }
+            }
+            let out = c.finish();
+            if c.selected() == CANONICAL {
+                x = x_own;
+            }
+            let e = f64::from(f(x) * out.ucw);
+            sum += e;
+            sum2 += e * e;
+        }
+        let n = f64::from(trials);
+        let mean = sum / n;
+        (mean, ((sum2 / n - mean * mean) / n).sqrt())
+    }
+
+    #[test]
+    fn shifted_samples_estimate_the_integral_and_a_folded_jacobian_is_caught() {
+        const TRIALS: u32 = 100_000;
+        for folded in [false, true] {
+            let (mean, se) = estimate(folded, TRIALS);
+            // Tolerance: 4 standard errors, and the check resolves 1.5%.
+            let z = (mean - 1.5) / se;
+            eprintln!("folded {folded}: mean {mean:.4} (integral 1.5), se {se:.4}, z {z:+.1}");
+            match folded {
+                false => {
+                    assert!(4.0 * se < 0.0225, "too noisy to resolve 1.5% ({se})");
+                    assert!(z.abs() < 4.0, "shifted reuse is biased: {mean}");
+                }
+                true => assert!(z.abs() > 4.0, "the folded Jacobian was not caught: {mean}"),
             }
         }
     }

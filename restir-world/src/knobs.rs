@@ -387,6 +387,8 @@ macro_rules! knobs {
                     s += &format!("    {}: {},\n", stringify!($field),
                                   <$ty as $crate::knobs::KnobValue>::WGSL);
                 )? )*
+                // (An empty range when the knobs fill whole 16-byte rows.)
+                #[allow(clippy::reversed_empty_ranges)]
                 for p in Self::GPU_KNOBS..Self::GPU_WORDS {
                     s += &format!("    _pad{p}: u32,\n");
                 }

@@ -32,6 +32,7 @@ pub mod metrics;
 pub mod reference;
 pub mod render;
 pub mod restir_di;
+pub mod restir_gi;
 pub mod sampling;
 pub mod scene;
 pub mod trace;
@@ -49,6 +50,7 @@ pub fn kernels() -> Vec<render::ComposedKernel> {
     k.extend(light_tiles::kernels());
     k.extend(world_restir::kernels());
     k.extend(restir_di::kernels());
+    k.extend(restir_gi::kernels());
     k
 }
 

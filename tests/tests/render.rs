@@ -279,7 +279,7 @@ fn render_structs_match_wgsl_layout() {
             bounces,
             roulette_from,
             mis,
-            _pad1
+            secondary_radiance
         ]
     );
     tests::assert_wgsl_layout!(RenderState, src, "RenderState", [frame, _pad]);

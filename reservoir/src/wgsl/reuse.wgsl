@@ -15,7 +15,8 @@
 // The targets it takes, for neighbour n's sample y_n and the receiver's own sample y_c:
 // - p_own   = p_c(y_c): the receiver's target at its own sample;
 // - p_here  = p_c(T(y_n)) |J_n->c|: the receiver's target at n's sample shifted to it, times the
-//             shift's Jacobian (1 for light samples, which need no shift);
+//             shift's Jacobian (1 for light samples, which need no shift; a shift with another
+//             Jacobian merges with reuse_neighbour_shifted, which keeps the two apart);
 // - p_n_y   = p_n(y_n): n's target at its own sample (pairwise only);
 // - p_n_own = p_n(T^-1(y_c)) |J_c->n|: n's target at the receiver's sample shifted to n
 //             (pairwise only).
@@ -50,7 +51,7 @@ struct Reuse {
     p_own: f32,
     // Pairwise: the canonical's random number, used by reuse_finish.
     u_own: f32,
-    // The receiver's target at the selected sample (times the shift's Jacobian).
+    // The receiver's target at the selected sample (without a shift's Jacobian).
     p_hat: f32,
 }
 
@@ -105,6 +106,17 @@ fn reuse_pairwise_weights(c: Reuse, m_n: f32, p_here: f32, p_n_y: f32, p_n_own: 
 // never selected (in pairwise mode it leaves its whole share to the canonical sample).
 fn reuse_neighbour(c: ptr<function, Reuse>, n: u32, other: PackedReservoir, p_here: f32,
                    p_n_y: f32, p_n_own: f32, u: f32) -> bool {
+    return reuse_neighbour_shifted(c, n, other, p_here, 1.0, p_n_y, p_n_own, u);
+}
+
+// reuse_neighbour for a sample shifted to the receiver with Jacobian `jacobian` (|J_n->c|):
+// p_target = p_c(T(y_n)) without it. The resampling and MIS weights take p_target * jacobian;
+// the final W divides by p_target alone (GRIS: the Jacobian converts the neighbour's density,
+// not the receiver's target).
+fn reuse_neighbour_shifted(c: ptr<function, Reuse>, n: u32, other: PackedReservoir,
+                           p_target: f32, jacobian: f32, p_n_y: f32, p_n_own: f32,
+                           u: f32) -> bool {
+    let p_here = p_target * jacobian;
     var r = (*c).r;
     var selected: bool;
     if (*c).mode == REUSE_PAIRWISE {
@@ -116,7 +128,7 @@ fn reuse_neighbour(c: ptr<function, Reuse>, n: u32, other: PackedReservoir, p_he
     }
     (*c).r = r;
     if selected {
-        (*c).p_hat = p_here;
+        (*c).p_hat = p_target;
     }
     return selected;
 }

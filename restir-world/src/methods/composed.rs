@@ -6,6 +6,7 @@ use crate::gpu::{FrameEncoder, GpuContext};
 use crate::light_tiles::LightTiles;
 use crate::render::{DebugView, RenderOptions, Renderer};
 use crate::restir_di::{RestirDi, RestirDiConfig};
+use crate::restir_gi::RestirGi;
 use crate::scene::{Camera, Scene};
 use crate::world_restir::{WorldRestir, WorldRestirConfig};
 
@@ -14,7 +15,9 @@ use crate::world_restir::{WorldRestir, WorldRestirConfig};
 ///
 /// 1. the renderer's `primary` and `gi` passes;
 /// 2. the light tiles, when a stage draws from them (`light-tiles`);
-/// 3. the indirect image: world-restir, or the renderer's NEE at the secondary vertex;
+/// 3. the indirect image: world-restir, or the renderer's NEE at the secondary vertex, then
+///    the path beyond it; with ReSTIR GI these are the radiance leaving the secondary vertex,
+///    which it resamples into the indirect image;
 /// 4. the direct image: world-restir's unified cache, ReSTIR DI, or the renderer's NEE;
 /// 5. accumulation.
 #[derive(Debug)]
@@ -22,6 +25,7 @@ pub struct Composed {
     renderer: Renderer,
     tiles: Option<LightTiles>,
     world: Option<WorldRestir>,
+    gi: Option<RestirGi>,
     di: Option<RestirDi>,
 }
 
@@ -63,6 +67,10 @@ impl Composed {
             Some(w) => Some(WorldRestir::new(ctx, &renderer, w, gi_tiles)?),
             None => None,
         };
+        let gi = match settings.gi {
+            Some(g) => Some(RestirGi::new(ctx, &renderer, g)?),
+            None => None,
+        };
         let di = match (settings.di, &tiles) {
             (Some(d), Some(t)) => Some(RestirDi::new(ctx, &renderer, d, t)?),
             _ => None,
@@ -71,6 +79,7 @@ impl Composed {
             renderer,
             tiles,
             world,
+            gi,
             di,
         })
     }
@@ -110,6 +119,16 @@ impl Composed {
         self.world.as_ref()
     }
 
+    /// The ReSTIR GI stage, when the method has one.
+    pub fn gi(&self) -> Option<&RestirGi> {
+        self.gi.as_ref()
+    }
+
+    /// The ReSTIR GI stage, mutable (tests plant defects in it).
+    pub fn gi_mut(&mut self) -> Option<&mut RestirGi> {
+        self.gi.as_mut()
+    }
+
     /// The ReSTIR DI stage, when the method has one.
     pub fn di(&self) -> Option<&RestirDi> {
         self.di.as_ref()
@@ -137,6 +156,9 @@ impl FrameMethod for Composed {
             None => r.encode_shade_indirect(f),
         }
         r.encode_path(f);
+        if let Some(gi) = self.gi.as_mut() {
+            gi.encode(f, r);
+        }
         let unified = self.world.as_ref().is_some_and(WorldRestir::lights_direct);
         match self.di.as_mut() {
             _ if unified => {}
@@ -167,9 +189,14 @@ impl FrameMethod for Composed {
         ctx: &GpuContext,
         view: DebugView,
     ) -> Result<Option<Vec<[f32; 3]>>, MethodError> {
+        if let Some(gi) = &self.gi {
+            if let Some(image) = gi.debug_image(ctx, view)? {
+                return Ok(Some(image));
+            }
+        }
         match &self.world {
-            Some(w) => Ok(Some(w.debug_image(ctx, view)?)),
-            None => Ok(None),
+            Some(w) if view != DebugView::Rejected => Ok(Some(w.debug_image(ctx, view)?)),
+            _ => Ok(None),
         }
     }
 }

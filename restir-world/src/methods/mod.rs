@@ -12,6 +12,7 @@ use std::fmt;
 use crate::gpu::{FrameEncoder, GpuContext, GpuError, GpuTimer, PassTimes, SpanTimes};
 use crate::render::{DebugView, RenderError, Renderer};
 use crate::restir_di::RestirDiError;
+use crate::restir_gi::RestirGiError;
 use crate::scene::{Camera, CameraPath};
 use crate::world_restir::WorldRestirError;
 
@@ -34,6 +35,8 @@ pub enum MethodError {
     WorldRestir(#[from] WorldRestirError),
     #[error(transparent)]
     RestirDi(#[from] RestirDiError),
+    #[error(transparent)]
+    RestirGi(#[from] RestirGiError),
     #[error(transparent)]
     Gpu(#[from] GpuError),
     #[error("unknown method {name:?}; known: {known}")]

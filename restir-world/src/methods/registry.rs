@@ -9,6 +9,7 @@ use crate::gpu::GpuContext;
 use crate::knobs::{Knob, Knobs, Variant, parse_config};
 use crate::render::{self, RenderOptions};
 use crate::restir_di::{self, RestirDiConfig};
+use crate::restir_gi::{self, RestirGiConfig};
 use crate::sampling::Estimator;
 use crate::scene::{Camera, Scene};
 use crate::world_restir::{self, WorldRestirConfig, WorldRestirError};
@@ -24,6 +25,8 @@ pub enum VariantOf {
     WorldRestir,
     /// ReSTIR DI's knobs.
     RestirDi,
+    /// ReSTIR GI's knobs.
+    RestirGi,
 }
 
 /// One registered method.
@@ -33,9 +36,11 @@ pub struct MethodEntry {
     pub name: &'static str,
     /// One line for `--help` and reports.
     pub about: &'static str,
-    /// Its stages: world-restir for the indirect light, ReSTIR DI for the direct light (the
-    /// renderer's RIS lights what no stage does).
+    /// Its stages: world-restir for the light at the secondary vertex, ReSTIR GI resampling
+    /// the paths, ReSTIR DI for the direct light (the renderer's RIS lights what no stage
+    /// does).
     pub world_restir: bool,
+    pub restir_gi: bool,
     pub restir_di: bool,
     /// What its variant text configures.
     pub variant_of: VariantOf,
@@ -58,6 +63,7 @@ impl MethodEntry {
         match self.variant_of {
             VariantOf::WorldRestir => world_restir::variants(),
             VariantOf::RestirDi => restir_di::variants(),
+            VariantOf::RestirGi => restir_gi::variants(),
             VariantOf::Nothing | VariantOf::RisCandidates => Vec::new(),
         }
     }
@@ -68,10 +74,11 @@ impl MethodEntry {
         match self.variant_of {
             VariantOf::Nothing => "none".into(),
             VariantOf::RisCandidates => "K (candidate count)".into(),
-            VariantOf::WorldRestir | VariantOf::RestirDi => {
+            VariantOf::WorldRestir | VariantOf::RestirDi | VariantOf::RestirGi => {
                 let names: Vec<&str> = self.variants().iter().map(|v| v.name).collect();
                 let all = match self.variant_of {
                     VariantOf::WorldRestir => WorldRestirConfig::KNOBS,
+                    VariantOf::RestirGi => RestirGiConfig::KNOBS,
                     _ => RestirDiConfig::KNOBS,
                 };
                 format!(
@@ -96,6 +103,7 @@ impl MethodEntry {
             entry: self,
             estimator: render::ris(),
             world: self.world_restir.then(WorldRestirConfig::default),
+            gi: self.restir_gi.then(RestirGiConfig::default),
             di: self.restir_di.then(RestirDiConfig::default),
         };
         match (self.variant_of, variant) {
@@ -120,6 +128,9 @@ impl MethodEntry {
             (VariantOf::RestirDi, v) => {
                 s.di = Some(parse_config(&restir_di::variants(), v).map_err(|e| self.bad(e))?);
             }
+            (VariantOf::RestirGi, v) => {
+                s.gi = Some(parse_config(&restir_gi::variants(), v).map_err(|e| self.bad(e))?);
+            }
         }
         s.validate()?;
         Ok(s)
@@ -133,13 +144,15 @@ pub struct MethodSettings {
     pub entry: &'static MethodEntry,
     pub estimator: Estimator,
     pub world: Option<WorldRestirConfig>,
+    pub gi: Option<RestirGiConfig>,
     pub di: Option<RestirDiConfig>,
 }
 
 impl PartialEq for MethodSettings {
     fn eq(&self, other: &Self) -> bool {
         self.entry.name == other.entry.name
-            && (self.estimator, self.world, self.di) == (other.estimator, other.world, other.di)
+            && (self.estimator, self.world, self.gi, self.di)
+                == (other.estimator, other.world, other.gi, other.di)
     }
 }
 
@@ -149,6 +162,9 @@ impl MethodSettings {
         let bad = |msg: &str| Err(self.entry.bad(msg));
         if let Some(w) = &self.world {
             w.validate()?;
+        }
+        if let Some(g) = &self.gi {
+            g.validate().map_err(|e| self.entry.bad(e.to_string()))?;
         }
         if let Some(d) = &self.di {
             d.validate().map_err(|e| self.entry.bad(e.to_string()))?;
@@ -188,6 +204,7 @@ impl MethodSettings {
             },
             VariantOf::WorldRestir => self.world.map(|c| c.knobs_spec()).unwrap_or_default(),
             VariantOf::RestirDi => self.di.map(|c| c.knobs_spec()).unwrap_or_default(),
+            VariantOf::RestirGi => self.gi.map(|c| c.knobs_spec()).unwrap_or_default(),
         };
         match knobs.is_empty() {
             true => self.entry.name.to_owned(),
@@ -204,19 +221,22 @@ impl MethodSettings {
                 .map(|k| (*k, c.get(k.name).unwrap_or_default()))
                 .collect()
         }
-        match (self.entry.variant_of, &self.world, &self.di) {
-            (VariantOf::WorldRestir, Some(w), _) => values(w),
-            (VariantOf::RestirDi, _, Some(d)) => values(d),
-            _ => Vec::new(),
+        match self.entry.variant_of {
+            VariantOf::WorldRestir => self.world.as_ref().map(values),
+            VariantOf::RestirDi => self.di.as_ref().map(values),
+            VariantOf::RestirGi => self.gi.as_ref().map(values),
+            VariantOf::Nothing | VariantOf::RisCandidates => None,
         }
+        .unwrap_or_default()
     }
 
     /// These settings with one knob of the variant changed, checked.
     pub fn with_knob(&self, key: &str, value: &str) -> Result<MethodSettings, MethodError> {
         let mut next = *self;
-        let set = match (self.entry.variant_of, &mut next.world, &mut next.di) {
-            (VariantOf::WorldRestir, Some(w), _) => w.set(key, value),
-            (VariantOf::RestirDi, _, Some(d)) => d.set(key, value),
+        let set = match (self.entry.variant_of, &mut next) {
+            (VariantOf::WorldRestir, MethodSettings { world: Some(w), .. }) => w.set(key, value),
+            (VariantOf::RestirDi, MethodSettings { di: Some(d), .. }) => d.set(key, value),
+            (VariantOf::RestirGi, MethodSettings { gi: Some(g), .. }) => g.set(key, value),
             _ => Err(format!("{} has no knobs", self.entry.name)),
         };
         set.map_err(|e| self.entry.bad(e))?;
@@ -256,6 +276,7 @@ pub fn registry() -> &'static [MethodEntry] {
             name,
             about,
             world_restir: false,
+            restir_gi: false,
             restir_di: false,
             variant_of,
             equal_time_target: false,
@@ -298,6 +319,36 @@ pub fn registry() -> &'static [MethodEntry] {
                 "world-space ReSTIR GI for the indirect light (its defaults), ReSTIR DI for the \
                  direct light (its variants)",
                 VariantOf::RestirDi,
+            )
+        },
+        MethodEntry {
+            restir_gi: true,
+            ..entry(
+                "restir-gi",
+                "screen-space ReSTIR GI: each pixel's path resampled with its temporal and \
+                 spatial neighbours' by reconnection (ris lights every vertex)",
+                VariantOf::RestirGi,
+            )
+        },
+        MethodEntry {
+            world_restir: true,
+            restir_gi: true,
+            ..entry(
+                "restir-gi+world-restir",
+                "ReSTIR GI (its variants) over paths whose secondary vertex world-restir \
+                 lights (its defaults)",
+                VariantOf::RestirGi,
+            )
+        },
+        MethodEntry {
+            world_restir: true,
+            restir_gi: true,
+            restir_di: true,
+            ..entry(
+                "restir-di+restir-gi+world-restir",
+                "the full stack: ReSTIR DI for the direct light, ReSTIR GI over world-restir's \
+                 secondary vertices (their defaults; the variant is ReSTIR GI's)",
+                VariantOf::RestirGi,
             )
         },
     ];
@@ -370,6 +421,10 @@ mod tests {
             "restir-di:combine=one-over-z",
             "world-restir+restir-di:spatial-k=4",
             "world-restir+restir-di:gi-tiles",
+            "restir-gi",
+            "restir-gi:biased+spatial-k=8",
+            "restir-gi+world-restir:no-reuse",
+            "restir-di+restir-gi+world-restir:max-jacobian=4",
         ] {
             check_spec(good).unwrap_or_else(|e| panic!("{good}: {e}"));
         }
@@ -384,6 +439,8 @@ mod tests {
             "restir-di:tiles=0",
             "restir-di:gi-tiles",
             "world-restir+restir-di:combine=x",
+            "restir-gi:max-jacobian=0",
+            "restir-gi:spatial-k=17",
             "nope",
         ] {
             assert!(check_spec(bad).is_err(), "{bad}");

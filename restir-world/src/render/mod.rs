@@ -125,11 +125,13 @@ pub enum Stream {
     DiSpatial = 12,
     /// The path beyond the secondary vertex (salted by the bounce).
     Path = 13,
+    GiTemporal = 14,
+    GiSpatial = 15,
 }
 
 impl Stream {
     /// Every stream with the suffix of its WGSL constant.
-    pub const ALL: [(Stream, &'static str); 14] = [
+    pub const ALL: [(Stream, &'static str); 16] = [
         (Stream::Primary, "PRIMARY"),
         (Stream::Gi, "GI"),
         (Stream::Direct, "DIRECT"),
@@ -144,6 +146,8 @@ impl Stream {
         (Stream::DiTemporal, "DI_TEMPORAL"),
         (Stream::DiSpatial, "DI_SPATIAL"),
         (Stream::Path, "PATH"),
+        (Stream::GiTemporal, "GI_TEMPORAL"),
+        (Stream::GiSpatial, "GI_SPATIAL"),
     ];
 }
 
@@ -331,7 +335,10 @@ pub struct RenderParams {
     pub roulette_from: u32,
     /// [`Paths::mis`] as 0 or 1.
     pub mis: u32,
-    pub _pad1: u32,
+    /// 1 when the indirect passes write the radiance leaving the secondary vertex towards the
+    /// primary (ReSTIR GI's sample, [`Renderer::set_secondary_radiance`]), 0 when they write
+    /// the primary's reflected light (that radiance times the primary's albedo).
+    pub secondary_radiance: u32,
 }
 
 impl RenderParams {
@@ -355,7 +362,7 @@ impl RenderParams {
             bounces: options.paths.bounces,
             roulette_from: options.paths.roulette_from,
             mis: u32::from(options.paths.mis),
-            _pad1: 0,
+            secondary_radiance: 0,
         }
     }
 }
@@ -389,7 +396,7 @@ pub fn constants_wgsl() -> String {
     format!(
         "const RENDER_METHOD_NEE: u32 = {METHOD_NEE}u;\nconst RENDER_METHOD_RIS: u32 = {METHOD_RIS}u;\n\
          const STREAM_COUNT: u32 = {STREAM_COUNT}u;\nconst RENDER_RAY_EPS: f32 = {RAY_EPS:e};\n\
-         const RENDER_T_MAX: f32 = {T_MAX:e};\n\
+         const RENDER_T_MAX: f32 = {T_MAX:e};\nconst RENDER_NO_PIXEL: u32 = 0xffffffffu;\n\
          const RENDER_LUMINANCE: vec3<f32> = vec3<f32>({:?}, {:?}, {:?});\n{}",
         LUMINANCE[0],
         LUMINANCE[1],
@@ -760,6 +767,16 @@ pub enum DebugView {
     M = 1,
     /// Red where the vertex found its bucket full and kept its own reservoir.
     Overflow = 2,
+    /// The share of a pixel's reconnections rejected (restir-gi: Jacobian out of range, x2
+    /// facing away, or occluded): green none .. red all; black: no neighbour merged.
+    Rejected = 3,
+}
+
+/// The debug views' heat map of t in [0, 1]: blue .. cyan .. yellow .. red (the twin of
+/// world-restir's WGSL `wr_heat`).
+pub fn heat(t: f32) -> [f32; 3] {
+    let x = t.clamp(0.0, 1.0);
+    [3.0, 2.0, 1.0].map(|c| (1.5 - (4.0 * x - c).abs()).clamp(0.0, 1.0))
 }
 
 /// Reads the first `pixels` entries of a per-pixel `vec4` buffer back as RGB scaled by
@@ -1017,6 +1034,17 @@ impl Renderer {
         let scales = [direct, indirect];
         ctx.queue
             .write_buffer(&self.buffers.params, offset, bytemuck::cast_slice(&scales));
+    }
+
+    /// Whether the indirect passes (`shade_indirect`, `path`, world-restir's shade) write the
+    /// radiance leaving the secondary vertex towards the primary instead of the primary's
+    /// reflected light: set by a stage that resamples that radiance (ReSTIR GI) and writes the
+    /// indirect image itself.
+    pub fn set_secondary_radiance(&self, ctx: &GpuContext, on: bool) {
+        let offset = std::mem::offset_of!(RenderParams, secondary_radiance) as u64;
+        let word = [u32::from(on)];
+        ctx.queue
+            .write_buffer(&self.buffers.params, offset, bytemuck::cast_slice(&word));
     }
 
     /// Clears the running sums (the frame counter, which seeds the passes, runs on).

@@ -68,7 +68,8 @@ fn render_shade_direct(id: Invocation) {
 }
 
 // One-bounce indirect light: primary albedo x (NEE at the secondary vertex); the cosine pdf of
-// the GI ray cancels the cosine and 1/pi of the primary's BRDF.
+// the GI ray cancels the cosine and 1/pi of the primary's BRDF. (ReSTIR GI: NEE alone, see
+// render_indirect_weight.)
 @compute @workgroup_size(WORKGROUP_SIZE)
 fn render_shade_indirect(id: Invocation) {
     let i = item_index(id);
@@ -78,7 +79,7 @@ fn render_shade_indirect(id: Invocation) {
     var c = vec3<f32>(0.0);
     if g.prim != BVH_NO_HIT && s.prim != BVH_NO_HIT {
         var rng = render_rng(i, STREAM_INDIRECT);
-        c = g.albedo * render_nee(s, &rng);
+        c = render_indirect_weight(g) * render_nee(s, &rng);
     }
     render_indirect_frame[i] = vec4<f32>(c, 1.0);
 }
@@ -99,7 +100,7 @@ fn render_path(id: Invocation) {
     if g.prim == BVH_NO_HIT || v.prim == BVH_NO_HIT {
         return;
     }
-    var throughput = g.albedo;
+    var throughput = render_indirect_weight(g);
     var l = vec3<f32>(0.0);
     // With MIS one more ray: the emission the last vertex's ray finds is part of the last bounce.
     let last = render_params.bounces + render_params.mis;

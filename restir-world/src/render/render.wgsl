@@ -75,7 +75,16 @@ struct RenderParams {
     roulette_from: u32,
     // 1: light samples and the emission rays hit are weighted by multiple importance sampling.
     mis: u32,
-    _pad1: u32,
+    // 1: the indirect passes write the radiance leaving the secondary vertex towards the
+    // primary (ReSTIR GI resamples it), 0: the primary's reflected light.
+    secondary_radiance: u32,
+}
+
+// What the radiance leaving the secondary vertex towards primary vertex g is weighted by in
+// the indirect image: g's albedo (the GI ray's cosine pdf cancels g's cosine and 1/pi), or 1
+// when ReSTIR GI takes that radiance as its sample (render_params.secondary_radiance).
+fn render_indirect_weight(g: GVertex) -> vec3<f32> {
+    return select(g.albedo, vec3<f32>(1.0), render_params.secondary_radiance != 0u);
 }
 
 // GPU-side frame counter: advanced by render_accumulate, read by every pass for its seeds.
@@ -388,6 +397,57 @@ fn render_direct_from_stored(g: GVertex, res: StoredReservoir, secondary: GVerte
         }
     }
     return c;
+}
+
+// Screen-space reuse (restir-di, restir-gi): the pixel that sees a point, the similarity of two
+// pixels' vertices, and a neighbour drawn in a disc.
+
+// The pixel whose camera ray through `cam` sees the point p, or RENDER_NO_PIXEL when p is
+// behind the camera or outside the image.
+fn render_project(cam: CameraGpu, p: vec3<f32>) -> u32 {
+    let d = p - cam.eye;
+    let z = dot(d, cam.forward);
+    if !(z > 1e-6) {
+        return RENDER_NO_PIXEL;
+    }
+    let sx = dot(d, cam.right) / (z * dot(cam.right, cam.right));
+    let sy = dot(d, cam.up) / (z * dot(cam.up, cam.up));
+    let x = (sx + 1.0) * 0.5 * f32(cam.width);
+    let y = (1.0 - sy) * 0.5 * f32(cam.height);
+    // Also rejects NaN.
+    if !(x >= 0.0 && x < f32(cam.width) && y >= 0.0 && y < f32(cam.height)) {
+        return RENDER_NO_PIXEL;
+    }
+    return min(u32(y), cam.height - 1u) * cam.width + min(u32(x), cam.width - 1u);
+}
+
+// Geometric similarity of a reused pixel's vertex q to the receiver g, both seen from eye: both
+// hit, depths within depth_threshold (relative), shading normals within normal_threshold
+// (cosine).
+fn render_similar(g: GVertex, q: GVertex, eye: vec3<f32>, depth_threshold: f32,
+                  normal_threshold: f32) -> bool {
+    if q.prim == BVH_NO_HIT {
+        return false;
+    }
+    let dg = distance(g.position, eye);
+    let dq = distance(q.position, eye);
+    return abs(dq - dg) <= depth_threshold * dg && dot(g.shading, q.shading) >= normal_threshold;
+}
+
+// A pixel drawn uniformly in the disc of `radius` pixels around pixel i of this frame's image,
+// or RENDER_NO_PIXEL when it falls outside the image.
+fn render_disc_neighbour(i: u32, radius: f32, rng: ptr<function, u32>) -> u32 {
+    let cam = render_params.camera;
+    let x = f32(i % cam.width);
+    let y = f32(i / cam.width);
+    let r = radius * sqrt(rng_next_f32(rng));
+    let phi = 6.28318530717959 * rng_next_f32(rng);
+    let nx = floor(x + 0.5 + r * cos(phi));
+    let ny = floor(y + 0.5 + r * sin(phi));
+    if !(nx >= 0.0 && nx < f32(cam.width) && ny >= 0.0 && ny < f32(cam.height)) {
+        return RENDER_NO_PIXEL;
+    }
+    return u32(ny) * cam.width + u32(nx);
 }
 
 // Interpolated vertex normals at the hit, normalized and turned to the side of the geometric

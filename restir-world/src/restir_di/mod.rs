@@ -142,7 +142,7 @@ pub struct DiParams {
 /// Generated constants header and the knobs' struct.
 pub fn constants_wgsl() -> String {
     format!(
-        "const DI_NO_PIXEL: u32 = 0xffffffffu;\nconst DI_MAX_NEIGHBOURS: u32 = {MAX_SPATIAL_K}u;\n{}",
+        "const DI_MAX_NEIGHBOURS: u32 = {MAX_SPATIAL_K}u;\n{}",
         RestirDiConfig::wgsl_struct("DiKnobs")
     )
 }

@@ -2,7 +2,7 @@
 // reservoirs of other pixels (reuse_src) that pass the similarity test di_similar (depth within
 // depth_threshold, shading normals within normal_threshold):
 // - temporal: the one pixel of last frame's image that sees the receiver's primary hit
-//   through last frame's camera (di_project), tested against last frame's G-buffer
+//   through last frame's camera (render_project), tested against last frame's G-buffer
 //   (di_prev_gbuffer) from last frame's eye; its M capped at temporal_m_cap. A disocclusion, a
 //   camera cut or the first frame (history = 0) merges nothing.
 // - spatial: spatial_k pixels drawn uniformly in a disc of spatial_radius pixels around the
@@ -40,8 +40,8 @@ fn di_reuse(id: Invocation) {
     var k = 0u;
     if temporal {
         if di_params.history != 0u {
-            let j = di_project(di_params.prev_camera, g.position);
-            if j != DI_NO_PIXEL {
+            let j = render_project(di_params.prev_camera, g.position);
+            if j != RENDER_NO_PIXEL {
                 let m = reuse_src[j].m;
                 if m > 0u && di_similar(g, di_prev_gbuffer[j], di_params.prev_camera.eye) {
                     idx[0] = j;
@@ -51,21 +51,14 @@ fn di_reuse(id: Invocation) {
             }
         }
     } else {
-        let cam = render_params.camera;
-        let x = f32(i % cam.width);
-        let y = f32(i / cam.width);
         let count = min(di_params.knobs.spatial_k, DI_MAX_NEIGHBOURS);
         for (var n = 0u; n < count; n++) {
-            let radius = di_params.knobs.spatial_radius * sqrt(rng_next_f32(&rng));
-            let phi = 6.28318530717959 * rng_next_f32(&rng);
-            let nx = floor(x + 0.5 + radius * cos(phi));
-            let ny = floor(y + 0.5 + radius * sin(phi));
-            if !(nx >= 0.0 && nx < f32(cam.width) && ny >= 0.0 && ny < f32(cam.height)) {
+            let j = render_disc_neighbour(i, di_params.knobs.spatial_radius, &rng);
+            if j == RENDER_NO_PIXEL {
                 continue;
             }
-            let j = u32(ny) * cam.width + u32(nx);
             let m = reuse_src[j].m;
-            if j == i || m == 0u || !di_similar(g, render_gbuffer[j], cam.eye) {
+            if j == i || m == 0u || !di_similar(g, render_gbuffer[j], render_params.camera.eye) {
                 continue;
             }
             idx[k] = j;

@@ -1,6 +1,7 @@
 // Pass "shade": one shadow ray for each vertex's selected sample; radiance leaving the
 // secondary vertex towards the primary = f(y) W; indirect at the primary = primary albedo x
-// that radiance (the cosine pdf of the GI ray cancels the primary's cosine and 1/pi).
+// that radiance (the cosine pdf of the GI ray cancels the primary's cosine and 1/pi), or the
+// radiance itself for ReSTIR GI (render_indirect_weight).
 
 @compute @workgroup_size(WORKGROUP_SIZE)
 fn wr_shade(id: Invocation) {
@@ -8,7 +9,8 @@ fn wr_shade(id: Invocation) {
     if i >= render_params.pixel_count { return; }
     var c = vec3<f32>(0.0);
     if wr_has_vertex(i) {
-        c = render_shade_stored(render_secondary[i], wr_final[i], render_gbuffer[i].albedo);
+        c = render_shade_stored(render_secondary[i], wr_final[i],
+                                render_indirect_weight(render_gbuffer[i]));
     }
     render_indirect_frame[i] = vec4<f32>(c, 1.0);
 }

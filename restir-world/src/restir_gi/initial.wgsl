@@ -1,0 +1,29 @@
+// Pass "gi-initial": each pixel's own path sample from this frame: x2 = its secondary vertex, L
+// = the radiance the renderer's indirect passes wrote to render_indirect_frame (with
+// render_params.secondary_radiance = 1). The GI ray was drawn with the cosine density about
+// the primary's shading normal, so W = 1 / pdf = pi / cos (one RIS candidate). M = 1; a GI ray
+// that escaped or found no light gives W = 0. Writes gi_out; clears gi_debug.
+
+@compute @workgroup_size(WORKGROUP_SIZE)
+fn gi_initial(id: Invocation) {
+    let i = item_index(id);
+    if i >= render_params.pixel_count { return; }
+    gi_debug[i] = 0u;
+    let g = render_gbuffer[i];
+    var out: GiReservoir;
+    if g.prim == BVH_NO_HIT {
+        gi_out[i] = out;
+        return;
+    }
+    let x2 = render_secondary[i];
+    var sample: GiSample;
+    var packed = PackedReservoir(0.0, 1u);
+    if x2.prim != BVH_NO_HIT {
+        sample = GiSample(x2.position, x2.normal, render_indirect_frame[i].xyz);
+        let pdf = max(dot(g.shading, normalize(x2.position - g.position)), 0.0) * SAMPLING_INV_PI;
+        if pdf > 0.0 && gi_target(g, sample) > 0.0 {
+            packed.ucw = 1.0 / pdf;
+        }
+    }
+    gi_out[i] = gi_store(sample, packed);
+}

@@ -1,0 +1,147 @@
+// Screen-space ReSTIR GI library (Ouyang et al. 2021): the path sample, its target, the
+// reconnection shift's Jacobian, and the knobs of the restir-gi passes. Structs and functions
+// only. Needs the render library (render::library), reservoir::wgsl() and the constants header
+// restir_gi::constants_wgsl().
+//
+// A sample is the secondary vertex x2 of a pixel's path (position, the normal on the side its
+// primary saw it from) and the radiance leaving it towards that primary, L (the renderer's
+// indirect passes with render_params.secondary_radiance = 1: x2's light estimate and the path
+// beyond it). Samples live in the solid angle at the primary vertex x1: a pixel's own sample has
+// the GI ray's cosine density; a neighbour's is shifted to the receiver by reconnection (the
+// receiver's x1 joins the neighbour's x2; L is kept: x2 is diffuse).
+
+// Knobs (GiKnobs, generated from restir_gi::RestirGiConfig) and the frame's history (Rust
+// twin: restir_gi::GiParams), uploaded every frame. prev_camera: last frame's camera; history
+// = 1 when last frame's G-buffer and reservoirs exist; planted_jacobian = 1 only in tests'
+// negative controls (the shift's Jacobian without its distance ratio).
+struct GiParams {
+    knobs: GiKnobs,
+    prev_camera: CameraGpu,
+    history: u32,
+    planted_jacobian: u32,
+    _pad0: u32,
+    _pad1: u32,
+}
+
+// A pixel's reservoir as stored, 32 bytes (Rust twin: restir_gi::GiReservoir): its sample's x2
+// and L, W, and normal_m = x2's normal (octahedral, two 11-bit snorm) | M << 22 (M saturates
+// at GI_MAX_M; M = 0: no primary vertex).
+struct GiReservoir {
+    position: vec3<f32>,
+    ucw: f32,
+    radiance: vec3<f32>,
+    normal_m: u32,
+}
+
+struct GiSample {
+    position: vec3<f32>,
+    normal: vec3<f32>,
+    radiance: vec3<f32>,
+}
+
+fn gi_snorm11(x: f32) -> u32 {
+    return u32(round((clamp(x, -1.0, 1.0) * 0.5 + 0.5) * 2047.0));
+}
+
+fn gi_unsnorm11(b: u32) -> f32 {
+    return f32(b & 2047u) / 2047.0 * 2.0 - 1.0;
+}
+
+// Octahedral encoding of a unit vector in 22 bits.
+fn gi_encode_normal(n: vec3<f32>) -> u32 {
+    var p = n.xy / (abs(n.x) + abs(n.y) + abs(n.z));
+    if n.z < 0.0 {
+        p = (1.0 - abs(p.yx)) * select(vec2<f32>(-1.0), vec2<f32>(1.0), p >= vec2<f32>(0.0));
+    }
+    return gi_snorm11(p.x) | (gi_snorm11(p.y) << 11u);
+}
+
+fn gi_decode_normal(bits: u32) -> vec3<f32> {
+    let p = vec2<f32>(gi_unsnorm11(bits), gi_unsnorm11(bits >> 11u));
+    var n = vec3<f32>(p, 1.0 - abs(p.x) - abs(p.y));
+    if n.z < 0.0 {
+        n = vec3<f32>((1.0 - abs(n.yx)) * select(vec2<f32>(-1.0), vec2<f32>(1.0), n.xy >= vec2<f32>(0.0)), n.z);
+    }
+    return normalize(n);
+}
+
+fn gi_m(r: GiReservoir) -> u32 {
+    return r.normal_m >> 22u;
+}
+
+fn gi_store(s: GiSample, packed: PackedReservoir) -> GiReservoir {
+    let m = min(packed.m, GI_MAX_M);
+    return GiReservoir(s.position, packed.ucw, s.radiance, gi_encode_normal(s.normal) | (m << 22u));
+}
+
+// Reservoir r with the W and M of `packed` (its sample's bits kept as they are).
+fn gi_reweighted(r: GiReservoir, packed: PackedReservoir) -> GiReservoir {
+    var out = r;
+    out.ucw = packed.ucw;
+    out.normal_m = (r.normal_m & 0x3fffffu) | (min(packed.m, GI_MAX_M) << 22u);
+    return out;
+}
+
+fn gi_sample(r: GiReservoir) -> GiSample {
+    return GiSample(r.position, gi_decode_normal(r.normal_m), r.radiance);
+}
+
+// Whether the reservoir holds a sample with weight (an escaped GI ray, a black one: none).
+fn gi_has_sample(r: GiReservoir) -> bool {
+    return gi_m(r) > 0u && r.ucw > 0.0;
+}
+
+// The sample's contribution at primary vertex g: f(x1) L cos = albedo / pi * L * cos, 0 where
+// the direction to x2 is below g's surface or x2 faces away from g (its L is for the other
+// side).
+fn gi_contribution(g: GVertex, s: GiSample) -> vec3<f32> {
+    let d = s.position - g.position;
+    let d2 = dot(d, d);
+    if !(d2 > 0.0) {
+        return vec3<f32>(0.0);
+    }
+    let dir = d * inverseSqrt(d2);
+    let cos_x1 = dot(g.shading, dir);
+    if cos_x1 <= 0.0 || dot(g.normal, dir) <= 0.0 || dot(s.normal, dir) >= 0.0 {
+        return vec3<f32>(0.0);
+    }
+    return g.albedo * SAMPLING_INV_PI * s.radiance * cos_x1;
+}
+
+// The target p_hat at g: luminance of the sample's contribution.
+fn gi_target(g: GVertex, s: GiSample) -> f32 {
+    return render_luminance(gi_contribution(g, s));
+}
+
+// |J| of the reconnection shift of sample s from primary vertex x1_from to primary vertex x1_to
+// (Ouyang et al. 2021, Eq. 11): |cos phi_to| / |cos phi_from| * |from - x2|^2 / |to - x2|^2,
+// phi the angle at x2 between its normal and the direction to each primary. 0 (no shift)
+// where x2 faces away from either, or where |J| leaves [1 / max_jacobian, max_jacobian]: the
+// same pairs either way, so the shift stays a bijection between the domains it keeps.
+fn gi_jacobian(s: GiSample, x1_from: vec3<f32>, x1_to: vec3<f32>) -> f32 {
+    let a = x1_from - s.position;
+    let b = x1_to - s.position;
+    let da = dot(a, a);
+    let db = dot(b, b);
+    let cos_a = dot(s.normal, a) * inverseSqrt(da);
+    let cos_b = dot(s.normal, b) * inverseSqrt(db);
+    if !(cos_a > 0.0 && cos_b > 0.0) {
+        return 0.0;
+    }
+    var j = cos_b / cos_a * (da / db);
+    if gi_params.planted_jacobian != 0u {
+        j = cos_b / cos_a;
+    }
+    let t = gi_params.knobs.max_jacobian;
+    if !(j <= t && j * t >= 1.0) {
+        return 0.0;
+    }
+    return j;
+}
+
+// Geometric similarity of a reused pixel's vertex q to the receiver g, both seen from eye
+// (render_similar with the knobs' thresholds).
+fn gi_similar(g: GVertex, q: GVertex, eye: vec3<f32>) -> bool {
+    return render_similar(g, q, eye, gi_params.knobs.depth_threshold,
+                          gi_params.knobs.normal_threshold);
+}

@@ -1,0 +1,18 @@
+// Pass "gi-shade": indirect light at the primary vertex = f(Y) W of the final reservoir's path
+// sample -> render_indirect_frame (replacing the radiance the renderer's passes left there).
+// With `visibility` on, every sample a pixel can hold is unoccluded from its x1 (its own, or
+// one whose reconnection ray was traced), so no ray is traced; off (the paper's biased mode),
+// none was, and none is.
+
+@compute @workgroup_size(WORKGROUP_SIZE)
+fn gi_shade(id: Invocation) {
+    let i = item_index(id);
+    if i >= render_params.pixel_count { return; }
+    let g = render_gbuffer[i];
+    let r = gi_final[i];
+    var c = vec3<f32>(0.0);
+    if g.prim != BVH_NO_HIT && gi_has_sample(r) {
+        c = gi_contribution(g, gi_sample(r)) * r.ucw;
+    }
+    render_indirect_frame[i] = vec4<f32>(c, 1.0);
+}
