@@ -111,7 +111,10 @@ const RESULTS_PARTS: [(&str, &str, &str, &[&str]); 2] = [
         "default-depth",
         "the default paths (3 bounces, MIS)",
         "docs/results/default-depth",
-        &["--methods", "nee,ris,world-restir,world-restir+restir-di"],
+        &[
+            "--methods",
+            "nee,ris,world-restir,world-restir+restir-di,restir-gi,restir-gi+world-restir",
+        ],
     ),
     (
         "one-bounce",

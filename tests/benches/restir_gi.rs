@@ -1,0 +1,126 @@
+//! Per-stage GPU milliseconds per frame of screen-space ReSTIR GI against the `ris` baseline
+//! measured in the same run, on many-lights (10,000 lights), timed with GPU timestamp spans
+//! around every pass after a warm-up of 4 frames (temporal history built). One `RESULT
+//! restir-gi` line per variant of the registry's `restir-gi` (`variant=default` first) and per
+//! composition (`restir-gi+world-restir`, `restir-di+restir-gi+world-restir`), each with the
+//! share of its reconnections rejected in the last frame.
+//!
+//! Size: `GI_BENCH_SIZE` (default 128).
+
+use restir_world::GpuContext;
+use restir_world::gpu::PassTimes;
+use restir_world::methods::{self, Composed, FrameLoop, FrameMethod, MethodError, run_frames};
+use restir_world::restir_gi;
+use restir_world::scene::{BuiltinOptions, Camera, Scene, builtin};
+use tests::{bench, gpu};
+
+const WARM_UP: u32 = 4;
+const FRAMES: u32 = 6;
+
+fn ms(t: &PassTimes, names: &[&str]) -> f64 {
+    t.per_frame()
+        .iter()
+        .filter(|(n, _)| names.contains(&n.as_str()))
+        .map(|(_, v)| v)
+        .sum::<f64>()
+        .max(0.0) // an empty sum is -0.0
+}
+
+/// Per-span GPU times of `FRAMES` frames of `m` after `WARM_UP` frames.
+fn frame_times(ctx: &GpuContext, m: &mut dyn FrameMethod) -> PassTimes {
+    let run = |m: &mut dyn FrameMethod, frames| {
+        run_frames(ctx, m, &FrameLoop::frames(frames), |_, _| {
+            Ok::<(), MethodError>(())
+        })
+        .expect("render")
+        .expect("benchmark needs GPU timestamps")
+    };
+    run(m, WARM_UP);
+    run(m, FRAMES)
+}
+
+fn build(ctx: &GpuContext, scene: &Scene, cam: &Camera, spec: &str) -> Composed {
+    let settings = methods::parse_spec(spec).expect(spec);
+    Composed::new(ctx, scene, cam, &settings, 1).expect(spec)
+}
+
+fn main() {
+    let ctx = gpu::context();
+    let side: u32 = std::env::var("GI_BENCH_SIZE")
+        .ok()
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(128);
+    let opts = BuiltinOptions {
+        width: side,
+        height: side,
+        ..Default::default()
+    };
+    let scene = builtin("many-lights", &opts).expect("many-lights");
+    let cam = scene.camera_or_default(side, side);
+    let ris_ms = frame_times(ctx, &mut build(ctx, &scene, &cam, "ris")).ms_per_frame();
+    let variants = restir_gi::variants();
+    let specs = std::iter::once(("restir-gi", "default".to_string()))
+        .chain(
+            variants
+                .iter()
+                .filter(|v| v.name != "both")
+                .map(|v| ("restir-gi", v.name.to_string())),
+        )
+        .chain(
+            ["restir-gi+world-restir", "restir-di+restir-gi+world-restir"]
+                .map(|m| (m, "default".to_string())),
+        );
+    let f = |x: f64| format!("{x:.3}");
+    for (method, variant) in specs {
+        let spec = match variant.as_str() {
+            "default" => method.to_string(),
+            v => format!("{method}:{v}"),
+        };
+        let mut m = build(ctx, &scene, &cam, &spec);
+        let t = frame_times(ctx, &mut m);
+        eprintln!("{spec} per frame: {:?}", t.per_frame());
+        let tried_rejected = m.gi().unwrap().reconnections(ctx).expect("reconnections");
+        let (tried, rejected) = tried_rejected.iter().fold((0u64, 0u64), |(a, b), &(t, r)| {
+            (a + u64::from(t), b + u64::from(r))
+        });
+        let frame_ms = t.ms_per_frame();
+        bench::print_result(
+            ctx,
+            "restir-gi",
+            &[
+                ("method", method.into()),
+                ("variant", variant),
+                ("scene", "many-lights".into()),
+                ("size", format!("{side}x{side}")),
+                ("initial_ms", f(ms(&t, &["gi-initial"]))),
+                ("temporal_ms", f(ms(&t, &["gi-temporal"]))),
+                ("spatial_ms", f(ms(&t, &["gi-spatial"]))),
+                ("shade_ms", f(ms(&t, &["gi-shade"]))),
+                (
+                    "reuse_share",
+                    format!(
+                        "{:.3}",
+                        ms(
+                            &t,
+                            &[
+                                "gi-initial",
+                                "gi-temporal",
+                                "gi-spatial",
+                                "gi-shade",
+                                "gi-persist"
+                            ]
+                        ) / frame_ms
+                    ),
+                ),
+                ("frame_ms", f(frame_ms)),
+                ("ris_frame_ms", f(ris_ms)),
+                ("vs_ris_frame", format!("{:.3}", frame_ms / ris_ms)),
+                ("merged", tried.to_string()),
+                (
+                    "rejected_share",
+                    format!("{:.3}", rejected as f64 / tried.max(1) as f64),
+                ),
+            ],
+        );
+    }
+}
