@@ -336,11 +336,16 @@ mod statistics {
         if x < 0.5 { f(x) } else { 0.0 }
     }
 
-    /// A finalized RIS reservoir of uniform candidates for `target`: (W and M, the sample).
-    fn ris(target: fn(f32) -> f32, rng: &mut Rng) -> (PackedReservoir, f32) {
+    /// A finalized RIS reservoir of `candidates` uniform candidates for `target`: (W and M,
+    /// the sample).
+    pub(super) fn ris(
+        target: fn(f32) -> f32,
+        candidates: u32,
+        rng: &mut Rng,
+    ) -> (PackedReservoir, f32) {
         let mut r = Reservoir::empty();
         let mut y = 0.0;
-        for _ in 0..CANDIDATES {
+        for _ in 0..candidates {
             let x = rng.next_f32();
             if r.update(target(x), rng.next_f32()) {
                 y = x;
@@ -355,9 +360,9 @@ mod statistics {
         let mut rng = Rng::seed(7, 0, mode as u32);
         let (mut sum, mut sum2) = (0.0f64, 0.0f64);
         for _ in 0..trials {
-            let (own, y_own) = ris(f, &mut rng);
+            let (own, y_own) = ris(f, CANDIDATES, &mut rng);
             let neighbours: Vec<_> = (0..NEIGHBOURS)
-                .map(|_| ris(p_neighbour, &mut rng))
+                .map(|_| ris(p_neighbour, CANDIDATES, &mut rng))
                 .collect();
             let m_n = neighbours.iter().map(|(r, _)| r.m).sum();
             let mut c = Reuse::begin(mode, own, f(y_own), NEIGHBOURS, m_n, rng.next_f32());
@@ -413,6 +418,7 @@ mod statistics {
 /// by it too), must be caught by the same check.
 #[cfg(test)]
 mod shifted {
+    use super::statistics::ris;
     use super::*;
     use crate::rng::Rng;
 
@@ -427,27 +433,14 @@ mod shifted {
         f(u * u) * 2.0 * u
     }
 
-    fn ris(target: fn(f32) -> f32, rng: &mut Rng) -> (PackedReservoir, f32) {
-        let mut r = Reservoir::empty();
-        let mut y = 0.0;
-        for _ in 0..CANDIDATES {
-            let x = rng.next_f32();
-            if r.update(target(x), rng.next_f32()) {
-                y = x;
-            }
-        }
-        r.finalize(target(y));
-        (r.pack(), y)
-    }
-
     /// (mean, standard error) of f(Y) W; `folded`: the planted defect.
     fn estimate(folded: bool, trials: u32) -> (f64, f64) {
         let mut rng = Rng::seed(11, 0, u32::from(folded));
         let (mut sum, mut sum2) = (0.0f64, 0.0f64);
         for _ in 0..trials {
-            let (own, x_own) = ris(f, &mut rng);
+            let (own, x_own) = ris(f, CANDIDATES, &mut rng);
             let neighbours: Vec<_> = (0..NEIGHBOURS)
-                .map(|_| ris(p_neighbour, &mut rng))
+                .map(|_| ris(p_neighbour, CANDIDATES, &mut rng))
                 .collect();
             let m_n = neighbours.iter().map(|(r, _)| r.m).sum();
             let mut c = Reuse::begin(

@@ -398,6 +398,25 @@ macro_rules! knobs {
     };
 }
 
+/// Test helper: each `(knob, value)` of `cases`, set alone on `default`, is refused by
+/// `validate` with an error that names the knob.
+#[cfg(test)]
+pub(crate) fn assert_each_refused<C: Knobs, E: std::fmt::Display>(
+    default: C,
+    validate: impl Fn(&C) -> Result<(), E>,
+    cases: &[(&str, &str)],
+) {
+    for (k, v) in cases {
+        let mut c = default;
+        c.set(k, v).unwrap();
+        let e = validate(&c)
+            .err()
+            .map(|e| e.to_string())
+            .unwrap_or_default();
+        assert!(e.contains(k), "{k}={v}: {e:?}");
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -14,8 +14,10 @@
 //!   [`lights`] (light sampling); [`reference`](mod@reference) (the CPU reference renderer),
 //!   [`images`] (the one image set) and [`metrics`].
 //! - [`render`]: the renderer's shared passes and the `nee`/`ris` baselines.
-//! - [`light_tiles`], then the stages that replace the renderer's shading: [`world_restir`]
-//!   (indirect) and [`restir_di`] (direct), independent of each other.
+//! - [`light_tiles`] and [`screen_reuse`] (the screen-space stages' reservoir buffers and pass
+//!   chain), then the stages that replace the renderer's shading: [`world_restir`] (light at
+//!   the secondary vertex), [`restir_gi`] (the paths, resampled between pixels) and
+//!   [`restir_di`] (direct), independent of each other.
 //! - [`methods`]: the registry, which composes the stages into methods, the one frame loop
 //!   (`run_frames`) and readback; [`gpu_reference`]: converged GPU references.
 
@@ -35,6 +37,7 @@ pub mod restir_di;
 pub mod restir_gi;
 pub mod sampling;
 pub mod scene;
+pub mod screen_reuse;
 pub mod trace;
 pub mod world_restir;
 

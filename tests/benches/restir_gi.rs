@@ -8,36 +8,13 @@
 //! Size: `GI_BENCH_SIZE` (default 128).
 
 use restir_world::GpuContext;
-use restir_world::gpu::PassTimes;
-use restir_world::methods::{self, Composed, FrameLoop, FrameMethod, MethodError, run_frames};
+use restir_world::methods::{self, Composed};
 use restir_world::restir_gi;
 use restir_world::scene::{BuiltinOptions, Camera, Scene, builtin};
 use tests::{bench, gpu};
 
 const WARM_UP: u32 = 4;
 const FRAMES: u32 = 6;
-
-fn ms(t: &PassTimes, names: &[&str]) -> f64 {
-    t.per_frame()
-        .iter()
-        .filter(|(n, _)| names.contains(&n.as_str()))
-        .map(|(_, v)| v)
-        .sum::<f64>()
-        .max(0.0) // an empty sum is -0.0
-}
-
-/// Per-span GPU times of `FRAMES` frames of `m` after `WARM_UP` frames.
-fn frame_times(ctx: &GpuContext, m: &mut dyn FrameMethod) -> PassTimes {
-    let run = |m: &mut dyn FrameMethod, frames| {
-        run_frames(ctx, m, &FrameLoop::frames(frames), |_, _| {
-            Ok::<(), MethodError>(())
-        })
-        .expect("render")
-        .expect("benchmark needs GPU timestamps")
-    };
-    run(m, WARM_UP);
-    run(m, FRAMES)
-}
 
 fn build(ctx: &GpuContext, scene: &Scene, cam: &Camera, spec: &str) -> Composed {
     let settings = methods::parse_spec(spec).expect(spec);
@@ -57,7 +34,8 @@ fn main() {
     };
     let scene = builtin("many-lights", &opts).expect("many-lights");
     let cam = scene.camera_or_default(side, side);
-    let ris_ms = frame_times(ctx, &mut build(ctx, &scene, &cam, "ris")).ms_per_frame();
+    let ris_ms = bench::frame_times(ctx, &mut build(ctx, &scene, &cam, "ris"), WARM_UP, FRAMES)
+        .ms_per_frame();
     let variants = restir_gi::variants();
     let specs = std::iter::once(("restir-gi", "default".to_string()))
         .chain(
@@ -77,7 +55,7 @@ fn main() {
             v => format!("{method}:{v}"),
         };
         let mut m = build(ctx, &scene, &cam, &spec);
-        let t = frame_times(ctx, &mut m);
+        let t = bench::frame_times(ctx, &mut m, WARM_UP, FRAMES);
         eprintln!("{spec} per frame: {:?}", t.per_frame());
         let tried_rejected = m.gi().unwrap().reconnections(ctx).expect("reconnections");
         let (tried, rejected) = tried_rejected.iter().fold((0u64, 0u64), |(a, b), &(t, r)| {
@@ -92,15 +70,15 @@ fn main() {
                 ("variant", variant),
                 ("scene", "many-lights".into()),
                 ("size", format!("{side}x{side}")),
-                ("initial_ms", f(ms(&t, &["gi-initial"]))),
-                ("temporal_ms", f(ms(&t, &["gi-temporal"]))),
-                ("spatial_ms", f(ms(&t, &["gi-spatial"]))),
-                ("shade_ms", f(ms(&t, &["gi-shade"]))),
+                ("initial_ms", f(bench::span_ms(&t, &["gi-initial"]))),
+                ("temporal_ms", f(bench::span_ms(&t, &["gi-temporal"]))),
+                ("spatial_ms", f(bench::span_ms(&t, &["gi-spatial"]))),
+                ("shade_ms", f(bench::span_ms(&t, &["gi-shade"]))),
                 (
                     "reuse_share",
                     format!(
                         "{:.3}",
-                        ms(
+                        bench::span_ms(
                             &t,
                             &[
                                 "gi-initial",

@@ -14,7 +14,7 @@ use criterion::{Criterion, criterion_group, criterion_main};
 use restir_world::GpuContext;
 use restir_world::gpu::{FrameEncoder, PassTimes};
 use restir_world::knobs::parse_config;
-use restir_world::methods::{Composed, FrameLoop, FrameMethod, MethodError, run_frames};
+use restir_world::methods::{Composed, FrameMethod};
 use restir_world::render::{Paths, RenderOptions, Renderer};
 use restir_world::sampling::Estimator;
 use restir_world::scene::{BuiltinOptions, builtin};
@@ -22,28 +22,6 @@ use restir_world::world_restir::{self, WorldRestirConfig};
 use tests::{bench, buffers, floors::CopyKernel, gpu};
 
 const FRAMES: u32 = 6;
-
-fn ms(t: &PassTimes, names: &[&str]) -> f64 {
-    t.per_frame()
-        .iter()
-        .filter(|(n, _)| names.contains(&n.as_str()))
-        .map(|(_, v)| v)
-        .sum::<f64>()
-        .max(0.0) // an empty sum is -0.0
-}
-
-/// Per-span GPU times of `FRAMES` frames of `m` after one warm-up frame.
-fn frame_times(ctx: &GpuContext, m: &mut dyn FrameMethod) -> PassTimes {
-    let run = |m: &mut dyn FrameMethod, frames| {
-        run_frames(ctx, m, &FrameLoop::frames(frames), |_, _| {
-            Ok::<(), MethodError>(())
-        })
-        .expect("render")
-        .expect("benchmark needs GPU timestamps")
-    };
-    run(m, 1);
-    run(m, FRAMES)
-}
 
 /// One frame of `m` into the caller's encoder (untimed).
 fn frame(ctx: &GpuContext, m: &mut dyn FrameMethod, enc: &mut wgpu::CommandEncoder) {
@@ -89,8 +67,8 @@ fn world_restir(c: &mut Criterion) {
         bounce_result(ctx, &scene, &cam, spec, side);
     }
 
-    let t_ris = frame_times(ctx, &mut ris);
-    let t_nee = frame_times(ctx, &mut nee);
+    let t_ris = bench::frame_times(ctx, &mut ris, 1, FRAMES);
+    let t_nee = bench::frame_times(ctx, &mut nee, 1, FRAMES);
     eprintln!("ris per frame: {:?}", t_ris.per_frame());
     eprintln!("nee per frame: {:?}", t_nee.per_frame());
 
@@ -126,7 +104,7 @@ fn stage_result(
     t_nee: &PassTimes,
     floor_ms: f64,
 ) {
-    let t_wr = frame_times(ctx, wr);
+    let t_wr = bench::frame_times(ctx, wr, 1, FRAMES);
     let stats = wr.world().unwrap().grid_stats(ctx).expect("stats");
     eprintln!("world-restir {variant} per frame: {:?}", t_wr.per_frame());
 
@@ -136,7 +114,7 @@ fn stage_result(
         t_ris.ms_per_frame(),
         t_nee.ms_per_frame(),
     );
-    let build = ms(&t_wr, &["build"]);
+    let build = bench::span_ms(&t_wr, &["build"]);
     let cam = wr.renderer().camera();
     let table = wr.world().unwrap().config().table(cam.width, cam.height);
     bench::print_result(
@@ -147,21 +125,27 @@ fn stage_result(
             ("scene", "many-lights".into()),
             ("size", format!("{side}x{side}")),
             ("buckets", table.num_buckets.to_string()),
-            ("generate_ms", f(ms(&t_wr, &["generate"]))),
+            ("generate_ms", f(bench::span_ms(&t_wr, &["generate"]))),
             ("build_ms", f(build)),
-            ("temporal_ms", f(ms(&t_wr, &["temporal"]))),
-            ("spatial_ms", f(ms(&t_wr, &["spatial"]))),
-            ("shade_ms", f(ms(&t_wr, &["shade"]))),
-            ("trace_ms", f(ms(&t_wr, &["primary", "gi"]))),
-            ("direct_ms", f(ms(&t_wr, &["shade_direct"]))),
-            ("path_ms", f(ms(&t_wr, &["path"]))),
+            ("temporal_ms", f(bench::span_ms(&t_wr, &["temporal"]))),
+            ("spatial_ms", f(bench::span_ms(&t_wr, &["spatial"]))),
+            ("shade_ms", f(bench::span_ms(&t_wr, &["shade"]))),
+            ("trace_ms", f(bench::span_ms(&t_wr, &["primary", "gi"]))),
+            ("direct_ms", f(bench::span_ms(&t_wr, &["shade_direct"]))),
+            ("path_ms", f(bench::span_ms(&t_wr, &["path"]))),
             ("frame_ms", f(frame_wr)),
             ("build_share", format!("{:.3}", build / frame_wr)),
             ("vs_ris_frame", format!("{:.3}", frame_wr / frame_ris)),
             ("ris_frame_ms", f(frame_ris)),
-            ("ris_indirect_ms", f(ms(t_ris, &["shade_indirect"]))),
+            (
+                "ris_indirect_ms",
+                f(bench::span_ms(t_ris, &["shade_indirect"])),
+            ),
             ("nee_frame_ms", f(frame_nee)),
-            ("nee_indirect_ms", f(ms(t_nee, &["shade_indirect"]))),
+            (
+                "nee_indirect_ms",
+                f(bench::span_ms(t_nee, &["shade_indirect"])),
+            ),
             ("floor_copy_ms", format!("{floor_ms:.4}")),
             ("overflows", stats.overflows.to_string()),
         ],
@@ -193,7 +177,7 @@ fn bounce_result(
             },
         };
         let mut m = settings.build_with(ctx, scene, cam, &options).expect(spec);
-        frame_times(ctx, m.as_mut()).ms_per_frame()
+        bench::frame_times(ctx, m.as_mut(), 1, FRAMES).ms_per_frame()
     });
     let n = BOUNCES.len() as f64;
     let mean_b = BOUNCES.iter().map(|&b| f64::from(b)).sum::<f64>() / n;

@@ -67,3 +67,33 @@ pub fn print_result(ctx: &GpuContext, name: &str, pairs: &[(&str, String)]) {
 pub fn sci(x: f64) -> String {
     format!("{x:.3e}")
 }
+
+/// GPU ms per frame of the spans named `names` in `t`, together (0 when none ran).
+pub fn span_ms(t: &restir_world::gpu::PassTimes, names: &[&str]) -> f64 {
+    t.per_frame()
+        .iter()
+        .filter(|(n, _)| names.contains(&n.as_str()))
+        .map(|(_, v)| v)
+        .sum::<f64>()
+        .max(0.0) // an empty sum is -0.0
+}
+
+/// Per-span GPU times of `frames` frames of `m` (one per submission, through the one frame
+/// loop) after `warm_up` untimed-in-the-result frames.
+pub fn frame_times(
+    ctx: &GpuContext,
+    m: &mut dyn restir_world::methods::FrameMethod,
+    warm_up: u32,
+    frames: u32,
+) -> restir_world::gpu::PassTimes {
+    use restir_world::methods::{FrameLoop, MethodError, run_frames};
+    let mut run = |frames| {
+        run_frames(ctx, m, &FrameLoop::frames(frames), |_, _| {
+            Ok::<(), MethodError>(())
+        })
+        .expect("render")
+        .expect("benchmark needs GPU timestamps")
+    };
+    run(warm_up);
+    run(frames)
+}

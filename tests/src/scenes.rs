@@ -42,3 +42,26 @@ pub fn lit_slab(lamp: [f32; 3]) -> Scene {
 pub fn furnace_indirect(rho: f64, bounces: u32) -> f64 {
     (2..=bounces as i32 + 1).map(|k| rho.powi(k)).sum()
 }
+
+/// The last frame of [`orbit_then_cut`]'s camera motion: frames 0..CUT_FRAME move or hold, the
+/// rest look away.
+pub const CUT_FRAME: u32 = 250;
+
+/// The camera of `frame` in the motion the reuse stages' finiteness tests drive (500 frames):
+/// orbiting `base`'s target (a full turn every 100 frames) for frames 0-239, still at `base`
+/// for 10 frames, then cut at [`CUT_FRAME`]: turned round on the spot to look away from all it
+/// saw (the reprojection then finds nothing), and still again.
+pub fn orbit_then_cut(base: &Camera, frame: u32) -> Camera {
+    let orbit = restir_world::scene::CameraPath::Orbit {
+        frames: 100,
+        degrees: 360.0,
+    };
+    match frame {
+        0..240 => orbit.camera(base, frame),
+        240..CUT_FRAME => *base,
+        _ => Camera {
+            target: base.eye + (base.eye - base.target),
+            ..*base
+        },
+    }
+}

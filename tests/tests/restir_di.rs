@@ -8,11 +8,11 @@ use std::sync::Mutex;
 
 use restir_world::methods::{self, Composed, FrameMethod, MethodSettings};
 use restir_world::restir_di::{self, DiParams, RestirDiConfig};
-use restir_world::scene::{BuiltinOptions, Camera, CameraPath, Scene};
+use restir_world::scene::{BuiltinOptions, Camera, Scene};
 use restir_world::world_restir::WorldRestirConfig;
 use tests::bias::{assert_checked, channel_means, mean_over_seeds, relative, within};
 use tests::gpu;
-use tests::scenes::builtin_square;
+use tests::scenes::{builtin_square, orbit_then_cut};
 
 /// Lights of the many-lights hall in these tests (the scene's default is 10,000; 2,000 as in
 /// world_restir.rs keeps its BVH and the runs short).
@@ -281,14 +281,6 @@ fn camera_motion_and_a_cut_stay_finite() {
     let ctx = gpu::context();
     let config = RestirDiConfig::default();
     let mut m = restir_di(config, &s, &cam, 7);
-    let orbit = CameraPath::Orbit {
-        frames: 100,
-        degrees: 360.0,
-    };
-    let cut = Camera {
-        target: cam.eye + (cam.eye - cam.target),
-        ..cam
-    };
     let max_m = |m: &Composed| {
         let r = m
             .di()
@@ -298,11 +290,7 @@ fn camera_motion_and_a_cut_stay_finite() {
         r.iter().map(|r| r.m).max().unwrap_or(0)
     };
     for frame in 0..500 {
-        let camera = match frame {
-            0..240 => orbit.camera(&cam, frame),
-            240..250 => cam,
-            _ => cut,
-        };
+        let camera = orbit_then_cut(&cam, frame);
         FrameMethod::set_camera(&mut m, &camera).expect("camera");
         gpu::render(&mut m, 1);
         if frame % 50 == 0 || (249..=251).contains(&frame) {

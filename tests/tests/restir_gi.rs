@@ -13,7 +13,7 @@ use restir_world::sampling::Estimator;
 use restir_world::scene::{BuiltinOptions, Camera, CameraPath, Scene};
 use tests::bias::{channel_means, mean_over_seeds, relative, within};
 use tests::gpu;
-use tests::scenes::builtin_square;
+use tests::scenes::{builtin_square, orbit_then_cut};
 
 /// Lights of the many-lights hall in these tests (2,000, as in restir_di.rs: a shorter BVH
 /// build and shorter runs than the scene's default 10,000).
@@ -220,24 +220,12 @@ fn camera_motion_and_a_cut_stay_finite_and_drop_history() {
     let (s, cam) = scene("many-lights", 32);
     let k = RestirGiConfig::default().spatial_k;
     let mut m = build("restir-gi", &s, &cam, 7);
-    let orbit = CameraPath::Orbit {
-        frames: 100,
-        degrees: 360.0,
-    };
-    let cut = Camera {
-        target: cam.eye + (cam.eye - cam.target),
-        ..cam
-    };
     let max_m = |m: &Composed| {
         let r = m.gi().unwrap().reservoirs(ctx).expect("reservoirs");
         r.iter().map(GiReservoir::m).max().unwrap_or(0)
     };
     for frame in 0..500 {
-        let camera = match frame {
-            0..240 => orbit.camera(&cam, frame),
-            240..250 => cam,
-            _ => cut,
-        };
+        let camera = orbit_then_cut(&cam, frame);
         FrameMethod::set_camera(&mut m, &camera).expect("camera");
         gpu::render(&mut m, 1);
         if frame % 50 == 0 || (249..=251).contains(&frame) {

@@ -33,11 +33,12 @@ use crate::gpu::{
 use crate::knobs::{Knobs, Variant, reuse_variants};
 use crate::light_tiles::{self, LightTiles};
 use crate::render::{
-    self, ComposedKernel, GVertex, KernelDef, RESERVOIRS, REUSE_IO, RenderError, Renderer,
-    ReusePass, STAGE_GROUP, SharedGroups,
+    self, ComposedKernel, KernelDef, RESERVOIRS, REUSE_IO, RenderError, Renderer, ReusePass,
+    STAGE_GROUP, SharedGroups,
 };
 use crate::sampling::CameraGpu;
 use crate::scene::Camera;
+use crate::screen_reuse::{ReuseBuffers, ReuseChain};
 
 /// Library WGSL (structs and helpers shared by the passes).
 pub const WGSL: &str = include_str!("restir_di.wgsl");
@@ -209,9 +210,7 @@ pub fn kernels() -> Vec<ComposedKernel> {
 #[derive(Debug)]
 struct DiBuffers {
     params: wgpu::Buffer,
-    reservoirs: [wgpu::Buffer; 2],
-    prev_reservoirs: wgpu::Buffer,
-    prev_gbuffer: wgpu::Buffer,
+    reuse: ReuseBuffers,
 }
 
 impl DiBuffers {
@@ -220,22 +219,17 @@ impl DiBuffers {
         renderer: &Renderer,
         config: &RestirDiConfig,
     ) -> Result<Self, GpuError> {
-        let px = u64::from(renderer.pixels());
-        let res_bytes = px * size_of::<render::StoredReservoir>() as u64;
-        ctx.check_binding_size("the restir-di reservoirs", res_bytes)?;
-        let device = &ctx.device;
-        let zeroed = |label: &str, size: u64| buffers::storage_zeroed(device, label, size);
+        let reservoir_size = size_of::<render::StoredReservoir>();
+        let reuse = ReuseBuffers::new(ctx, "restir-di", renderer.pixels(), reservoir_size)?;
         let params = RestirDi::params(config, renderer.camera(), false);
         Ok(Self {
             params: buffers::with_usage(
-                device,
+                &ctx.device,
                 "di params",
                 &[params],
                 wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
             ),
-            reservoirs: [0, 1].map(|p| zeroed(&format!("di reservoirs {p}"), res_bytes)),
-            prev_reservoirs: zeroed("di prev reservoirs", res_bytes),
-            prev_gbuffer: zeroed("di prev gbuffer", px * size_of::<GVertex>() as u64),
+            reuse,
         })
     }
 }
@@ -244,16 +238,12 @@ impl DiBuffers {
 #[derive(Debug)]
 struct DiPasses {
     initial: Pass,
-    temporal: Option<Pass>,
-    spatial: Option<Pass>,
+    chain: ReuseChain,
     shade: Pass,
-    /// The reservoirs the shade pass reads.
-    final_index: usize,
 }
 
 impl DiPasses {
-    /// Binds every pass. Reservoir chain: initial -> R0; temporal R0 (+ last frame's) -> R1;
-    /// spatial R(cur) -> R(1-cur); shade reads the last.
+    /// Binds every pass (the chain: [`ReuseChain`]).
     fn new(
         ctx: &GpuContext,
         shared: &SharedGroups,
@@ -269,7 +259,6 @@ impl DiPasses {
         let [initial, reuse, shade] = KERNELS.map(kernel);
         let (initial, reuse, shade) = (initial?, reuse?, shade?);
         let params = || ("di_params", Resource::from(&b.params));
-        let r = &b.reservoirs;
         let reuse_pass = |temporal: bool, [src, own, out]: [&wgpu::Buffer; 3]| {
             let u = ReusePass::buffer(device, temporal, 0);
             let res = vec![
@@ -278,38 +267,24 @@ impl DiPasses {
                 ("reuse_src", src.into()),
                 ("reuse_self", own.into()),
                 ("reuse_out", out.into()),
-                ("di_prev_gbuffer", (&b.prev_gbuffer).into()),
+                ("di_prev_gbuffer", (&b.reuse.prev_gbuffer).into()),
             ];
             shared.bound_pass(device, &reuse, "di_reuse", res, None)
         };
-        let mut cur = 0;
-        let temporal = match config.temporal {
-            true => {
-                cur = 1;
-                Some(reuse_pass(true, [&b.prev_reservoirs, &r[0], &r[1]])?)
-            }
-            false => None,
-        };
-        let spatial = match config.spatial_k {
-            0 => None,
-            _ => {
-                let p = reuse_pass(false, [&r[cur], &r[cur], &r[1 - cur]])?;
-                cur = 1 - cur;
-                Some(p)
-            }
-        };
+        let spans = ["di-temporal", "di-spatial", "di-persist"];
+        let spatial = config.spatial_k > 0;
+        let chain = ReuseChain::new(&b.reuse, config.temporal, spatial, spans, reuse_pass)?;
+        let r = &b.reuse.reservoirs;
         let initial_res = vec![
             params(),
             ("light_tiles", tiles.buffer().into()),
             ("di_out", (&r[0]).into()),
         ];
-        let shade_res = vec![params(), ("di_final", (&r[cur]).into())];
+        let shade_res = vec![params(), ("di_final", (&r[chain.final_index()]).into())];
         Ok(Self {
             initial: shared.bound_pass(device, &initial, "di_initial", initial_res, None)?,
-            temporal,
-            spatial,
+            chain,
             shade: shared.bound_pass(device, &shade, "di_shade", shade_res, None)?,
-            final_index: cur,
         })
     }
 }
@@ -380,20 +355,10 @@ impl RestirDi {
         f.upload(&self.buffers.params, 0, &params);
         let p = &self.passes;
         f.span("di-initial", |f| f.dispatch(&p.initial));
-        if let Some(t) = &p.temporal {
-            f.span("di-temporal", |f| f.dispatch(t));
-        }
-        if let Some(s) = &p.spatial {
-            f.span("di-spatial", |f| f.dispatch(s));
-        }
+        p.chain.encode(f);
         f.span("di-shade", |f| f.dispatch(&p.shade));
-        if p.temporal.is_some() {
-            let b = &self.buffers;
-            f.span("di-persist", |f| {
-                f.copy(&b.reservoirs[p.final_index], &b.prev_reservoirs);
-                f.copy(&renderer.buffers.gbuffer, &b.prev_gbuffer);
-            });
-        }
+        p.chain
+            .persist(f, &self.buffers.reuse, &renderer.buffers.gbuffer);
         self.last_camera = Some(camera);
     }
 
@@ -403,8 +368,10 @@ impl RestirDi {
         ctx: &GpuContext,
         renderer: &Renderer,
     ) -> Result<Vec<render::StoredReservoir>, GpuError> {
-        let mut v: Vec<render::StoredReservoir> =
-            buffers::read(ctx, &self.buffers.reservoirs[self.passes.final_index])?;
+        let mut v: Vec<render::StoredReservoir> = buffers::read(
+            ctx,
+            &self.buffers.reuse.reservoirs[self.passes.chain.final_index()],
+        )?;
         v.truncate(renderer.pixels() as usize);
         Ok(v)
     }
@@ -424,21 +391,20 @@ mod tests {
         c.set("combine", "biased").unwrap();
         c.set("temporal", "off").unwrap();
         assert_eq!(c.knobs_spec(), "temporal=off+spatial-k=2+combine=biased");
-        for (k, v) in [
-            ("tiles", "0"),
-            ("tile-size", "0"),
-            ("candidates", "0"),
-            ("temporal-m-cap", "0"),
-            ("spatial-k", "17"),
-            ("spatial-radius", "-1"),
-            ("normal-threshold", "2"),
-            ("depth-threshold", "NaN"),
-        ] {
-            let mut c = d;
-            c.set(k, v).unwrap();
-            let e = c.validate().unwrap_err().to_string();
-            assert!(e.contains(k), "{k}={v}: {e}");
-        }
+        crate::knobs::assert_each_refused(
+            d,
+            |c: &_| c.validate(),
+            &[
+                ("tiles", "0"),
+                ("tile-size", "0"),
+                ("candidates", "0"),
+                ("temporal-m-cap", "0"),
+                ("spatial-k", "17"),
+                ("spatial-radius", "-1"),
+                ("normal-threshold", "2"),
+                ("depth-threshold", "NaN"),
+            ],
+        );
         let mut c = d;
         c.set("tiles", "70000").unwrap();
         c.set("tile-size", "65535").unwrap();

@@ -32,11 +32,12 @@ use crate::gpu::{
 };
 use crate::knobs::{Knobs, Variant, reuse_variants};
 use crate::render::{
-    self, Buffer, ComposedKernel, DebugView, GVertex, KernelDef, RenderError, Renderer, ReusePass,
+    self, Buffer, ComposedKernel, DebugView, KernelDef, RenderError, Renderer, ReusePass,
     STAGE_GROUP, SharedGroups,
 };
 use crate::sampling::CameraGpu;
 use crate::scene::Camera;
+use crate::screen_reuse::{ReuseBuffers, ReuseChain};
 
 /// Library WGSL (structs and helpers shared by the passes).
 pub const WGSL: &str = include_str!("restir_gi.wgsl");
@@ -217,9 +218,7 @@ pub fn kernels() -> Vec<ComposedKernel> {
 #[derive(Debug)]
 struct GiBuffers {
     params: wgpu::Buffer,
-    reservoirs: [wgpu::Buffer; 2],
-    prev_reservoirs: wgpu::Buffer,
-    prev_gbuffer: wgpu::Buffer,
+    reuse: ReuseBuffers,
     /// Per pixel: neighbours merged (low 16 bits) and reconnections rejected (high 16 bits).
     debug: wgpu::Buffer,
 }
@@ -230,11 +229,9 @@ impl GiBuffers {
         renderer: &Renderer,
         config: &RestirGiConfig,
     ) -> Result<Self, GpuError> {
-        let px = u64::from(renderer.pixels());
-        let res_bytes = px * size_of::<GiReservoir>() as u64;
-        ctx.check_binding_size("the restir-gi reservoirs", res_bytes)?;
+        let pixels = renderer.pixels();
+        let reuse = ReuseBuffers::new(ctx, "restir-gi", pixels, size_of::<GiReservoir>())?;
         let device = &ctx.device;
-        let zeroed = |label: &str, size: u64| buffers::storage_zeroed(device, label, size);
         let params = RestirGi::params(config, renderer.camera(), false, false);
         Ok(Self {
             params: buffers::with_usage(
@@ -243,10 +240,8 @@ impl GiBuffers {
                 &[params],
                 wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
             ),
-            reservoirs: [0, 1].map(|p| zeroed(&format!("gi reservoirs {p}"), res_bytes)),
-            prev_reservoirs: zeroed("gi prev reservoirs", res_bytes),
-            prev_gbuffer: zeroed("gi prev gbuffer", px * size_of::<GVertex>() as u64),
-            debug: zeroed("gi debug", px * 4),
+            reuse,
+            debug: buffers::storage_zeroed(device, "gi debug", u64::from(pixels) * 4),
         })
     }
 }
@@ -255,16 +250,12 @@ impl GiBuffers {
 #[derive(Debug)]
 struct GiPasses {
     initial: Pass,
-    temporal: Option<Pass>,
-    spatial: Option<Pass>,
+    chain: ReuseChain,
     shade: Pass,
-    /// The reservoirs the shade pass reads.
-    final_index: usize,
 }
 
 impl GiPasses {
-    /// Binds every pass. Reservoir chain: initial -> R0; temporal R0 (+ last frame's) -> R1;
-    /// spatial R(cur) -> R(1-cur); shade reads the last.
+    /// Binds every pass (the chain: [`ReuseChain`]).
     fn new(
         ctx: &GpuContext,
         shared: &SharedGroups,
@@ -279,7 +270,6 @@ impl GiPasses {
         let [initial, reuse, shade] = KERNELS.map(kernel);
         let (initial, reuse, shade) = (initial?, reuse?, shade?);
         let params = || ("gi_params", Resource::from(&b.params));
-        let r = &b.reservoirs;
         let reuse_pass = |temporal: bool, [src, own, out]: [&wgpu::Buffer; 3]| {
             let u = ReusePass::buffer(device, temporal, 0);
             let res = vec![
@@ -288,39 +278,25 @@ impl GiPasses {
                 ("reuse_src", src.into()),
                 ("reuse_self", own.into()),
                 ("reuse_out", out.into()),
-                ("gi_prev_gbuffer", (&b.prev_gbuffer).into()),
+                ("gi_prev_gbuffer", (&b.reuse.prev_gbuffer).into()),
                 ("gi_debug", (&b.debug).into()),
             ];
             shared.bound_pass(device, &reuse, "gi_reuse", res, None)
         };
-        let mut cur = 0;
-        let temporal = match config.temporal {
-            true => {
-                cur = 1;
-                Some(reuse_pass(true, [&b.prev_reservoirs, &r[0], &r[1]])?)
-            }
-            false => None,
-        };
-        let spatial = match config.spatial_k {
-            0 => None,
-            _ => {
-                let p = reuse_pass(false, [&r[cur], &r[cur], &r[1 - cur]])?;
-                cur = 1 - cur;
-                Some(p)
-            }
-        };
+        let spans = ["gi-temporal", "gi-spatial", "gi-persist"];
+        let spatial = config.spatial_k > 0;
+        let chain = ReuseChain::new(&b.reuse, config.temporal, spatial, spans, reuse_pass)?;
+        let r = &b.reuse.reservoirs;
         let initial_res = vec![
             params(),
             ("gi_out", (&r[0]).into()),
             ("gi_debug", (&b.debug).into()),
         ];
-        let shade_res = vec![params(), ("gi_final", (&r[cur]).into())];
+        let shade_res = vec![params(), ("gi_final", (&r[chain.final_index()]).into())];
         Ok(Self {
             initial: shared.bound_pass(device, &initial, "gi_initial", initial_res, None)?,
-            temporal,
-            spatial,
+            chain,
             shade: shared.bound_pass(device, &shade, "gi_shade", shade_res, None)?,
-            final_index: cur,
         })
     }
 }
@@ -391,26 +367,17 @@ impl RestirGi {
         f.upload(&self.buffers.params, 0, &params);
         let p = &self.passes;
         f.span("gi-initial", |f| f.dispatch(&p.initial));
-        if let Some(t) = &p.temporal {
-            f.span("gi-temporal", |f| f.dispatch(t));
-        }
-        if let Some(s) = &p.spatial {
-            f.span("gi-spatial", |f| f.dispatch(s));
-        }
+        p.chain.encode(f);
         f.span("gi-shade", |f| f.dispatch(&p.shade));
-        if p.temporal.is_some() {
-            let b = &self.buffers;
-            f.span("gi-persist", |f| {
-                f.copy(&b.reservoirs[p.final_index], &b.prev_reservoirs);
-                f.copy(&renderer.buffers.gbuffer, &b.prev_gbuffer);
-            });
-        }
+        p.chain
+            .persist(f, &self.buffers.reuse, &renderer.buffers.gbuffer);
         self.last_camera = Some(camera);
     }
 
     /// The last frame's final reservoirs, per pixel.
     pub fn reservoirs(&self, ctx: &GpuContext) -> Result<Vec<GiReservoir>, GpuError> {
-        buffers::read(ctx, &self.buffers.reservoirs[self.passes.final_index])
+        let i = self.passes.chain.final_index();
+        buffers::read(ctx, &self.buffers.reuse.reservoirs[i])
     }
 
     /// Per pixel of the last frame: (neighbours merged, reconnections rejected).
@@ -469,20 +436,19 @@ mod tests {
         c.set("combine", "biased").unwrap();
         c.set("visibility", "off").unwrap();
         assert_eq!(c.knobs_spec(), "spatial-k=2+combine=biased+visibility=off");
-        for (k, v) in [
-            ("temporal-m-cap", "0"),
-            ("temporal-m-cap", "1024"),
-            ("spatial-k", "17"),
-            ("spatial-radius", "-1"),
-            ("normal-threshold", "2"),
-            ("depth-threshold", "NaN"),
-            ("max-jacobian", "0.5"),
-        ] {
-            let mut c = d;
-            c.set(k, v).unwrap();
-            let e = c.validate().unwrap_err().to_string();
-            assert!(e.contains(k), "{k}={v}: {e}");
-        }
+        crate::knobs::assert_each_refused(
+            d,
+            |c: &_| c.validate(),
+            &[
+                ("temporal-m-cap", "0"),
+                ("temporal-m-cap", "1024"),
+                ("spatial-k", "17"),
+                ("spatial-radius", "-1"),
+                ("normal-threshold", "2"),
+                ("depth-threshold", "NaN"),
+                ("max-jacobian", "0.5"),
+            ],
+        );
     }
 
     #[test]
