@@ -1,8 +1,8 @@
 //! Screen-space ReSTIR GI (`restir-gi` and its compositions): layouts, no reuse equal to
 //! `ris`'s indirect image, bias of the unbiased default against a converged reference on the
 //! built-in scenes with a static and an orbiting camera (a planted wrong Jacobian and the
-//! paper's biased mode caught by the same check) and of `restir-gi+world-restir`, no NaN/Inf under 500 frames of motion, no
-//! history across a camera cut, determinism.
+//! paper's biased mode caught by the same check) and of `restir-gi+world-restir`, no NaN/Inf
+//! under 500 frames of motion, no history across a camera cut, determinism.
 
 use std::sync::Mutex;
 
