@@ -106,6 +106,18 @@ pub fn render_method(
              reservoir"
         );
     }
+    if let Some(s) = m.cache_stats(&ctx)? {
+        println!(
+            "radiance cache (last frame): {} of {} cells in use, {} bytes per cell ({:.1} MiB), \
+             {} inserts found their bucket full, {} non-finite or out-of-range left out",
+            s.cells_in_use,
+            s.capacity,
+            s.bytes_per_cell,
+            s.bytes() as f64 / f64::from(1u32 << 20),
+            s.overflows,
+            s.rejected
+        );
+    }
     if args.debug_views {
         let mut written = 0;
         for (view, name) in [
@@ -113,6 +125,9 @@ pub fn render_method(
             (DebugView::M, "debug-m"),
             (DebugView::Overflow, "debug-overflow"),
             (DebugView::Rejected, "debug-rejected"),
+            (DebugView::CacheRadiance, "debug-cache-radiance"),
+            (DebugView::CacheAge, "debug-cache-age"),
+            (DebugView::CacheSamples, "debug-cache-samples"),
         ] {
             // Each method draws the views it has.
             let Some(px) = m.debug_image(&ctx, view)? else {

@@ -17,10 +17,12 @@
 //! - [`light_tiles`] and [`screen_reuse`] (the screen-space stages' reservoir buffers and pass
 //!   chain), then the stages that replace the renderer's shading: [`world_restir`] (light at
 //!   the secondary vertex), [`restir_gi`] (the paths, resampled between pixels) and
-//!   [`restir_di`] (direct), independent of each other.
+//!   [`restir_di`] (direct), independent of each other; [`cache`] (the radiance cache the
+//!   paths end in).
 //! - [`methods`]: the registry, which composes the stages into methods, the one frame loop
 //!   (`run_frames`) and readback; [`gpu_reference`]: converged GPU references.
 
+pub mod cache;
 pub mod framing;
 pub mod gpu;
 pub mod gpu_reference;
@@ -54,6 +56,7 @@ pub fn kernels() -> Vec<render::ComposedKernel> {
     k.extend(world_restir::kernels());
     k.extend(restir_di::kernels());
     k.extend(restir_gi::kernels());
+    k.extend(cache::kernels());
     k
 }
 

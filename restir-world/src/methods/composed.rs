@@ -2,6 +2,7 @@
 //! one order every method shares.
 
 use super::{FrameMethod, MethodError, MethodSettings};
+use crate::cache::{CacheStats, RadianceCache};
 use crate::gpu::{FrameEncoder, GpuContext};
 use crate::light_tiles::LightTiles;
 use crate::render::{DebugView, RenderOptions, Renderer};
@@ -14,10 +15,11 @@ use crate::world_restir::{WorldRestir, WorldRestirConfig};
 /// a method adds. Per frame:
 ///
 /// 1. the renderer's `primary` and `gi` passes;
-/// 2. the light tiles, when a stage draws from them (`light-tiles`);
+/// 2. the light tiles, when a stage draws from them (`light-tiles`); the radiance cache's
+///    update and resolve, when the method has one;
 /// 3. the indirect image: world-restir, or the renderer's NEE at the secondary vertex, then
-///    the path beyond it; with ReSTIR GI these are the radiance leaving the secondary vertex,
-///    which it resamples into the indirect image;
+///    the path beyond it (ending in the radiance cache, with one); with ReSTIR GI these are
+///    the radiance leaving the secondary vertex, which it resamples into the indirect image;
 /// 4. the direct image: world-restir's unified cache, ReSTIR DI, or the renderer's NEE;
 /// 5. accumulation.
 #[derive(Debug)]
@@ -27,6 +29,7 @@ pub struct Composed {
     world: Option<WorldRestir>,
     gi: Option<RestirGi>,
     di: Option<RestirDi>,
+    cache: Option<RadianceCache>,
 }
 
 impl Composed {
@@ -75,12 +78,17 @@ impl Composed {
             (Some(d), Some(t)) => Some(RestirDi::new(ctx, &renderer, d, t)?),
             _ => None,
         };
+        let cache = match settings.cache {
+            Some(c) => Some(RadianceCache::new(ctx, &renderer, c)?),
+            None => None,
+        };
         Ok(Self {
             renderer,
             tiles,
             world,
             gi,
             di,
+            cache,
         })
     }
 
@@ -134,6 +142,16 @@ impl Composed {
         self.di.as_ref()
     }
 
+    /// The radiance cache, when the method has one.
+    pub fn cache(&self) -> Option<&RadianceCache> {
+        self.cache.as_ref()
+    }
+
+    /// The radiance cache, mutable (tests plant defects in it).
+    pub fn cache_mut(&mut self) -> Option<&mut RadianceCache> {
+        self.cache.as_mut()
+    }
+
     /// The light tiles, when a stage draws from them.
     pub fn tiles(&self) -> Option<&LightTiles> {
         self.tiles.as_ref()
@@ -151,11 +169,17 @@ impl FrameMethod for Composed {
         if let Some(t) = &self.tiles {
             t.encode(f);
         }
+        if let Some(c) = self.cache.as_mut() {
+            c.encode_update(f, r)?;
+        }
         match self.world.as_mut() {
             Some(w) => w.encode(f, r)?,
             None => r.encode_shade_indirect(f),
         }
-        r.encode_path(f);
+        match &self.cache {
+            Some(c) => c.encode_path(f),
+            None => r.encode_path(f),
+        }
         if let Some(gi) = self.gi.as_mut() {
             gi.encode(f, r);
         }
@@ -184,18 +208,32 @@ impl FrameMethod for Composed {
         }
     }
 
+    fn cache_stats(&self, ctx: &GpuContext) -> Result<Option<CacheStats>, MethodError> {
+        match &self.cache {
+            Some(c) => Ok(Some(c.stats(ctx)?)),
+            None => Ok(None),
+        }
+    }
+
     fn debug_image(
         &self,
         ctx: &GpuContext,
         view: DebugView,
     ) -> Result<Option<Vec<[f32; 3]>>, MethodError> {
+        if let Some(c) = &self.cache {
+            if let Some(image) = c.debug_image(ctx, view)? {
+                return Ok(Some(image));
+            }
+        }
         if let Some(gi) = &self.gi {
             if let Some(image) = gi.debug_image(ctx, view)? {
                 return Ok(Some(image));
             }
         }
         match &self.world {
-            Some(w) if view != DebugView::Rejected => Ok(Some(w.debug_image(ctx, view)?)),
+            Some(w) if matches!(view, DebugView::Cells | DebugView::M | DebugView::Overflow) => {
+                Ok(Some(w.debug_image(ctx, view)?))
+            }
             _ => Ok(None),
         }
     }

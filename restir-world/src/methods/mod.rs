@@ -9,6 +9,7 @@
 
 use std::fmt;
 
+use crate::cache::{CacheError, CacheStats};
 use crate::gpu::{FrameEncoder, GpuContext, GpuError, GpuTimer, PassTimes, SpanTimes};
 use crate::render::{DebugView, RenderError, Renderer};
 use crate::restir_di::RestirDiError;
@@ -38,6 +39,8 @@ pub enum MethodError {
     #[error(transparent)]
     RestirGi(#[from] RestirGiError),
     #[error(transparent)]
+    Cache(#[from] CacheError),
+    #[error(transparent)]
     Gpu(#[from] GpuError),
     #[error("unknown method {name:?}; known: {known}")]
     Unknown { name: String, known: String },
@@ -63,6 +66,10 @@ pub trait FrameMethod: fmt::Debug {
     }
     /// Vertices left out of the last frame's hash grid (bucket full), for methods with one.
     fn grid_overflows(&self, _ctx: &GpuContext) -> Result<Option<u32>, MethodError> {
+        Ok(None)
+    }
+    /// The radiance cache's size and use after the last frame, for methods with one.
+    fn cache_stats(&self, _ctx: &GpuContext) -> Result<Option<CacheStats>, MethodError> {
         Ok(None)
     }
     /// A debug view of the last frame (RGB per pixel), for methods with a hash grid.

@@ -5,6 +5,7 @@
 use std::fmt;
 
 use super::{Composed, FrameMethod, MethodError};
+use crate::cache::{self, CacheConfig, CacheError};
 use crate::gpu::GpuContext;
 use crate::knobs::{Knob, Knobs, Variant, parse_config};
 use crate::render::{self, RenderOptions};
@@ -27,6 +28,8 @@ pub enum VariantOf {
     RestirDi,
     /// ReSTIR GI's knobs.
     RestirGi,
+    /// The radiance cache's knobs.
+    Cache,
 }
 
 /// One registered method.
@@ -42,6 +45,8 @@ pub struct MethodEntry {
     pub world_restir: bool,
     pub restir_gi: bool,
     pub restir_di: bool,
+    /// Paths end in a radiance cache.
+    pub cache: bool,
     /// What its variant text configures.
     pub variant_of: VariantOf,
     /// Whether this is the method that equal-time comparisons are measured against when the
@@ -64,6 +69,7 @@ impl MethodEntry {
             VariantOf::WorldRestir => world_restir::variants(),
             VariantOf::RestirDi => restir_di::variants(),
             VariantOf::RestirGi => restir_gi::variants(),
+            VariantOf::Cache => cache::variants(),
             VariantOf::Nothing | VariantOf::RisCandidates => Vec::new(),
         }
     }
@@ -74,11 +80,15 @@ impl MethodEntry {
         match self.variant_of {
             VariantOf::Nothing => "none".into(),
             VariantOf::RisCandidates => "K (candidate count)".into(),
-            VariantOf::WorldRestir | VariantOf::RestirDi | VariantOf::RestirGi => {
+            VariantOf::WorldRestir
+            | VariantOf::RestirDi
+            | VariantOf::RestirGi
+            | VariantOf::Cache => {
                 let names: Vec<&str> = self.variants().iter().map(|v| v.name).collect();
                 let all = match self.variant_of {
                     VariantOf::WorldRestir => WorldRestirConfig::KNOBS,
                     VariantOf::RestirGi => RestirGiConfig::KNOBS,
+                    VariantOf::Cache => CacheConfig::KNOBS,
                     _ => RestirDiConfig::KNOBS,
                 };
                 format!(
@@ -105,6 +115,7 @@ impl MethodEntry {
             world: self.world_restir.then(WorldRestirConfig::default),
             gi: self.restir_gi.then(RestirGiConfig::default),
             di: self.restir_di.then(RestirDiConfig::default),
+            cache: self.cache.then(CacheConfig::default),
         };
         match (self.variant_of, variant) {
             (VariantOf::Nothing, None) => s.estimator = Estimator::Nee,
@@ -131,6 +142,9 @@ impl MethodEntry {
             (VariantOf::RestirGi, v) => {
                 s.gi = Some(parse_config(&restir_gi::variants(), v).map_err(|e| self.bad(e))?);
             }
+            (VariantOf::Cache, v) => {
+                s.cache = Some(parse_config(&cache::variants(), v).map_err(|e| self.bad(e))?);
+            }
         }
         s.validate()?;
         Ok(s)
@@ -146,13 +160,20 @@ pub struct MethodSettings {
     pub world: Option<WorldRestirConfig>,
     pub gi: Option<RestirGiConfig>,
     pub di: Option<RestirDiConfig>,
+    pub cache: Option<CacheConfig>,
 }
 
 impl PartialEq for MethodSettings {
     fn eq(&self, other: &Self) -> bool {
         self.entry.name == other.entry.name
-            && (self.estimator, self.world, self.gi, self.di)
-                == (other.estimator, other.world, other.gi, other.di)
+            && (self.estimator, self.world, self.gi, self.di, self.cache)
+                == (
+                    other.estimator,
+                    other.world,
+                    other.gi,
+                    other.di,
+                    other.cache,
+                )
     }
 }
 
@@ -165,6 +186,9 @@ impl MethodSettings {
         }
         if let Some(g) = &self.gi {
             g.validate().map_err(|e| self.entry.bad(e.to_string()))?;
+        }
+        if let Some(c) = &self.cache {
+            c.validate().map_err(|e| self.entry.bad(e.to_string()))?;
         }
         if let Some(d) = &self.di {
             d.validate().map_err(|e| self.entry.bad(e.to_string()))?;
@@ -189,6 +213,11 @@ impl MethodSettings {
             gpu_hash::HashGridParams::new(&table, &w.sizing(camera), camera.eye)
                 .map_err(WorldRestirError::from)?;
         }
+        if let Some(c) = &self.cache {
+            let table = c.table(camera.width.saturating_mul(camera.height));
+            gpu_hash::HashGridParams::new(&table, &c.sizing(camera), camera.eye)
+                .map_err(CacheError::from)?;
+        }
         Ok(())
     }
 
@@ -205,6 +234,7 @@ impl MethodSettings {
             VariantOf::WorldRestir => self.world.map(|c| c.knobs_spec()).unwrap_or_default(),
             VariantOf::RestirDi => self.di.map(|c| c.knobs_spec()).unwrap_or_default(),
             VariantOf::RestirGi => self.gi.map(|c| c.knobs_spec()).unwrap_or_default(),
+            VariantOf::Cache => self.cache.map(|c| c.knobs_spec()).unwrap_or_default(),
         };
         match knobs.is_empty() {
             true => self.entry.name.to_owned(),
@@ -225,6 +255,7 @@ impl MethodSettings {
             VariantOf::WorldRestir => self.world.as_ref().map(values),
             VariantOf::RestirDi => self.di.as_ref().map(values),
             VariantOf::RestirGi => self.gi.as_ref().map(values),
+            VariantOf::Cache => self.cache.as_ref().map(values),
             VariantOf::Nothing | VariantOf::RisCandidates => None,
         }
         .unwrap_or_default()
@@ -237,6 +268,7 @@ impl MethodSettings {
             (VariantOf::WorldRestir, MethodSettings { world: Some(w), .. }) => w.set(key, value),
             (VariantOf::RestirDi, MethodSettings { di: Some(d), .. }) => d.set(key, value),
             (VariantOf::RestirGi, MethodSettings { gi: Some(g), .. }) => g.set(key, value),
+            (VariantOf::Cache, MethodSettings { cache: Some(c), .. }) => c.set(key, value),
             _ => Err(format!("{} has no knobs", self.entry.name)),
         };
         set.map_err(|e| self.entry.bad(e))?;
@@ -278,6 +310,7 @@ pub fn registry() -> &'static [MethodEntry] {
             world_restir: false,
             restir_gi: false,
             restir_di: false,
+            cache: false,
             variant_of,
             equal_time_target: false,
         }
@@ -349,6 +382,54 @@ pub fn registry() -> &'static [MethodEntry] {
                 "the full stack: ReSTIR DI for the direct light, ReSTIR GI over world-restir's \
                  secondary vertices (their defaults; the variant is ReSTIR GI's)",
                 VariantOf::RestirGi,
+            )
+        },
+        MethodEntry {
+            cache: true,
+            ..entry(
+                "ris+cache",
+                "ris with paths that end in the radiance cache (the variant is the cache's)",
+                VariantOf::Cache,
+            )
+        },
+        MethodEntry {
+            world_restir: true,
+            cache: true,
+            ..entry(
+                "world-restir+cache",
+                "world-restir (its defaults) with paths that end in the radiance cache",
+                VariantOf::Cache,
+            )
+        },
+        MethodEntry {
+            restir_gi: true,
+            cache: true,
+            ..entry(
+                "restir-gi+cache",
+                "restir-gi (its defaults) over paths that end in the radiance cache",
+                VariantOf::Cache,
+            )
+        },
+        MethodEntry {
+            world_restir: true,
+            restir_gi: true,
+            cache: true,
+            ..entry(
+                "restir-gi+world-restir+cache",
+                "restir-gi+world-restir (their defaults) over paths that end in the radiance \
+                 cache",
+                VariantOf::Cache,
+            )
+        },
+        MethodEntry {
+            world_restir: true,
+            restir_gi: true,
+            restir_di: true,
+            cache: true,
+            ..entry(
+                "restir-di+restir-gi+world-restir+cache",
+                "the full stack (its defaults) over paths that end in the radiance cache",
+                VariantOf::Cache,
             )
         },
     ];
@@ -425,6 +506,10 @@ mod tests {
             "restir-gi:biased+spatial-k=8",
             "restir-gi+world-restir:no-reuse",
             "restir-di+restir-gi+world-restir:max-jacobian=4",
+            "ris+cache",
+            "ris+cache:after=3+update-fraction=0.1",
+            "world-restir+cache:frequent",
+            "restir-di+restir-gi+world-restir+cache:history=64",
         ] {
             check_spec(good).unwrap_or_else(|e| panic!("{good}: {e}"));
         }
@@ -441,6 +526,8 @@ mod tests {
             "world-restir+restir-di:combine=x",
             "restir-gi:max-jacobian=0",
             "restir-gi:spatial-k=17",
+            "ris+cache:after=1",
+            "ris+cache:update-fraction=0",
             "nope",
         ] {
             assert!(check_spec(bad).is_err(), "{bad}");

@@ -52,6 +52,11 @@ use crate::trace::{self, Bvh};
 pub const WGSL: &str = include_str!("render.wgsl");
 /// The pass kernels.
 pub const PASSES_WGSL: &str = include_str!("passes.wgsl");
+/// The indirect path beyond the secondary vertex (`render_path_pixel`), shared with the
+/// radiance cache's path pass; needs a module named [`PATH_CACHE`].
+pub const PATH_WGSL: &str = include_str!("path.wgsl");
+/// The name of the module that defines `path_cache_radiance` for [`PATH_WGSL`].
+pub const PATH_CACHE: &str = "path-cache";
 
 /// Default RIS candidate count (the paper's 16).
 pub const DEFAULT_CANDIDATES: u32 = 16;
@@ -470,12 +475,34 @@ pub fn compose_with_library(tracer: Tracer, modules: Vec<WgslModule>) -> String 
 }
 
 fn passes_module() -> WgslModule {
-    WgslModule::new("render-passes", &["render", "workgroup"], PASSES_WGSL)
+    WgslModule::new("render-passes", &["render-path", "workgroup"], PASSES_WGSL)
+}
+
+/// The path module ([`PATH_WGSL`]) and, when no cache provides [`PATH_CACHE`], a
+/// `path_cache_radiance` that never ends a path.
+pub fn path_modules(with_cache: bool) -> Vec<WgslModule> {
+    let mut m = vec![WgslModule::new(
+        "render-path",
+        &["render", PATH_CACHE],
+        PATH_WGSL,
+    )];
+    if !with_cache {
+        m.push(WgslModule::new(
+            PATH_CACHE,
+            &["render"],
+            "// No radiance cache: every path goes on to its full depth.\n\
+             fn path_cache_radiance(w: GVertex, bounce: u32) -> vec4<f32> {\n    \
+             return vec4<f32>(0.0);\n}\n",
+        ));
+    }
+    m
 }
 
 /// The composed pass module on `tracer`.
 pub fn passes_source(tracer: Tracer) -> String {
-    compose_with_library(tracer, vec![passes_module()])
+    let mut m = vec![passes_module()];
+    m.extend(path_modules(false));
+    compose_with_library(tracer, m)
 }
 
 /// A composed kernel module with the binding sets of its groups (0, 1, ... in order): what its
@@ -770,6 +797,23 @@ pub enum DebugView {
     /// The share of a pixel's reconnections rejected (restir-gi: Jacobian out of range, x2
     /// facing away, or occluded): green none .. red all; black: no neighbour merged.
     Rejected = 3,
+    /// The radiance cache's cell at each primary vertex: its radiance (demodulated,
+    /// x / (1 + x)); black: no cell with samples.
+    CacheRadiance = 4,
+    /// The cell's frames since its last sample (heat map up to `evict-after`).
+    CacheAge = 5,
+    /// The cell's sample count (heat map of log2 up to `history`).
+    CacheSamples = 6,
+}
+
+impl DebugView {
+    /// Whether the radiance cache draws this view.
+    pub fn is_cache_view(self) -> bool {
+        matches!(
+            self,
+            Self::CacheRadiance | Self::CacheAge | Self::CacheSamples
+        )
+    }
 }
 
 /// The debug views' heat map of t in [0, 1]: blue .. cyan .. yellow .. red (the twin of
@@ -813,7 +857,8 @@ impl Passes {
             "render_path",
             "render_accumulate",
         ];
-        let modules = vec![passes_module()];
+        let mut modules = vec![passes_module()];
+        modules.extend(path_modules(false));
         let kernel = shared.kernel(device, "render passes", modules, None, &entries);
         let pass = |entry| shared.pass(device, &kernel, entry, None);
         Self {

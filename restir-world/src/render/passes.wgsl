@@ -84,54 +84,13 @@ fn render_shade_indirect(id: Invocation) {
     render_indirect_frame[i] = vec4<f32>(c, 1.0);
 }
 
-// Bounces 2..=render_params.bounces: the path goes on from the secondary vertex by cosine
-// sampling, with the render's light estimate (render_nee) at every vertex, weighted by the
-// throughput (albedo products: the cosine pdf cancels the BRDF's cos / pi); Russian roulette
-// from bounce roulette_from on. Adds the primary albedo x that radiance to the indirect image
-// that bounce 1's pass wrote. Emission the path hits is not added (NEE at the vertex before
-// counts it), nor the environment an escaping ray sees, except with MIS (render_params.mis),
-// which weighs both ways to the light and traces one more ray for the last bounce's hits.
+// Bounces 2..=render_params.bounces of the path beyond the secondary vertex (render_path_pixel,
+// path.wgsl), with no radiance cache.
 @compute @workgroup_size(WORKGROUP_SIZE)
 fn render_path(id: Invocation) {
     let i = item_index(id);
     if i >= render_params.pixel_count { return; }
-    let g = render_gbuffer[i];
-    var v = render_secondary[i];
-    if g.prim == BVH_NO_HIT || v.prim == BVH_NO_HIT {
-        return;
-    }
-    var throughput = render_indirect_weight(g);
-    var l = vec3<f32>(0.0);
-    // With MIS one more ray: the emission the last vertex's ray finds is part of the last bounce.
-    let last = render_params.bounces + render_params.mis;
-    for (var bounce = 2u; bounce <= last; bounce++) {
-        var rng = render_rng_salted(i, STREAM_PATH, bounce);
-        if render_params.roulette_from != 0u && bounce >= render_params.roulette_from {
-            let q = min(max(v.albedo.x, max(v.albedo.y, v.albedo.z)), 1.0);
-            if !(rng_next_f32(&rng) < q) {
-                break;
-            }
-            throughput /= q;
-        }
-        throughput *= v.albedo;
-        let u = vec2<f32>(rng_next_f32(&rng), rng_next_f32(&rng));
-        var ray: Ray;
-        ray.origin = render_offset(v.position, v.normal);
-        ray.tmin = 0.0;
-        ray.dir = sampling_cosine_hemisphere(v.shading, u);
-        ray.tmax = RENDER_T_MAX;
-        if render_params.attributes != 0u && dot(ray.dir, v.normal) <= 0.0 {
-            break;
-        }
-        let w = render_surface(ray.dir, trace_closest(ray));
-        l += throughput * render_hit_emission(v, w);
-        if w.prim == BVH_NO_HIT || bounce > render_params.bounces {
-            break;
-        }
-        l += throughput * render_nee(w, &rng);
-        v = w;
-    }
-    render_indirect_frame[i] += vec4<f32>(l, 0.0);
+    render_path_pixel(i);
 }
 
 // Adds this frame's direct and indirect estimates to the running sums (both scaled only in

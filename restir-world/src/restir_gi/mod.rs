@@ -417,7 +417,7 @@ impl RestirGi {
                     })
                     .collect(),
             ),
-            DebugView::Cells | DebugView::Overflow => None,
+            _ => None,
         })
     }
 }

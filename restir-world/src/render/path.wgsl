@@ -1,0 +1,69 @@
+// The indirect path beyond the secondary vertex, shared by the renderer's `render_path` pass and
+// the radiance cache's `cache_path` pass. Needs the render library and a module "path-cache"
+// that defines
+//     fn path_cache_radiance(w: GVertex, bounce: u32) -> vec4<f32>
+// the radiance reflected at the path's vertex w, reached by bounce `bounce`, towards the vertex
+// before it (.w = 1), or .w = 0 when the path goes on (no cache, or no sample in w's cell).
+
+// Bounces 2..=render_params.bounces of pixel i: the path goes on from the secondary vertex by
+// cosine sampling, with the render's light estimate (render_nee) at every vertex, weighted by
+// the throughput (albedo products: the cosine pdf cancels the BRDF's cos / pi); Russian
+// roulette from bounce roulette_from on. Adds the primary albedo x that radiance to the
+// indirect image that bounce 1's pass wrote. Emission the path hits is not added (NEE at the
+// vertex before counts it), nor the environment an escaping ray sees, except with MIS
+// (render_params.mis), which weighs both ways to the light and traces one more ray for the last
+// bounce's hits. A vertex whose cached radiance path_cache_radiance gives ends the path: that
+// radiance stands for its light estimate and every bounce beyond it.
+fn render_path_pixel(i: u32) {
+    let g = render_gbuffer[i];
+    var v = render_secondary[i];
+    if g.prim == BVH_NO_HIT || v.prim == BVH_NO_HIT {
+        return;
+    }
+    var throughput = render_indirect_weight(g);
+    var l = vec3<f32>(0.0);
+    // With MIS one more ray: the emission the last vertex's ray finds is part of the last bounce.
+    let last = render_params.bounces + render_params.mis;
+    for (var bounce = 2u; bounce <= last; bounce++) {
+        var rng = render_rng_salted(i, STREAM_PATH, bounce);
+        if render_params.roulette_from != 0u && bounce >= render_params.roulette_from {
+            let q = min(max(v.albedo.x, max(v.albedo.y, v.albedo.z)), 1.0);
+            if !(rng_next_f32(&rng) < q) {
+                break;
+            }
+            throughput /= q;
+        }
+        throughput *= v.albedo;
+        let w = render_path_step(v, &rng);
+        l += throughput * render_hit_emission(v, w);
+        if w.prim == BVH_NO_HIT || bounce > render_params.bounces {
+            break;
+        }
+        let cached = path_cache_radiance(w, bounce);
+        if cached.w > 0.0 {
+            l += throughput * cached.xyz;
+            break;
+        }
+        l += throughput * render_nee(w, &rng);
+        v = w;
+    }
+    render_indirect_frame[i] += vec4<f32>(l, 0.0);
+}
+
+// One diffuse bounce from v: the vertex a cosine-sampled ray about v's shading normal finds
+// (prim = BVH_NO_HIT where it escapes or, with vertex normals, points below the geometric
+// surface: then emission is 0 and the path ends).
+fn render_path_step(v: GVertex, rng: ptr<function, u32>) -> GVertex {
+    let u = vec2<f32>(rng_next_f32(rng), rng_next_f32(rng));
+    var ray: Ray;
+    ray.origin = render_offset(v.position, v.normal);
+    ray.tmin = 0.0;
+    ray.dir = sampling_cosine_hemisphere(v.shading, u);
+    ray.tmax = RENDER_T_MAX;
+    if render_params.attributes != 0u && dot(ray.dir, v.normal) <= 0.0 {
+        var none: GVertex;
+        none.prim = BVH_NO_HIT;
+        return none;
+    }
+    return render_surface(ray.dir, trace_closest(ray));
+}
