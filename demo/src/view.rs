@@ -90,10 +90,16 @@ pub enum Shown {
     Overflow,
     /// Debug view: the share of each pixel's reconnections rejected (restir-gi).
     Rejected,
+    /// Debug view: the radiance cache's cell at each pixel, by radiance (+cache methods).
+    CacheRadiance,
+    /// Debug view: the radiance cache's cells by age (+cache methods).
+    CacheAge,
+    /// Debug view: the radiance cache's cells by sample count (+cache methods).
+    CacheSamples,
 }
 
 impl Shown {
-    const ALL: [(Shown, &'static str); 7] = [
+    const ALL: [(Shown, &'static str); 10] = [
         (Shown::Combined, "combined"),
         (Shown::Direct, "direct"),
         (Shown::Indirect, "indirect"),
@@ -101,6 +107,9 @@ impl Shown {
         (Shown::M, "debug: M heat map"),
         (Shown::Overflow, "debug: overflow"),
         (Shown::Rejected, "debug: rejected reconnections"),
+        (Shown::CacheRadiance, "debug: cache radiance"),
+        (Shown::CacheAge, "debug: cache age"),
+        (Shown::CacheSamples, "debug: cache samples"),
     ];
 
     fn debug(self) -> Option<DebugView> {
@@ -109,6 +118,9 @@ impl Shown {
             Shown::M => Some(DebugView::M),
             Shown::Overflow => Some(DebugView::Overflow),
             Shown::Rejected => Some(DebugView::Rejected),
+            Shown::CacheRadiance => Some(DebugView::CacheRadiance),
+            Shown::CacheAge => Some(DebugView::CacheAge),
+            Shown::CacheSamples => Some(DebugView::CacheSamples),
             _ => None,
         }
     }
@@ -390,6 +402,8 @@ struct Stats {
     frames_since_build: u32,
     last_frame_end: Option<Instant>,
     overflows: Option<u32>,
+    /// The radiance cache's use after the last frame (+cache methods).
+    cache: Option<restir_world::cache::CacheStats>,
     /// The shown image, linear, and the exposure it is shown with.
     image: Option<(Image, f32)>,
     message: Option<String>,
@@ -647,6 +661,7 @@ impl Viewer {
         })?;
         let done = start.elapsed().as_secs_f64() * 1e3;
         self.stats.overflows = self.method.grid_overflows(&self.ctx)?;
+        self.stats.cache = self.method.cache_stats(&self.ctx)?;
         let now = Instant::now();
         let s = &mut self.stats;
         let wall = s
@@ -899,6 +914,9 @@ impl Viewer {
         if let Some(o) = s.overflows {
             println!("view: grid overflows (last frame) {o}");
         }
+        if let Some(c) = &s.cache {
+            println!("view: {}", cache_line(c));
+        }
         if let Some(paths) = &self.setup.screenshot {
             self.write_shot(paths)?;
             println!(
@@ -1124,6 +1142,9 @@ fn status_ui(ui: &mut egui::Ui, info: &Info, s: &Stats) {
     if let Some(o) = s.overflows {
         ui.label(format!("grid overflows (last frame): {o}"));
     }
+    if let Some(c) = &s.cache {
+        ui.label(cache_line(c));
+    }
     if let Some(m) = &s.message {
         ui.colored_label(egui::Color32::YELLOW, m);
     }
@@ -1283,6 +1304,18 @@ fn knobs_ui(ui: &mut egui::Ui, settings: &MethodSettings, c: &mut Controls, a: &
             }
         }
     });
+}
+
+/// One line on the radiance cache's use: cells in use of the table, bytes, overflows.
+fn cache_line(c: &restir_world::cache::CacheStats) -> String {
+    format!(
+        "cache: {} of {} cells ({} B each, {:.1} MiB), {} overflows (last frame)",
+        c.cells_in_use,
+        c.capacity,
+        c.bytes_per_cell,
+        c.bytes() as f64 / f64::from(1u32 << 20),
+        c.overflows
+    )
 }
 
 #[cfg(test)]

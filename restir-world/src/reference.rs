@@ -389,6 +389,34 @@ impl ReferenceRenderer {
         l
     }
 
+    /// The radiance a white diffuse surface at `x` with unit normal `n` reflects towards any
+    /// direction: the light estimate there plus the light of every bounce `opts.paths` takes
+    /// beyond it (the first bounce's vertex lit by `opts.method`, then the path beyond it as
+    /// [`ReferenceRenderer::render`]'s), averaged over `opts.spp` samples seeded by `opts.seed`
+    /// (one thread). What the radiance cache stores for a cell at `x`.
+    pub fn reflected_white(&self, x: Vec3, n: Vec3, opts: &ReferenceOptions) -> Vec3 {
+        let v = Surface {
+            x,
+            n,
+            ns: n,
+            albedo: Vec3::ONE,
+            emission: Vec3::ZERO,
+        };
+        let mut sum = glam::DVec3::ZERO;
+        for s in 0..opts.spp {
+            let mut rng = Rng::seed(s, 0, opts.seed);
+            let mut l = self.estimate(opts.method, &v, &mut rng);
+            let wi = sampling::cosine_hemisphere(n, Vec2::new(rng.next_f32(), rng.next_f32()));
+            let o = x + n * self.eps;
+            if let Some(h) = self.closest(o, wi) {
+                let w = self.surface(o, wi, &h);
+                l += self.estimate(opts.method, &w, &mut rng) + self.path(opts, w, &mut rng);
+            }
+            sum += l.as_dvec3();
+        }
+        (sum / f64::from(opts.spp.max(1))).as_vec3()
+    }
+
     /// Renders `camera` (its width x height) with `opts`. `progress`, if given, is called with
     /// the number of rows finished so far (from worker threads).
     /// Fails before any work when the image needs more than [`MAX_REFERENCE_BYTES`].

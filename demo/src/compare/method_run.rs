@@ -13,7 +13,9 @@ use restir_world::render::RenderOptions;
 use restir_world::scene::{Camera, Scene};
 
 use super::reference::{Reference, Refs};
-use super::report::{Err2, FrameError, FrameRecord, ImageErrors, MethodRun, PerImage, Stage};
+use super::report::{
+    CacheUse, Err2, FrameError, FrameRecord, ImageErrors, MethodRun, PerImage, Stage,
+};
 use super::{CameraMode, CompareOptions, Rgb, TIMING_WARMUP_FRAMES};
 
 /// What every run on one scene shares.
@@ -102,6 +104,9 @@ impl SceneRuns<'_> {
             });
             let images = method_images(m.read(ctx, Readback::Accumulated)?, run.bias);
             let overflows = m.grid_overflows(ctx)?;
+            if let Some(c) = m.cache_stats(ctx)? {
+                tally.cache = Some(CacheUse::add(tally.cache, &c));
+            }
             tally.record(s.record, images, self.refs.get(s.record), times, overflows)?;
             self.bar.inc(1);
             Ok(())
@@ -193,6 +198,7 @@ struct Tally {
     accumulated: Option<Accumulator>,
     /// The last frame with a reference and its images.
     last_eval: Option<(u32, PerImage<Rgb>)>,
+    cache: Option<CacheUse>,
 }
 
 impl Tally {
@@ -204,6 +210,7 @@ impl Tally {
             sums: PerImage::default(),
             accumulated,
             last_eval: None,
+            cache: None,
         }
     }
 
@@ -284,6 +291,7 @@ impl Tally {
             ms_per_frame_by_stage: Stage::list(by_stage),
             ms_per_frame_by_stage_median: Stage::list(PassTimes::median_per_frame(&timed)),
             max_grid_overflows: self.records.iter().filter_map(|r| r.grid_overflows).max(),
+            cache: self.cache,
             images: self.image_errors(refs)?,
             per_frame: self.records,
         };

@@ -188,8 +188,34 @@ pub struct MethodRun {
     pub ms_per_frame_by_stage_median: Vec<Stage>,
     /// Most vertices left out of a frame's hash grid (methods with a grid).
     pub max_grid_overflows: Option<u32>,
+    /// The radiance cache's size and use (`+cache` methods).
+    pub cache: Option<CacheUse>,
     pub images: PerImage<ImageErrors>,
     pub per_frame: Vec<FrameRecord>,
+}
+
+/// A radiance cache over a run: its table and the most it used.
+#[derive(Debug, Clone, Copy, Serialize)]
+pub struct CacheUse {
+    pub capacity_cells: u32,
+    pub bytes_per_cell: u32,
+    /// Most cells in use after a frame.
+    pub max_cells_in_use: u32,
+    /// Most inserts of a frame that found their bucket full.
+    pub max_overflows: u32,
+}
+
+impl CacheUse {
+    /// Folds in the stats after one frame.
+    pub fn add(this: Option<Self>, s: &restir_world::cache::CacheStats) -> Self {
+        let (cells, overflows) = this.map_or((0, 0), |c| (c.max_cells_in_use, c.max_overflows));
+        Self {
+            capacity_cells: s.capacity,
+            bytes_per_cell: s.bytes_per_cell,
+            max_cells_in_use: cells.max(s.cells_in_use),
+            max_overflows: overflows.max(s.overflows),
+        }
+    }
 }
 
 impl MethodRun {

@@ -10,7 +10,8 @@ struct CacheParams {
     debug_view: u32,
     // Update paths per frame: ceil(pixels x update_fraction).
     update_paths: u32,
-    _pad1: u32,
+    // 1 only in tests' negative controls: update paths without their tail.
+    planted_no_tail: u32,
     _pad2: u32,
 }
 
@@ -22,6 +23,13 @@ struct CacheCell {
     g: atomic<u32>,
     b: atomic<u32>,
     info: atomic<u32>,
+}
+
+// One sample of an update path's vertex, kept between the update and accumulate passes:
+// slot = HASH_REJECTED for none.
+struct CacheSample {
+    value: vec3<f32>,
+    slot: u32,
 }
 
 // 0..5: the axis the normal points along most, and its sign.

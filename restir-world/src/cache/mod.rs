@@ -61,6 +61,7 @@ pub const BYTES_PER_CELL: u32 = 24;
 /// Salts of the cache's random streams (sub-streams of the path's, beyond any bounce's).
 const SALT_UPDATE: u32 = 0x800;
 const SALT_RESOLVE: u32 = 0x801;
+const SALT_ACCUMULATE: u32 = 0x802;
 
 const _: () =
     assert!((MAX_HISTORY + MAX_NEW) as f64 * SCALE as f64 * MAX_VALUE as f64 <= u32::MAX as f64);
@@ -89,6 +90,11 @@ crate::knobs! {
         [gpu] update_fraction: f32 = 0.04, "update-fraction", 0.0001..=1.0;
         /// Vertices an update path samples before it reads the cache (default 3).
         [gpu] update_depth: u32 = 3, "update-depth", 1..=MAX_UPDATE_DEPTH;
+        /// Update paths end in the cache after `update-depth` vertices (SHaRC's feedback: the
+        /// cache learns one more stretch of path each time its history turns over, biased low
+        /// until then). Off (the default): they go on as the render's paths do, with Russian
+        /// roulette, so every sample is unbiased from the first frame on.
+        [gpu] feedback: bool = false, "feedback";
         /// Samples a cell keeps (default 256): more average more noise away and lag longer.
         [gpu] history: u32 = 256, "history", 1..=MAX_HISTORY;
         /// Frames without a sample after which a cell is evicted (default 32).
@@ -173,7 +179,9 @@ pub struct CacheParams {
     pub debug_view: u32,
     /// [`CacheConfig::update_paths`] of the frame.
     pub update_paths: u32,
-    pub _pad: [u32; 2],
+    /// 1 only in tests' negative controls ([`RadianceCache::plant_no_tail`]).
+    pub planted_no_tail: u32,
+    pub _pad2: u32,
 }
 
 /// One cell as read back: the mean of its samples (demodulated radiance), their count and the
@@ -189,18 +197,22 @@ pub struct CellValue {
 #[repr(C)]
 #[derive(Debug, Clone, Copy, Default, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
 pub struct CacheCell {
-    pub sums: [u32; 3],
-    pub meta: u32,
+    /// The sums of the samples' channels in [`SCALE`] units.
+    pub r: u32,
+    pub g: u32,
+    pub b: u32,
+    /// Samples in the sums (low 16 bits) | frames since the last sample << 16.
+    pub info: u32,
 }
 
 impl CacheCell {
     pub fn value(&self) -> CellValue {
-        let samples = self.meta & 0xffff;
+        let samples = self.info & 0xffff;
         let n = samples.max(1) as f32 * SCALE;
         CellValue {
-            mean: self.sums.map(|s| s as f32 / n),
+            mean: [self.r, self.g, self.b].map(|s| s as f32 / n),
             samples,
-            age: self.meta >> 16,
+            age: self.info >> 16,
         }
     }
 }
@@ -235,7 +247,9 @@ pub fn constants_wgsl() -> String {
          const CACHE_MAX_NEW: u32 = {MAX_NEW}u;\nconst CACHE_SCALE: f32 = {SCALE:?};\n\
          const CACHE_MAX_VALUE: f32 = {MAX_VALUE:?};\n\
          const CACHE_SALT_UPDATE: u32 = {SALT_UPDATE}u;\n\
+         const CACHE_MAX_BOUNCES: u32 = {MAX_BOUNCES}u;\n\
          const CACHE_SALT_RESOLVE: u32 = {SALT_RESOLVE}u;\n\
+         const CACHE_SALT_ACCUMULATE: u32 = {SALT_ACCUMULATE}u;\n\
          const CACHE_VIEW_AGE: u32 = {}u;\nconst CACHE_VIEW_SAMPLES: u32 = {}u;\n{}",
         DebugView::CacheAge as u32,
         DebugView::CacheSamples as u32,
@@ -247,10 +261,21 @@ const OWN: &[Buffer] = &[
     ("cache_params", "CacheParams", Access::Uniform),
     ("cache_cells", "array<CacheCell>", Access::ReadWrite),
     ("cache_debug_image", "array<vec4<f32>>", Access::ReadWrite),
+    (
+        "cache_update_samples",
+        "array<CacheSample>",
+        Access::ReadWrite,
+    ),
 ];
 const KERNEL: KernelDef = KernelDef::new(
     "cache-passes",
-    &["cache_update", "cache_resolve", "cache_path", "cache_debug"],
+    &[
+        "cache_update",
+        "cache_accumulate",
+        "cache_resolve",
+        "cache_path",
+        "cache_debug",
+    ],
     PASSES_WGSL,
     &[OWN],
 );
@@ -301,6 +326,7 @@ pub fn kernels() -> Vec<ComposedKernel> {
 #[derive(Debug)]
 struct CachePasses {
     update: Pass,
+    accumulate: Pass,
     resolve: Pass,
     path: Pass,
     debug: Pass,
@@ -318,9 +344,6 @@ pub struct RadianceCache {
     cells: wgpu::Buffer,
     debug: wgpu::Buffer,
     passes: CachePasses,
-    /// Planted in negative controls: the cache stops updating after its first frame.
-    frozen: bool,
-    frames: u32,
 }
 
 impl RadianceCache {
@@ -343,7 +366,8 @@ impl RadianceCache {
             knobs: config.gpu_words(),
             debug_view: 0,
             update_paths: config.update_paths(pixels),
-            _pad: [0; 2],
+            planted_no_tail: 0,
+            _pad2: 0,
         };
         let params = buffers::with_usage(
             device,
@@ -353,6 +377,10 @@ impl RadianceCache {
         );
         let cells = buffers::storage_zeroed(device, "cache cells", cell_bytes);
         let debug = buffers::storage_zeroed(device, "cache debug", u64::from(pixels) * 16);
+        let update_paths = config.update_paths(pixels);
+        let sample_items = update_paths * MAX_UPDATE_DEPTH;
+        let samples =
+            buffers::storage_zeroed(device, "cache samples", u64::from(sample_items) * 16);
         let shared = &renderer.shared;
         let kernel: OwnKernel = shared.own_kernel(
             ctx,
@@ -367,12 +395,14 @@ impl RadianceCache {
                 ("cache_params", Resource::from(&params)),
                 ("cache_cells", (&cells).into()),
                 ("cache_debug_image", (&debug).into()),
+                ("cache_update_samples", (&samples).into()),
                 ("cache_hash", hash),
             ];
             shared.bound_pass(device, &kernel, entry, res, items)
         };
         let passes = CachePasses {
-            update: pass("cache_update", Some(config.update_paths(pixels)))?,
+            update: pass("cache_update", Some(update_paths))?,
+            accumulate: pass("cache_accumulate", Some(sample_items))?,
             resolve: pass("cache_resolve", Some(table_config.num_buckets))?,
             path: pass("cache_path", None)?,
             debug: pass("cache_debug", None)?,
@@ -386,8 +416,6 @@ impl RadianceCache {
             cells,
             debug,
             passes,
-            frozen: false,
-            frames: 0,
         })
     }
 
@@ -395,10 +423,15 @@ impl RadianceCache {
         &self.config
     }
 
-    /// Plants a defect for a negative control: the cache takes samples in its first frame
-    /// only and never updates again. Only for statistical tests.
-    pub fn plant_frozen(&mut self) {
-        self.frozen = true;
+    /// Plants a defect for a negative control, on the GPU: the update paths lose their tail
+    /// (the radiance beyond their last vertex is taken as 0), so the cells learn only the light
+    /// of `update-depth` vertices. Only for statistical tests.
+    pub fn plant_no_tail(&self, ctx: &GpuContext) {
+        ctx.queue.write_buffer(
+            &self.params,
+            std::mem::offset_of!(CacheParams, planted_no_tail) as u64,
+            bytemuck::bytes_of(&1u32),
+        );
     }
 
     /// Records the frame's update and resolve (after the renderer's primary pass: the update
@@ -408,15 +441,13 @@ impl RadianceCache {
         f: &mut FrameEncoder,
         renderer: &Renderer,
     ) -> Result<(), CacheError> {
-        let frozen = self.frozen && self.frames > 0;
-        self.frames += 1;
-        if frozen {
-            return Ok(());
-        }
         let grid = self.grid_params.with_eye(renderer.camera().eye)?;
         f.upload(self.table.params(), 0, &grid);
         f.raw().clear_buffer(self.table.stats(), 0, None);
-        f.span("cache-update", |f| f.dispatch(&self.passes.update));
+        f.span("cache-update", |f| {
+            f.dispatch(&self.passes.update);
+            f.dispatch(&self.passes.accumulate);
+        });
         f.span("cache-resolve", |f| f.dispatch(&self.passes.resolve));
         Ok(())
     }
@@ -448,40 +479,42 @@ impl RadianceCache {
         Ok(checksums.into_iter().zip(cells).collect())
     }
 
-    /// The cell a surface vertex at `position` with geometric normal `normal` falls in, under
-    /// the last frame's eye `eye` (twin of WGSL `cache_cell`): (bucket, checksum, cell size),
-    /// or `None` where gpu-hash rejects the position.
+    /// The cell a surface vertex at `position` with geometric normal `normal` falls in, seen
+    /// from `eye` (twin of WGSL `cache_cell`): gpu-hash's cell of the position with the bucket
+    /// and checksum of the key the normal is folded into; `None` where gpu-hash rejects it.
     pub fn cell_of(
         &self,
         eye: glam::Vec3,
         position: glam::Vec3,
         normal: glam::Vec3,
-    ) -> Option<(u32, u32, f32)> {
+    ) -> Option<gpu_hash::HashCell> {
         let grid = self.grid_params.with_eye(eye).ok()?;
-        let c = grid.cell(position);
+        let mut c = grid.cell(position);
         if !c.is_ok() {
             return None;
         }
         let mut key = c.key();
         key.level += (grid.max_level + 1) * normal_axis(normal);
-        Some((key.bucket(grid.num_buckets), key.checksum(), c.cell_size))
+        c.bucket = key.bucket(grid.num_buckets);
+        c.checksum = key.checksum();
+        Some(c)
     }
 
     /// The cell of `v` in `cells` (as [`RadianceCache::read_cells`] gives them), as the GPU's
-    /// `cache_find` would find it under eye `eye`.
+    /// `cache_find` would find it seen from `eye`.
     pub fn find(
         &self,
         cells: &[(u32, CacheCell)],
         eye: glam::Vec3,
         v: &GVertex,
     ) -> Option<CellValue> {
-        let (bucket, checksum, _) = self.cell_of(eye, v.position.into(), v.normal.into())?;
+        let c = self.cell_of(eye, v.position.into(), v.normal.into())?;
         let spb = self.table.config().slots_per_bucket as usize;
-        let base = bucket as usize * spb;
+        let base = c.bucket as usize * spb;
         cells[base..base + spb]
             .iter()
-            .take_while(|(c, _)| *c != 0)
-            .find(|(c, _)| *c == checksum)
+            .take_while(|(checksum, _)| *checksum != 0)
+            .find(|(checksum, _)| *checksum == c.checksum)
             .map(|(_, cell)| cell.value())
     }
 

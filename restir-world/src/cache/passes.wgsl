@@ -1,15 +1,17 @@
-// The radiance cache's passes: update (a share of the pixels trace a short path and add what
-// each vertex reflects to its cell), resolve (one invocation per bucket: cap the history, age,
+// The radiance cache's passes: update (a share of the pixels trace a short path and keep what
+// each vertex reflects), accumulate (those samples into their cells: the update reads the
+// cells, so it must not see this frame's sums half added), resolve (one invocation per bucket: cap the history, age,
 // evict and compact), path (the render's path, ending in the cache) and the debug view.
 
 // Update path k of the frame (update_paths of them, one per stratum of the pixels: k's pixel is
 // drawn at random from its stratum, so the invocations that trace are contiguous and a SIMD
 // group runs full): from the pixel's primary vertex, up to
 // update_depth vertices, each with a light estimate (demodulated: a white surface's) and a
-// cosine bounce; the vertex after the last reflects what the cache holds (or only its light
-// estimate where its cell has nothing yet). Then, from the last vertex back, each vertex's
+// cosine bounce; the radiance the vertex after the last reflects is that of the path going on
+// from it (cache_tail). Then, from the last vertex back, each vertex's
 // reflected radiance (white surface) = light estimate + MIS-weighted emission its bounce found
-// + the radiance the next vertex reflects, is added to its cell as one sample.
+// + the radiance the next vertex reflects, is one sample of its cell (its slot is claimed now,
+// the sample kept in cache_update_samples for cache_accumulate).
 @compute @workgroup_size(WORKGROUP_SIZE)
 fn cache_update(id: Invocation) {
     let k = item_index(id);
@@ -40,18 +42,67 @@ fn cache_update(id: Invocation) {
             break;
         }
         if j + 1u == depth {
-            let cached = cache_radiance(w);
-            tail = select(render_nee(w, &rng), cached.xyz, cached.w > 0.0);
+            tail = cache_tail(w, j + 2u, &rng);
             break;
         }
         v = w;
     }
     var l = tail;
-    for (var j = n; j > 0u; j--) {
-        let e = light[j - 1u] + l;
-        cache_add(slots[j - 1u], e, &rng);
-        l = albedo[j - 1u] * e;
+    let first = k * CACHE_MAX_UPDATE_DEPTH;
+    for (var j = CACHE_MAX_UPDATE_DEPTH; j > 0u; j--) {
+        var s = CacheSample(vec3<f32>(0.0), HASH_REJECTED);
+        if j <= n {
+            s = CacheSample(light[j - 1u] + l, slots[j - 1u]);
+            l = albedo[j - 1u] * s.value;
+        }
+        cache_update_samples[first + j - 1u] = s;
     }
+}
+
+// The radiance path vertex w, reached by bounce `bounce` from the primary vertex, reflects
+// towards the vertex before it: with `feedback`, what the cache holds (its light estimate alone
+// where its cell has no sample yet); by default the path going on from w as the render's paths
+// do (a light estimate at each vertex, Russian roulette from roulette_from, at most
+// MAX_BOUNCES in all), so that every sample is unbiased from the first frame on.
+fn cache_tail(w: GVertex, bounce: u32, rng: ptr<function, u32>) -> vec3<f32> {
+    if cache_params.planted_no_tail != 0u {
+        return vec3<f32>(0.0);
+    }
+    if cache_params.knobs.feedback != 0u {
+        let cached = cache_radiance(w);
+        return select(render_nee(w, rng), cached.xyz, cached.w > 0.0);
+    }
+    var v = w;
+    var throughput = vec3<f32>(1.0);
+    var l = vec3<f32>(0.0);
+    for (var b = bounce; b <= CACHE_MAX_BOUNCES; b++) {
+        l += throughput * render_nee(v, rng);
+        if render_params.roulette_from != 0u && b >= render_params.roulette_from {
+            let q = min(max(v.albedo.x, max(v.albedo.y, v.albedo.z)), 1.0);
+            if !(rng_next_f32(rng) < q) {
+                break;
+            }
+            throughput /= q;
+        }
+        throughput *= v.albedo;
+        let next = render_path_step(v, rng);
+        l += throughput * render_hit_emission(v, next);
+        if next.prim == BVH_NO_HIT {
+            break;
+        }
+        v = next;
+    }
+    return l;
+}
+
+// Sample item of the frame's update paths into its cell.
+@compute @workgroup_size(WORKGROUP_SIZE)
+fn cache_accumulate(id: Invocation) {
+    let item = item_index(id);
+    if item >= cache_params.update_paths * CACHE_MAX_UPDATE_DEPTH { return; }
+    var rng = render_rng_salted(item, STREAM_PATH, CACHE_SALT_ACCUMULATE);
+    let s = cache_update_samples[item];
+    cache_add(s.slot, s.value, &rng);
 }
 
 // find_or_insert of v's cell: a slot, HASH_FULL (counted as an overflow) or HASH_REJECTED

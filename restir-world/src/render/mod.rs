@@ -1092,6 +1092,13 @@ impl Renderer {
             .write_buffer(&self.buffers.params, offset, bytemuck::cast_slice(&word));
     }
 
+    /// The last frame's primary vertices (G-buffer), per pixel.
+    pub fn read_gbuffer(&self, ctx: &GpuContext) -> Result<Vec<GVertex>, GpuError> {
+        let mut v: Vec<GVertex> = buffers::read(ctx, &self.buffers.gbuffer)?;
+        v.truncate(self.pixels() as usize);
+        Ok(v)
+    }
+
     /// Clears the running sums (the frame counter, which seeds the passes, runs on).
     pub fn restart_accumulation(&mut self, f: &mut FrameEncoder) {
         f.raw().clear_buffer(&self.buffers.accum_direct, 0, None);
