@@ -515,6 +515,7 @@ fn render(args: &RenderArgs) -> Result<()> {
     }
     if args.method != CPU_REFERENCE {
         restir_world::methods::check_spec(&args.method)?;
+        restir_world::methods::check_paths(&args.method, &args.paths.paths()?)?;
         args.anim.validate()?;
         restir_world::methods::check_camera(&args.method, &camera).with_context(|| {
             format!(

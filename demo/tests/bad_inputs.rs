@@ -955,6 +955,26 @@ fn cases(tmp: &Path, gen_dir: &Path) -> Vec<Case> {
             1,
             "--methods lists \"nee\" twice",
         ),
+        // The radiance cache holds every bounce's light: bounded paths are refused, and so
+        // are its knobs out of range.
+        case(
+            "cache-bounded-paths",
+            &["render", "--method", "ris+cache"],
+            1,
+            "render it with unbounded paths (--bounces 64",
+        ),
+        case_of(
+            "cache-bounded-paths-compare",
+            compare(&["--methods", "ris,ris+cache"]),
+            1,
+            "--methods ris+cache with --bounces 3",
+        ),
+        case(
+            "cache-after-one",
+            &["render", "--method", "ris+cache:after=1", "--bounces", "64"],
+            1,
+            "after",
+        ),
         // 7: candidate counts the GPU would silently cap.
         case(
             "candidates-above-cap",

@@ -104,9 +104,9 @@ const DEMO_COMPARE: [&str; 14] = [
 ];
 
 /// The configurations of docs/results.md: (part, title, output folder, compare arguments). The
-/// default depth is what a user gets; one bounce without MIS is the comparison every method was
-/// first measured in.
-const RESULTS_PARTS: [(&str, &str, &str, &[&str]); 2] = [
+/// default depth is what a user gets; unbounded paths are what the radiance cache is measured
+/// against; one bounce without MIS is the comparison every method was first measured in.
+const RESULTS_PARTS: [(&str, &str, &str, &[&str]); 3] = [
     (
         "default-depth",
         "the default paths (3 bounces, MIS)",
@@ -114,6 +114,18 @@ const RESULTS_PARTS: [(&str, &str, &str, &[&str]); 2] = [
         &[
             "--methods",
             "nee,ris,world-restir,world-restir+restir-di,restir-gi,restir-gi+world-restir",
+        ],
+    ),
+    (
+        "cache",
+        "unbounded paths and the radiance cache",
+        "docs/results/cache",
+        &[
+            "--methods",
+            "ris,ris+cache,world-restir,world-restir+cache,restir-gi+world-restir,\
+             restir-gi+world-restir+cache",
+            "--bounces",
+            "64",
         ],
     ),
     (

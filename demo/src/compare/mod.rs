@@ -206,6 +206,9 @@ pub fn check(opts: &CompareOptions) -> Result<()> {
     let mut parsed: Vec<(&String, methods::MethodSettings)> = Vec::new();
     for m in &opts.methods {
         let settings = methods::parse_spec(m).with_context(|| format!("--methods {m}"))?;
+        settings
+            .check_paths(&opts.paths)
+            .with_context(|| format!("--methods {m} with --bounces {}", opts.paths.bounces))?;
         let planted = |name: &String| opts.plant_bias.iter().any(|(p, _)| p == name);
         if let Some((first, _)) = parsed
             .iter()

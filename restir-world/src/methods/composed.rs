@@ -53,6 +53,7 @@ impl Composed {
         options: &RenderOptions,
     ) -> Result<Self, MethodError> {
         settings.validate()?;
+        settings.check_paths(&options.paths)?;
         let renderer = Renderer::with_options(ctx, scene, camera, settings.estimator, options)?;
         let tiles = match settings.di {
             Some(d) => Some(LightTiles::new(

@@ -23,8 +23,8 @@ mod registry;
 pub use crate::render::{FrameImages, Readback};
 pub use composed::Composed;
 pub use registry::{
-    MethodEntry, MethodSettings, build_method, check_camera, check_spec, entry, parse_spec,
-    registry,
+    MethodEntry, MethodSettings, build_method, check_camera, check_paths, check_spec, entry,
+    parse_spec, registry,
 };
 
 /// What can go wrong building or running a method.

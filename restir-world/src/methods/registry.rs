@@ -47,6 +47,8 @@ pub struct MethodEntry {
     pub restir_di: bool,
     /// Paths end in a radiance cache.
     pub cache: bool,
+    /// The renderer's light estimate is one light sample (`nee`) instead of RIS.
+    pub nee: bool,
     /// What its variant text configures.
     pub variant_of: VariantOf,
     /// Whether this is the method that equal-time comparisons are measured against when the
@@ -118,7 +120,7 @@ impl MethodEntry {
             cache: self.cache.then(CacheConfig::default),
         };
         match (self.variant_of, variant) {
-            (VariantOf::Nothing, None) => s.estimator = Estimator::Nee,
+            (VariantOf::Nothing, None) => {}
             (VariantOf::Nothing, Some(v)) => {
                 return Err(self.bad(format!("has no variants (got {v:?})")));
             }
@@ -145,6 +147,9 @@ impl MethodEntry {
             (VariantOf::Cache, v) => {
                 s.cache = Some(parse_config(&cache::variants(), v).map_err(|e| self.bad(e))?);
             }
+        }
+        if self.nee {
+            s.estimator = Estimator::Nee;
         }
         s.validate()?;
         Ok(s)
@@ -217,6 +222,29 @@ impl MethodSettings {
             let table = c.table(camera.width.saturating_mul(camera.height));
             gpu_hash::HashGridParams::new(&table, &c.sizing(camera), camera.eye)
                 .map_err(CacheError::from)?;
+        }
+        Ok(())
+    }
+
+    /// Checks without a GPU what the method needs of the paths: a radiance cache holds the light
+    /// of every bounce, so a `+cache` method renders unbounded paths only
+    /// ([`render::MAX_BOUNCES`] bounces, Russian roulette on), or its image would hold more
+    /// light than the depth asked for.
+    pub fn check_paths(&self, paths: &render::Paths) -> Result<(), MethodError> {
+        if self.cache.is_some()
+            && (paths.bounces != render::MAX_BOUNCES || paths.roulette_from == 0)
+        {
+            return Err(self.entry.bad(format!(
+                "the radiance cache holds the light of every bounce: render it with unbounded \
+                 paths (--bounces {} and Russian roulette on), not {} bounces{}",
+                render::MAX_BOUNCES,
+                paths.bounces,
+                if paths.roulette_from == 0 {
+                    " without roulette"
+                } else {
+                    ""
+                }
+            )));
         }
         Ok(())
     }
@@ -311,16 +339,20 @@ pub fn registry() -> &'static [MethodEntry] {
             restir_gi: false,
             restir_di: false,
             cache: false,
+            nee: false,
             variant_of,
             equal_time_target: false,
         }
     }
     const REGISTRY: &[MethodEntry] = &[
-        entry(
-            "nee",
-            "one light sample + one shadow ray at each vertex",
-            VariantOf::Nothing,
-        ),
+        MethodEntry {
+            nee: true,
+            ..entry(
+                "nee",
+                "one light sample + one shadow ray at each vertex",
+                VariantOf::Nothing,
+            )
+        },
         entry(
             "ris",
             "RIS over 16 light candidates (ris:K for K), one shadow ray, no reuse",
@@ -385,6 +417,15 @@ pub fn registry() -> &'static [MethodEntry] {
             )
         },
         MethodEntry {
+            nee: true,
+            cache: true,
+            ..entry(
+                "nee+cache",
+                "nee with paths that end in the radiance cache (the variant is the cache's)",
+                VariantOf::Cache,
+            )
+        },
+        MethodEntry {
             cache: true,
             ..entry(
                 "ris+cache",
@@ -398,6 +439,26 @@ pub fn registry() -> &'static [MethodEntry] {
             ..entry(
                 "world-restir+cache",
                 "world-restir (its defaults) with paths that end in the radiance cache",
+                VariantOf::Cache,
+            )
+        },
+        MethodEntry {
+            restir_di: true,
+            cache: true,
+            ..entry(
+                "restir-di+cache",
+                "restir-di (its defaults) with paths that end in the radiance cache",
+                VariantOf::Cache,
+            )
+        },
+        MethodEntry {
+            world_restir: true,
+            restir_di: true,
+            cache: true,
+            ..entry(
+                "world-restir+restir-di+cache",
+                "world-restir+restir-di (their defaults) with paths that end in the radiance \
+                 cache",
                 VariantOf::Cache,
             )
         },
@@ -462,6 +523,11 @@ pub fn check_spec(spec: &str) -> Result<(), MethodError> {
 /// [`MethodSettings::check_camera`] of `spec`.
 pub fn check_camera(spec: &str, camera: &Camera) -> Result<(), MethodError> {
     parse_spec(spec)?.check_camera(camera)
+}
+
+/// [`MethodSettings::check_paths`] of `spec`.
+pub fn check_paths(spec: &str, paths: &render::Paths) -> Result<(), MethodError> {
+    parse_spec(spec)?.check_paths(paths)
 }
 
 /// Builds the method named by `spec` (`name` or `name:variant`).
