@@ -13,7 +13,7 @@
 //!
 //! | span | pass | what |
 //! |---|---|---|
-//! | `cache-update` | `cache_update` | `update-fraction` of the pixels (one drawn per stratum) trace `update-depth` vertices from their primary vertex; each vertex's reflected radiance (light estimate + what the next vertex reflects; the last one's from the cache) is one sample of its cell (find-or-insert, atomic fixed-point sums) |
+//! | `cache-update` | `cache_update`, `cache_accumulate` | `update-fraction` of the pixels (one drawn per stratum) trace `update-depth` vertices from their secondary vertex (where a diffuse bounce lands, as the vertices that read the cache), then on unbounded; each vertex's reflected radiance (light estimate + what the path beyond it brings) is one sample of its cell (find-or-insert now; added to the cell's atomic fixed-point sums by the next pass, so that no update reads half-added sums) |
 //! | `cache-resolve` | `cache_resolve` | per bucket: the frame's samples join the history (at most `history` samples, the sums scaled down beyond), cells without a sample age and go after `evict-after` frames, the kept ones move to the front of the bucket |
 //! | `path` | `cache_path` | the renderer's path (render/path.wgsl); from bounce `after` on, a vertex whose cell has samples ends it with albedo x the cell's mean |
 //!

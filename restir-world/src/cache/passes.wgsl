@@ -5,7 +5,7 @@
 
 // Update path k of the frame (update_paths of them, one per stratum of the pixels: k's pixel is
 // drawn at random from its stratum, so the invocations that trace are contiguous and a SIMD
-// group runs full): from the pixel's primary vertex, up to
+// group runs full): from the pixel's secondary vertex, up to
 // update_depth vertices, each with a light estimate (demodulated: a white surface's) and a
 // cosine bounce; the radiance the vertex after the last reflects is that of the path going on
 // from it (cache_tail). Then, from the last vertex back, each vertex's
@@ -19,8 +19,14 @@ fn cache_update(id: Invocation) {
     var rng = render_rng_salted(k, STREAM_PATH, CACHE_SALT_UPDATE);
     let stratum = f32(render_params.pixel_count) / f32(cache_params.update_paths);
     let i = min(u32((f32(k) + rng_next_f32(&rng)) * stratum), render_params.pixel_count - 1u);
-    var v = render_gbuffer[i];
-    if v.prim == BVH_NO_HIT {
+    // From the pixel's secondary vertex, not its primary: the paths read the cache at
+    // vertices a diffuse bounce reached, and a cell's mean is the mean over where its samples
+    // fell (from the camera, a lamp hides the bright wall behind it; from a bounce, it does not).
+    var v = render_secondary[i];
+    if render_gbuffer[i].prim == BVH_NO_HIT || v.prim == BVH_NO_HIT {
+        for (var j = 0u; j < CACHE_MAX_UPDATE_DEPTH; j++) {
+            cache_update_samples[k * CACHE_MAX_UPDATE_DEPTH + j] = CacheSample(vec3<f32>(0.0), HASH_REJECTED);
+        }
         return;
     }
     var slots: array<u32, CACHE_MAX_UPDATE_DEPTH>;
@@ -42,7 +48,7 @@ fn cache_update(id: Invocation) {
             break;
         }
         if j + 1u == depth {
-            tail = cache_tail(w, j + 2u, &rng);
+            tail = cache_tail(w, j + 3u, &rng);
             break;
         }
         v = w;
