@@ -17,7 +17,7 @@
 //! bindings_wgsl(g, b)          (table role)     hash_params, hash_checksums, hash_counters, hash_stats
 //! lookup_bindings_wgsl(g, b)   (lookup role)    hash_lookup_params, hash_lookup_checksums, hash_lookup_counters
 //! HASH_WGSL                                     hashes, hash_cell, hash_jitter (no buffers)
-//! TABLE_WGSL                                    hash_find_or_insert, hash_find, hash_insert_position, hash_slot_append
+//! TABLE_WGSL                                    hash_find_or_insert, hash_find, hash_insert_position, hash_insert_cell, hash_slot_append
 //! LOOKUP_WGSL                                   hash_lookup_find, hash_lookup_position, hash_lookup_slot_count
 //! your kernel
 //! ```

@@ -87,7 +87,13 @@ fn hash_find(bucket: u32, checksum: u32) -> u32 {
 // find_or_insert of the cell of `pos` (jitter it first if wanted). Non-finite and out-of-range
 // positions are counted in hash_stats and answer HASH_REJECTED.
 fn hash_insert_position(pos: vec3<f32>) -> u32 {
-    let cell = hash_cell(hash_params, pos);
+    return hash_insert_cell(hash_cell(hash_params, pos));
+}
+
+// find_or_insert of `cell` (hash_cell's, or one whose key the caller changed and re-hashed:
+// its bucket and checksum are used as they are). A cell whose status is not HASH_STATUS_OK is
+// counted in hash_stats by kind and answers HASH_REJECTED.
+fn hash_insert_cell(cell: HashCell) -> u32 {
     if cell.status == HASH_STATUS_NONFINITE {
         atomicAdd(&hash_stats.rejected_nonfinite, 1u);
         return HASH_REJECTED;

@@ -114,16 +114,7 @@ fn cache_accumulate(id: Invocation) {
 // find_or_insert of v's cell: a slot, HASH_FULL (counted as an overflow) or HASH_REJECTED
 // (counted by kind).
 fn cache_insert(v: GVertex) -> u32 {
-    let c = cache_cell(v);
-    if c.status == HASH_STATUS_NONFINITE {
-        atomicAdd(&hash_stats.rejected_nonfinite, 1u);
-        return HASH_REJECTED;
-    }
-    if c.status == HASH_STATUS_OUT_OF_RANGE {
-        atomicAdd(&hash_stats.rejected_out_of_range, 1u);
-        return HASH_REJECTED;
-    }
-    return hash_find_or_insert(c.bucket, c.checksum);
+    return hash_insert_cell(cache_cell(v));
 }
 
 // Adds sample e to the cell in `slot` (none when the slot is a sentinel or the sample is not

@@ -32,20 +32,7 @@ fn render_gi(id: Invocation) {
         return;
     }
     var rng = render_rng(i, STREAM_GI);
-    let u = vec2<f32>(rng_next_f32(&rng), rng_next_f32(&rng));
-    var ray: Ray;
-    ray.origin = render_offset(g.position, g.normal);
-    ray.tmin = 0.0;
-    ray.dir = sampling_cosine_hemisphere(g.shading, u);
-    ray.tmax = RENDER_T_MAX;
-    if render_params.attributes != 0u && dot(ray.dir, g.normal) <= 0.0 {
-        // Cosine-distributed about the shading normal but below the surface: no path.
-        var none: GVertex;
-        none.prim = BVH_NO_HIT;
-        render_secondary[i] = none;
-        return;
-    }
-    render_secondary[i] = render_surface(ray.dir, trace_closest(ray));
+    render_secondary[i] = render_path_step(g, &rng);
 }
 
 // Direct light at the primary vertex: emission seen + NEE (a camera ray that missed sees the
