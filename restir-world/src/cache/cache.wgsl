@@ -101,9 +101,14 @@ fn cache_radiance(v: GVertex) -> vec4<f32> {
     return vec4<f32>(v.albedo * m.xyz, 1.0);
 }
 
-// The shared path's hook: from bounce `after` on, a vertex with a cached radiance ends it.
-fn path_cache_radiance(w: GVertex, bounce: u32) -> vec4<f32> {
+// The shared path's hook: from bounce `after` on, a vertex with a cached radiance ends it,
+// once the path's footprint there covers the cell (with `footprint` on): a path that arrives
+// from close by (a corner, a lamp over a wall) still resolves what a cell's mean would blur.
+fn path_cache_radiance(w: GVertex, bounce: u32, footprint: f32) -> vec4<f32> {
     if bounce < cache_params.knobs.after {
+        return vec4<f32>(0.0);
+    }
+    if cache_params.knobs.footprint != 0u && footprint < hash_cell_size(hash_params, w.position) {
         return vec4<f32>(0.0);
     }
     return cache_radiance(w);

@@ -86,6 +86,10 @@ crate::knobs! {
         /// Paths end in the cache from this bounce on (default 2: the path's third vertex
         /// reads the cache; the secondary vertex's light stays the method's). 2..=64.
         [gpu] after: u32 = 2, "after", 2..=MAX_BOUNCES;
+        /// From bounce `after` on, a path ends in the cache only where its footprint (the
+        /// spread of its diffuse bounces, Mueller et al. 2021) covers the cell (default on):
+        /// a path arriving from close by goes on.
+        [gpu] footprint: bool = true, "footprint";
         /// Share of the pixels that trace an update path each frame (default 0.04).
         [gpu] update_fraction: f32 = 0.04, "update-fraction", 0.0001..=1.0;
         /// Vertices an update path samples before it reads the cache (default 3).

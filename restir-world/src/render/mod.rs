@@ -491,7 +491,7 @@ pub fn path_modules(with_cache: bool) -> Vec<WgslModule> {
             PATH_CACHE,
             &["render"],
             "// No radiance cache: every path goes on to its full depth.\n\
-             fn path_cache_radiance(w: GVertex, bounce: u32) -> vec4<f32> {\n    \
+             fn path_cache_radiance(w: GVertex, bounce: u32, footprint: f32) -> vec4<f32> {\n    \
              return vec4<f32>(0.0);\n}\n",
         ));
     }

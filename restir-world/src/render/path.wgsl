@@ -1,9 +1,20 @@
 // The indirect path beyond the secondary vertex, shared by the renderer's `render_path` pass and
 // the radiance cache's `cache_path` pass. Needs the render library and a module "path-cache"
 // that defines
-//     fn path_cache_radiance(w: GVertex, bounce: u32) -> vec4<f32>
-// the radiance reflected at the path's vertex w, reached by bounce `bounce`, towards the vertex
-// before it (.w = 1), or .w = 0 when the path goes on (no cache, or no sample in w's cell).
+//     fn path_cache_radiance(w: GVertex, bounce: u32, footprint: f32) -> vec4<f32>
+// the radiance reflected at the path's vertex w, reached by bounce `bounce` with the path's
+// footprint there (render_path_spread), towards the vertex before it (.w = 1), or .w = 0 when
+// the path goes on (no cache, no sample in w's cell, or a footprint smaller than the cell).
+
+// The spread a cosine-sampled segment from v (direction dir, sampled about v's shading normal)
+// to w adds to a path's footprint (Mueller et al. 2021, neural radiance caching: the square
+// root of the area term |v - w|^2 / (p(dir) |cos at w|), p = cos at v / pi): a length, at
+// least the segment's.
+fn render_path_spread(v: GVertex, w: GVertex, dir: vec3<f32>) -> f32 {
+    let cos_v = max(dot(v.shading, dir), 0.01);
+    let cos_w = max(abs(dot(w.normal, dir)), 0.01);
+    return length(w.position - v.position) * sqrt(SAMPLING_PI / (cos_v * cos_w));
+}
 
 // Bounces 2..=render_params.bounces of pixel i: the path goes on from the secondary vertex by
 // cosine sampling, with the render's light estimate (render_nee) at every vertex, weighted by
@@ -22,6 +33,7 @@ fn render_path_pixel(i: u32) {
     }
     var throughput = render_indirect_weight(g);
     var l = vec3<f32>(0.0);
+    var footprint = render_path_spread(g, v, normalize(v.position - g.position));
     // With MIS one more ray: the emission the last vertex's ray finds is part of the last bounce.
     let last = render_params.bounces + render_params.mis;
     for (var bounce = 2u; bounce <= last; bounce++) {
@@ -39,7 +51,8 @@ fn render_path_pixel(i: u32) {
         if w.prim == BVH_NO_HIT || bounce > render_params.bounces {
             break;
         }
-        let cached = path_cache_radiance(w, bounce);
+        footprint += render_path_spread(v, w, normalize(w.position - v.position));
+        let cached = path_cache_radiance(w, bounce, footprint);
         if cached.w > 0.0 {
             l += throughput * cached.xyz;
             break;
