@@ -71,11 +71,10 @@ fn mean_of_frames(m: &mut Composed, from: u32, to: u32) -> [f64; 3] {
 
 /// The closed furnace (albedo 0.8, emission 1 everywhere; radiance Le / (1 - rho) = 5 at every
 /// pixel with unbounded bounces, of which paths of three bounces carry 59%): `ris+cache` at its
-/// defaults, its paths ending in the cache at their third vertex and the update paths reading
-/// it at their fourth, converges to Le / (1 - rho) within 5% per channel (24x24; mean of frames
-/// 65-128, after the cache's history has turned over: the first frames' cells lack the bounces
-/// the feedback adds later). Control: the update paths without their tail (the cells learn
-/// three vertices' light, 49% of a cell's) must fail the same bound.
+/// defaults (paths end in the cache from their third vertex on; update paths of 3 vertices and
+/// an unbounded tail) converges to Le / (1 - rho) within 5% per channel (24x24; mean of frames
+/// 65-128, once every cell has its history). Control: the update paths without their tail (the
+/// cells learn three vertices' light, 49% of a cell's) must fail the same bound.
 #[test]
 fn closed_furnace_converges_to_le_over_one_minus_rho() {
     const SIDE: u32 = 24;
