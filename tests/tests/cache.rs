@@ -9,7 +9,7 @@ use glam::Vec3;
 use restir_world::cache::{self, CacheCell, CacheConfig, CacheParams};
 use restir_world::methods::{self, Composed, FrameMethod};
 use restir_world::reference::{ReferenceOptions, ReferenceRenderer};
-use restir_world::render::{Paths, RenderOptions};
+use restir_world::render::{DebugView, Paths, RenderOptions};
 use restir_world::sampling::Estimator;
 use restir_world::scene::{BuiltinOptions, Camera, Scene, furnace_sphere};
 use tests::bias::{channel_means, relative, within};
@@ -220,7 +220,8 @@ fn cornell_cells_match_the_cpu_reference_at_their_centres() {
 /// with a table too small for the scene (`cells=64`): every frame's image stays finite, the
 /// cells in use never exceed the table, every inserted vertex that found its bucket full is
 /// counted, no cell outlives `evict-after` frames without a sample or holds more than
-/// `history` samples, and after the cut the cells of the view left behind are evicted.
+/// `history` samples, after the cut the cells of the view left behind are evicted, and the
+/// cache's debug views draw finite, lit images.
 #[test]
 fn a_moving_camera_and_a_cut_stay_finite_and_bounded() {
     const SIDE: u32 = 32;
@@ -283,5 +284,31 @@ fn a_moving_camera_and_a_cut_stay_finite_and_bounded() {
     assert!(
         kept < checksums_at_cut.len(),
         "no cell of the old view was evicted"
+    );
+    // The cache's debug views draw the cells at the pixels (some lit, all finite); the views
+    // of other stages are not the cache's.
+    for view in [
+        DebugView::CacheRadiance,
+        DebugView::CacheAge,
+        DebugView::CacheSamples,
+    ] {
+        let img = m
+            .debug_image(ctx, view)
+            .expect("view")
+            .expect("a cache view");
+        assert!(
+            img.iter()
+                .flatten()
+                .all(|x| x.is_finite() && (0.0..=1.0).contains(x))
+        );
+        assert!(
+            img.iter().any(|p| p.iter().any(|x| *x > 0.0)),
+            "{view:?} is black"
+        );
+    }
+    assert!(
+        m.debug_image(ctx, DebugView::Rejected)
+            .expect("view")
+            .is_none()
     );
 }

@@ -230,10 +230,10 @@ fn cache_debug(id: Invocation) {
             if m.w > 0.0 {
                 switch cache_params.debug_view {
                     case CACHE_VIEW_AGE: {
-                        c = cache_heat(f32(cache_age(info)) / f32(max(cache_params.knobs.evict_after, 1u)));
+                        c = render_heat(f32(cache_age(info)) / f32(max(cache_params.knobs.evict_after, 1u)));
                     }
                     case CACHE_VIEW_SAMPLES: {
-                        c = cache_heat(log2(m.w) / max(log2(f32(cache_params.knobs.history)), 1.0));
+                        c = render_heat(log2(m.w) / max(log2(f32(cache_params.knobs.history)), 1.0));
                     }
                     default: {
                         c = m.xyz / (vec3<f32>(1.0) + m.xyz);
@@ -243,10 +243,4 @@ fn cache_debug(id: Invocation) {
         }
     }
     cache_debug_image[i] = vec4<f32>(c, 1.0);
-}
-
-// Blue .. cyan .. yellow .. red for t in [0, 1] (twin: render::heat).
-fn cache_heat(t: f32) -> vec3<f32> {
-    let x = clamp(t, 0.0, 1.0);
-    return clamp(vec3<f32>(1.5) - abs(vec3<f32>(4.0 * x) - vec3<f32>(3.0, 2.0, 1.0)), vec3<f32>(0.0), vec3<f32>(1.0));
 }

@@ -817,7 +817,7 @@ impl DebugView {
 }
 
 /// The debug views' heat map of t in [0, 1]: blue .. cyan .. yellow .. red (the twin of
-/// world-restir's WGSL `wr_heat`).
+/// WGSL `render_heat`).
 pub fn heat(t: f32) -> [f32; 3] {
     let x = t.clamp(0.0, 1.0);
     [3.0, 2.0, 1.0].map(|c| (1.5 - (4.0 * x - c).abs()).clamp(0.0, 1.0))

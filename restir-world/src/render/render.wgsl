@@ -646,3 +646,9 @@ fn render_nee(v: GVertex, rng: ptr<function, u32>) -> vec3<f32> {
     }
     return render_nee_one(v.position, v.normal, v.shading, v.albedo, rng);
 }
+
+// The debug views' heat map of t in [0, 1]: blue .. cyan .. yellow .. red (twin: render::heat).
+fn render_heat(t: f32) -> vec3<f32> {
+    let x = clamp(t, 0.0, 1.0);
+    return clamp(vec3<f32>(1.5) - abs(vec3<f32>(4.0 * x) - vec3<f32>(3.0, 2.0, 1.0)), vec3<f32>(0.0), vec3<f32>(1.0));
+}

@@ -3,12 +3,6 @@
 // M = 1 .. red M = 2^16), WR_VIEW_OVERFLOW is red where the vertex found its bucket full
 // (and kept its own reservoir), grey where it entered the grid.
 
-fn wr_heat(t: f32) -> vec3<f32> {
-    let x = clamp(t, 0.0, 1.0);
-    return clamp(vec3<f32>(1.5 - abs(4.0 * x - 3.0), 1.5 - abs(4.0 * x - 2.0), 1.5 - abs(4.0 * x - 1.0)),
-                 vec3<f32>(0.0), vec3<f32>(1.0));
-}
-
 @compute @workgroup_size(WORKGROUP_SIZE)
 fn wr_debug_view(id: Invocation) {
     let i = item_index(id);
@@ -24,7 +18,7 @@ fn wr_debug_view(id: Invocation) {
         } else if wr_params.debug_view == WR_VIEW_M {
             let m = wr_final[i].m;
             if m > 0u {
-                c = wr_heat(log2(f32(m)) / 16.0);
+                c = render_heat(log2(f32(m)) / 16.0);
             }
         } else {
             c = select(vec3<f32>(0.25), vec3<f32>(1.0, 0.0, 0.0), e.x == WR_FULL);
