@@ -8,6 +8,8 @@
 use std::path::{Path, PathBuf};
 use std::process::{Command, ExitCode};
 
+mod suite;
+
 const LAVAPIPE_PACKAGES: [&str; 2] = ["mesa-vulkan-drivers", "libvulkan1"];
 
 /// A virtual X server for the viewer's window tests (`xvfb-run`) and the X11 client libraries
@@ -43,9 +45,9 @@ fn main() -> ExitCode {
         Some("results") => results(&rest),
         _ => {
             eprintln!(
-                "usage: cargo xtask <test|demo> [args...]\n  test  run every test of the \
-                 workspace on the available adapter, the viewer's under Xvfb (args go to \
-                 `cargo test`)\n  demo  build \
+                "usage: cargo xtask <test|demo|results> [args...]\n  test  run every test of the \
+                 workspace on the available adapter, the viewer's under Xvfb, and print each \
+                 binary's time and the slowest tests ([CARGO ARGS] [-- TEST ARGS])\n  demo  build \
                  in release, render cornell and many-lights into out/ and run the \
                  speed-against-error comparison on both (with args: run `restir-demo` with them \
                  instead)\n  results  regenerate docs/results.md (the reference configuration's \
@@ -63,13 +65,17 @@ fn main() -> ExitCode {
     }
 }
 
+/// `cargo xtask test [CARGO ARGS] [-- TEST ARGS]`: cargo args select test targets (e.g. `-p
+/// tests --test paths`, then no doc tests run); test args go to every test binary (filters).
 fn test(args: &[String]) -> Result<(), String> {
     ensure_vulkan()?;
     let display = ensure_xvfb()?;
     // Print the adapter up front, so every log names the device the tests ran on.
     cargo(&["run", "--quiet", "--package", "demo", "--", "info"])?;
-    let mut test_args = vec!["test", "--workspace"];
-    test_args.extend(args.iter().map(String::as_str));
+    let (cargo_args, test_args) = match args.iter().position(|a| a == "--") {
+        Some(i) => (&args[..i], &args[i + 1..]),
+        None => (args, &[][..]),
+    };
     let mut envs: Vec<(&str, &str)> = Vec::new();
     if display {
         envs.push((VIEW_TESTS_ENV, "1"));
@@ -81,7 +87,7 @@ fn test(args: &[String]) -> Result<(), String> {
         eprintln!("xtask: Mesa with ray queries: RESTIR_REQUIRE_RAY_QUERY=1");
         envs.push(("RESTIR_REQUIRE_RAY_QUERY", "1"));
     }
-    cargo_with_env(&test_args, &envs)
+    suite::run(&workspace_root(), cargo_args, test_args, &envs)
 }
 
 /// The default demo: a compare of nee, ris and world-restir on many-lights and cornell at
