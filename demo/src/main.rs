@@ -611,6 +611,7 @@ fn render_into(
             &RenderOptions {
                 seed: args.seed,
                 paths: args.paths.paths()?,
+                ..Default::default()
             },
             &args.out,
             &format!("{scene_tag}-{method_tag}"),

@@ -485,6 +485,7 @@ impl Viewer {
         let options = RenderOptions {
             seed: setup.args.seed,
             paths: setup.paths,
+            ..Default::default()
         };
         let method = setup
             .settings
@@ -618,6 +619,7 @@ impl Viewer {
         let options = RenderOptions {
             seed: self.setup.args.seed,
             paths: self.controls.paths,
+            ..Default::default()
         };
         match settings.build_with(&self.ctx, &self.setup.scene, &camera, &options) {
             Ok(m) => {

@@ -230,6 +230,7 @@ fn half(
     let options = RenderOptions {
         seed,
         paths: settings.paths,
+        ..Default::default()
     };
     let mut r = Renderer::with_options(ctx, scene, camera, settings.method, &options)?;
     let l = FrameLoop {

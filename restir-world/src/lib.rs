@@ -33,6 +33,7 @@ pub mod light_tiles;
 pub mod lights;
 pub mod methods;
 pub mod metrics;
+pub mod plant;
 pub mod reference;
 pub mod render;
 pub mod restir_di;

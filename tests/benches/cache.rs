@@ -26,6 +26,7 @@ fn build(ctx: &GpuContext, scene: &Scene, cam: &Camera, spec: &str) -> Composed 
     let options = RenderOptions {
         seed: 1,
         paths: Paths::bounces(MAX_BOUNCES),
+        ..Default::default()
     };
     Composed::with_options(ctx, scene, cam, &settings, &options).expect(spec)
 }

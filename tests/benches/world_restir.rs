@@ -175,6 +175,7 @@ fn bounce_result(
                 roulette_from: 0,
                 mis: false,
             },
+            ..Default::default()
         };
         let mut m = settings.build_with(ctx, scene, cam, &options).expect(spec);
         bench::frame_times(ctx, m.as_mut(), 1, FRAMES).ms_per_frame()

@@ -75,6 +75,7 @@ impl SceneRuns<'_> {
         let options = RenderOptions {
             seed: opts.seed,
             paths: opts.paths,
+            ..Default::default()
         };
         let settings = methods::parse_spec(run.spec)?;
         let mut m = settings.build_with(ctx, self.scene, &self.base, &options)?;

@@ -10,8 +10,7 @@ struct CacheParams {
     debug_view: u32,
     // Update paths per frame: ceil(pixels x update_fraction).
     update_paths: u32,
-    // 1 only in tests' negative controls: update paths without their tail.
-    planted_no_tail: u32,
+    _pad1: u32,
     _pad2: u32,
 }
 

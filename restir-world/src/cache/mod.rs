@@ -186,8 +186,7 @@ pub struct CacheParams {
     pub debug_view: u32,
     /// [`CacheConfig::update_paths`] of the frame.
     pub update_paths: u32,
-    /// 1 only in tests' negative controls ([`RadianceCache::plant_no_tail`]).
-    pub planted_no_tail: u32,
+    pub _pad1: u32,
     pub _pad2: u32,
 }
 
@@ -373,7 +372,7 @@ impl RadianceCache {
             knobs: config.gpu_words(),
             debug_view: 0,
             update_paths: config.update_paths(pixels),
-            planted_no_tail: 0,
+            _pad1: 0,
             _pad2: 0,
         };
         let params = buffers::with_usage(
@@ -428,17 +427,6 @@ impl RadianceCache {
 
     pub fn config(&self) -> &CacheConfig {
         &self.config
-    }
-
-    /// Plants a defect for a negative control, on the GPU: the update paths lose their tail
-    /// (the radiance beyond their last vertex is taken as 0), so the cells learn only the light
-    /// of `update-depth` vertices. Only for statistical tests.
-    pub fn plant_no_tail(&self, ctx: &GpuContext) {
-        ctx.queue.write_buffer(
-            &self.params,
-            std::mem::offset_of!(CacheParams, planted_no_tail) as u64,
-            bytemuck::bytes_of(&1u32),
-        );
     }
 
     /// Records the frame's update and resolve (after the renderer's primary pass: the update

@@ -265,6 +265,11 @@ pub struct BindGroupLayout {
 }
 
 impl BindGroupLayout {
+    /// Its entries, as created.
+    pub fn entries(&self) -> Vec<wgpu::BindGroupLayoutEntry> {
+        self.set.layout_entries()
+    }
+
     /// A bind group with each declared name bound to its resource. Every declared name must
     /// be given exactly once and no other name: otherwise an error naming it.
     pub fn bind<'a>(

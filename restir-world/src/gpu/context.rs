@@ -1,5 +1,7 @@
 use std::fmt;
 
+use super::kernel::KernelCache;
+
 /// Everything that can go wrong while acquiring or using a GPU.
 #[derive(Debug, thiserror::Error)]
 pub enum GpuError {
@@ -122,6 +124,8 @@ pub struct GpuContext {
     /// How renderers on this context trace rays ([`GpuContext::auto_tracer`] unless set with
     /// [`GpuContext::set_tracer`]).
     pub tracer: Tracer,
+    /// The kernels created on this context (shared by its clones).
+    pub kernels: KernelCache,
 }
 
 impl fmt::Debug for GpuContext {
@@ -292,6 +296,7 @@ impl GpuContext {
             info,
             features,
             tracer,
+            kernels: KernelCache::default(),
         })
     }
 

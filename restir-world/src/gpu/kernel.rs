@@ -1,6 +1,9 @@
 //! [`Kernel`] (a composed WGSL module's pipelines) and [`Pass`] (one of them with its bind
 //! groups and grid, ready to dispatch in a frame).
 
+use std::collections::HashMap;
+use std::sync::{Arc, Mutex};
+
 use super::binding::BindGroupLayout;
 
 /// Workgroup size of every one-invocation-per-item kernel in this crate, injected into WGSL as
@@ -134,6 +137,70 @@ impl Kernel {
                 device.limits().max_compute_workgroups_per_dimension,
             ),
         }
+    }
+}
+
+/// What makes a kernel's pipelines: the device, the composed source, the entry points, the
+/// workgroup size and the entries of each bind group layout.
+#[derive(Debug, PartialEq, Eq, Hash)]
+struct KernelKey {
+    device: wgpu::Device,
+    source: String,
+    entry_points: Vec<String>,
+    workgroup_size: u32,
+    layouts: Vec<Vec<wgpu::BindGroupLayoutEntry>>,
+}
+
+/// The kernels created on a context, shared by its clones: a method built again (another
+/// seed, the viewer switching back to it, compare's next run) takes its kernels' pipelines
+/// from here instead of compiling them again. A pipeline created for one build's bind group
+/// layouts accepts another build's bind groups: wgpu hands out one layout object for equal
+/// entries (while one is alive, as the cached pipelines keep theirs).
+#[derive(Debug, Clone, Default)]
+pub struct KernelCache(Arc<Mutex<HashMap<KernelKey, Kernel>>>);
+
+impl KernelCache {
+    /// [`Kernel::with_workgroup_size`], created once per distinct key.
+    pub fn kernel(
+        &self,
+        device: &wgpu::Device,
+        label: &str,
+        source: &str,
+        layouts: &[&BindGroupLayout],
+        entry_points: &[&str],
+        workgroup_size: u32,
+    ) -> Kernel {
+        let key = KernelKey {
+            device: device.clone(),
+            source: source.to_owned(),
+            entry_points: entry_points.iter().map(|e| (*e).to_owned()).collect(),
+            workgroup_size,
+            layouts: layouts.iter().map(|l| l.entries()).collect(),
+        };
+        let mut kernels = self.0.lock().unwrap_or_else(|e| e.into_inner());
+        kernels
+            .entry(key)
+            .or_insert_with(|| {
+                Kernel::with_workgroup_size(
+                    device,
+                    label,
+                    source,
+                    layouts,
+                    entry_points,
+                    workgroup_size,
+                )
+            })
+            .clone()
+    }
+
+    /// Kernels held.
+    pub fn len(&self) -> usize {
+        self.0.lock().unwrap_or_else(|e| e.into_inner()).len()
+    }
+
+    /// Whether it holds none.
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
     }
 }
 

@@ -39,11 +39,12 @@
 //! the same WGSL functions.
 
 use crate::gpu::{
-    Access, BindGroupLayout, BindingSet, FrameEncoder, GpuContext, GpuError, Kernel, Pass,
-    Resource, Tracer, WgslModule, buffers, compose, workgroup_size_wgsl,
+    Access, BindGroupLayout, BindingSet, FrameEncoder, GpuContext, GpuError, Kernel, KernelCache,
+    Pass, Resource, Tracer, WgslModule, buffers, compose, workgroup_size_wgsl,
 };
 pub use crate::images::{FrameImages, Readback};
 use crate::lights::{self, GpuLights, Lights};
+pub use crate::plant::Planted;
 use crate::sampling::{CameraGpu, Estimator};
 use crate::scene::{Camera, LUMINANCE, Material, Scene};
 use crate::trace::{self, Bvh};
@@ -80,12 +81,14 @@ pub use crate::sampling::{
     DEFAULT_BOUNCES, DEFAULT_MIS, DEFAULT_ROULETTE_FROM, MAX_BOUNCES, Paths,
 };
 
-/// How a render runs, whatever the method: the seed of its random streams and the depth of
-/// its indirect paths.
+/// How a render runs, whatever the method: the seed of its random streams, the depth of its
+/// indirect paths, and (tests' negative controls only) a defect compiled into its kernels.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
 pub struct RenderOptions {
     pub seed: u32,
     pub paths: Paths,
+    /// [`Planted::None`] but in tests' negative controls (see [`crate::plant`]).
+    pub planted: Planted,
 }
 
 impl RenderOptions {
@@ -331,10 +334,6 @@ pub struct RenderParams {
     /// 1 when `render_attributes` holds the scene's [`TriangleAttributes`], 0 when it is a
     /// dummy (flat shading, no texture coordinates).
     pub attributes: u32,
-    /// Scales of the direct and indirect frames as they are accumulated: 1 except in the
-    /// negative controls of tests ([`Renderer::plant_scale`]).
-    pub planted_direct: f32,
-    pub planted_indirect: f32,
     /// [`Paths::bounces`] and [`Paths::roulette_from`].
     pub bounces: u32,
     pub roulette_from: u32,
@@ -344,6 +343,8 @@ pub struct RenderParams {
     /// primary (ReSTIR GI's sample, [`Renderer::set_secondary_radiance`]), 0 when they write
     /// the primary's reflected light (that radiance times the primary's albedo).
     pub secondary_radiance: u32,
+    pub _pad0: u32,
+    pub _pad1: u32,
 }
 
 impl RenderParams {
@@ -362,12 +363,12 @@ impl RenderParams {
             candidates,
             ray_offset_floor: 1.0,
             attributes: 0,
-            planted_direct: 1.0,
-            planted_indirect: 1.0,
             bounces: options.paths.bounces,
             roulette_from: options.paths.roulette_from,
             mis: u32::from(options.paths.mis),
             secondary_radiance: 0,
+            _pad0: 0,
+            _pad1: 0,
         }
     }
 }
@@ -396,9 +397,9 @@ pub struct RenderState {
     pub _pad: [u32; 3],
 }
 
-/// Constants header of the render WGSL.
-pub fn constants_wgsl() -> String {
-    format!(
+/// Constants header of the render WGSL, with the defect `planted` ([`Planted::wgsl`]).
+pub fn constants_wgsl(planted: Planted) -> String {
+    let mut s = format!(
         "const RENDER_METHOD_NEE: u32 = {METHOD_NEE}u;\nconst RENDER_METHOD_RIS: u32 = {METHOD_RIS}u;\n\
          const STREAM_COUNT: u32 = {STREAM_COUNT}u;\nconst RENDER_RAY_EPS: f32 = {RAY_EPS:e};\n\
          const RENDER_T_MAX: f32 = {T_MAX:e};\nconst RENDER_NO_PIXEL: u32 = 0xffffffffu;\n\
@@ -410,7 +411,9 @@ pub fn constants_wgsl() -> String {
             .iter()
             .map(|(s, name)| format!("const STREAM_{name}: u32 = {}u;\n", *s as u32))
             .collect::<String>()
-    )
+    );
+    s += &planted.wgsl();
+    s
 }
 
 /// The render buffers' bindings (group 0 of every pixel pass).
@@ -445,12 +448,17 @@ pub fn shared_bindings(tracer: Tracer) -> [BindingSet; 3] {
 /// (groups 0..3) and the libraries (rng, reservoir, sampling, lights, `tracer`'s trace, render,
 /// `WORKGROUP_SIZE` and `item_index`).
 pub fn library(tracer: Tracer) -> Vec<WgslModule> {
+    planted_library(tracer, Planted::None)
+}
+
+/// [`library`] with the defect `planted` compiled in (tests' negative controls).
+pub fn planted_library(tracer: Tracer, planted: Planted) -> Vec<WgslModule> {
     let mut m = trace::modules(1, tracer);
     m.extend(lights::modules(2));
     m.extend([
         WgslModule::new("reservoir", &["rng"], reservoir::wgsl()),
         WgslModule::new("workgroup", &[], workgroup_size_wgsl()),
-        WgslModule::new("render-constants", &[], constants_wgsl()),
+        WgslModule::new("render-constants", &[], constants_wgsl(planted)),
         WgslModule::new("render-bindings", &[], bindings().wgsl(0)),
         WgslModule::new(
             "render",
@@ -469,7 +477,12 @@ pub fn library(tracer: Tracer) -> Vec<WgslModule> {
 
 /// [`library`] + `modules`, which need what they name of the library and of each other.
 pub fn compose_with_library(tracer: Tracer, modules: Vec<WgslModule>) -> String {
-    let mut m = library(tracer);
+    compose_planted(tracer, Planted::None, modules)
+}
+
+/// [`compose_with_library`] with the defect `planted` compiled in.
+pub fn compose_planted(tracer: Tracer, planted: Planted, modules: Vec<WgslModule>) -> String {
+    let mut m = planted_library(tracer, planted);
     m.extend(modules);
     compose(&m).expect("the render library composes")
 }
@@ -618,6 +631,10 @@ pub struct SharedGroups {
     pub groups: [wgpu::BindGroup; 3],
     pub tracer: Tracer,
     pub pixels: u32,
+    /// The defect compiled into every kernel of this build ([`RenderOptions::planted`]).
+    pub planted: Planted,
+    /// Where its kernels come from: the context's, so that a build again reuses them.
+    pub kernels: KernelCache,
 }
 
 impl SharedGroups {
@@ -633,8 +650,10 @@ impl SharedGroups {
     ) -> Kernel {
         let mut layouts: Vec<&BindGroupLayout> = self.layouts.iter().collect();
         layouts.extend(own);
-        let source = compose_with_library(self.tracer, modules);
-        Kernel::new(device, label, &source, &layouts, entry_points)
+        let source = compose_planted(self.tracer, self.planted, modules);
+        let size = crate::gpu::WORKGROUP_SIZE;
+        self.kernels
+            .kernel(device, label, &source, &layouts, entry_points, size)
     }
 
     /// A kernel with its own group-3 bindings `own`, after checking that the stage's storage
@@ -962,6 +981,8 @@ impl Renderer {
             groups,
             tracer: ctx.tracer,
             pixels,
+            planted: options.planted,
+            kernels: ctx.kernels.clone(),
         };
         let passes = Passes::new(&ctx.device, &shared);
         Ok(Self {
@@ -1067,18 +1088,6 @@ impl Renderer {
         self.encode_shade_indirect(f);
         self.encode_path(f);
         self.encode_accumulate(f);
-    }
-
-    /// Plants a bias: the direct and indirect frames are scaled by these factors (1 and 1 by
-    /// default) as they are accumulated, from the next submission on (the last frame's images
-    /// read back scaled too). Only for the negative controls of
-    /// statistical tests: an estimator with a known defect applied on the GPU, which the same
-    /// check must catch.
-    pub fn plant_scale(&self, ctx: &GpuContext, direct: f32, indirect: f32) {
-        let offset = std::mem::offset_of!(RenderParams, planted_direct) as u64;
-        let scales = [direct, indirect];
-        ctx.queue
-            .write_buffer(&self.buffers.params, offset, bytemuck::cast_slice(&scales));
     }
 
     /// Whether the indirect passes (`shade_indirect`, `path`, world-restir's shade) write the

@@ -34,8 +34,10 @@ fn render_path_pixel(i: u32) {
     var throughput = render_indirect_weight(g);
     var l = vec3<f32>(0.0);
     var footprint = render_path_spread(g, v, normalize(v.position - g.position));
+    // One bounce fewer under the planted defect MISSING_BOUNCE (restir_world::plant).
+    let bounces = render_params.bounces - select(0u, 1u, PLANTED == PLANTED_MISSING_BOUNCE);
     // With MIS one more ray: the emission the last vertex's ray finds is part of the last bounce.
-    let last = render_params.bounces + render_params.mis;
+    let last = bounces + render_params.mis;
     for (var bounce = 2u; bounce <= last; bounce++) {
         var rng = render_rng_salted(i, STREAM_PATH, bounce);
         if render_params.roulette_from != 0u && bounce >= render_params.roulette_from {
@@ -43,12 +45,12 @@ fn render_path_pixel(i: u32) {
             if !(rng_next_f32(&rng) < q) {
                 break;
             }
-            throughput /= q;
+            throughput /= render_roulette_divisor(q);
         }
         throughput *= v.albedo;
         let w = render_path_step(v, &rng);
         l += throughput * render_hit_emission(v, w);
-        if w.prim == BVH_NO_HIT || bounce > render_params.bounces {
+        if w.prim == BVH_NO_HIT || bounce > bounces {
             break;
         }
         footprint += render_path_spread(v, w, normalize(w.position - v.position));

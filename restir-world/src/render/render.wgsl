@@ -66,9 +66,6 @@ struct RenderParams {
     candidates: u32,
     ray_offset_floor: f32,
     attributes: u32,
-    // 1 and 1 but in tests' negative controls (render::Renderer::plant_scale).
-    planted_direct: f32,
-    planted_indirect: f32,
     // render::RenderOptions: bounces of indirect light, Russian roulette from this bounce on
     // (0: never).
     bounces: u32,
@@ -78,6 +75,8 @@ struct RenderParams {
     // 1: the indirect passes write the radiance leaving the secondary vertex towards the
     // primary (ReSTIR GI resamples it), 0: the primary's reflected light.
     secondary_radiance: u32,
+    _pad0: u32,
+    _pad1: u32,
 }
 
 // What the radiance leaving the secondary vertex towards primary vertex g is weighted by in
@@ -230,7 +229,23 @@ fn render_textured_emission(sample: LightSample) -> LightSample {
 
 // lights_sample with the emission of a textured emissive triangle at the sampled point.
 fn render_light_sample(u: vec4<f32>, rng: ptr<function, u32>) -> LightSample {
-    return render_textured_emission(lights_sample(u, rng));
+    var s = render_textured_emission(lights_sample(u, rng));
+    if PLANTED == PLANTED_LIGHT_PDF_OVERSTATED {
+        s.pdf_area *= 1.1;
+    }
+    return s;
+}
+
+// The confidence a reuse pass merges a neighbour's reservoir with: its (capped) M, but at most
+// 1 under the planted defect MERGE_WITHOUT_M (restir_world::plant).
+fn render_planted_m(m: u32) -> u32 {
+    return select(m, min(m, 1u), PLANTED == PLANTED_MERGE_WITHOUT_M);
+}
+
+// The survival probability a path's throughput is divided by after Russian roulette: q, but 1
+// under the planted defect ROULETTE_WITHOUT_DIVISION (restir_world::plant).
+fn render_roulette_divisor(q: f32) -> f32 {
+    return select(q, 1.0, PLANTED == PLANTED_ROULETTE_WITHOUT_DIVISION);
 }
 
 // lights_sample_at with the emission of a textured emissive triangle at the point.
@@ -367,8 +382,8 @@ fn render_reuse_light(c: ptr<function, Reuse>, n: u32, src: StoredReservoir, m: 
         p_n_y = render_light_target(q, y);
         p_n_own = render_light_target(q, own_sample);
     }
-    return reuse_neighbour(c, n, PackedReservoir(src.ucw, m), render_light_target(v, y), p_n_y,
-                           p_n_own, u);
+    let packed = PackedReservoir(src.ucw, render_planted_m(m));
+    return reuse_neighbour(c, n, packed, render_light_target(v, y), p_n_y, p_n_own, u);
 }
 
 // Ends a reuse of stored light reservoirs: `own` when the receiver's sample won, else `chosen`

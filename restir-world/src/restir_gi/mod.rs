@@ -142,10 +142,9 @@ pub struct GiParams {
     pub prev_camera: CameraGpu,
     /// 1 when last frame's G-buffer and reservoirs exist.
     pub history: u32,
-    /// 1 only in tests' negative controls: the shift's Jacobian without its distance ratio.
-    pub planted_jacobian: u32,
     pub _pad0: u32,
     pub _pad1: u32,
+    pub _pad2: u32,
 }
 
 /// Generated constants header and the knobs' struct.
@@ -232,7 +231,7 @@ impl GiBuffers {
         let pixels = renderer.pixels();
         let reuse = ReuseBuffers::new(ctx, "restir-gi", pixels, size_of::<GiReservoir>())?;
         let device = &ctx.device;
-        let params = RestirGi::params(config, renderer.camera(), false, false);
+        let params = RestirGi::params(config, renderer.camera(), false);
         Ok(Self {
             params: buffers::with_usage(
                 device,
@@ -311,7 +310,6 @@ pub struct RestirGi {
     passes: GiPasses,
     /// The camera of the last frame recorded (`None` before the first).
     last_camera: Option<Camera>,
-    planted_jacobian: bool,
 }
 
 impl RestirGi {
@@ -331,29 +329,22 @@ impl RestirGi {
             buffers,
             passes,
             last_camera: None,
-            planted_jacobian: false,
         })
     }
 
-    fn params(config: &RestirGiConfig, prev: &Camera, history: bool, planted: bool) -> GiParams {
+    fn params(config: &RestirGiConfig, prev: &Camera, history: bool) -> GiParams {
         GiParams {
             knobs: config.gpu_words(),
             prev_camera: CameraGpu::new(prev),
             history: u32::from(history),
-            planted_jacobian: u32::from(planted),
             _pad0: 0,
             _pad1: 0,
+            _pad2: 0,
         }
     }
 
     pub fn config(&self) -> &RestirGiConfig {
         &self.config
-    }
-
-    /// Plants a defect for a negative control: the shift's Jacobian loses its distance ratio
-    /// (from the next recorded frame on). Only for statistical tests.
-    pub fn plant_wrong_jacobian(&mut self) {
-        self.planted_jacobian = true;
     }
 
     /// Records the stage for the frame whose camera is `renderer`'s, after the indirect passes
@@ -363,7 +354,7 @@ impl RestirGi {
         let camera = *renderer.camera();
         let prev = self.last_camera.unwrap_or(camera);
         let history = self.last_camera.is_some();
-        let params = Self::params(&self.config, &prev, history, self.planted_jacobian);
+        let params = Self::params(&self.config, &prev, history);
         f.upload(&self.buffers.params, 0, &params);
         let p = &self.passes;
         f.span("gi-initial", |f| f.dispatch(&p.initial));

@@ -12,15 +12,14 @@
 
 // Knobs (GiKnobs, generated from restir_gi::RestirGiConfig) and the frame's history (Rust
 // twin: restir_gi::GiParams), uploaded every frame. prev_camera: last frame's camera; history
-// = 1 when last frame's G-buffer and reservoirs exist; planted_jacobian = 1 only in tests'
-// negative controls (the shift's Jacobian without its distance ratio).
+// = 1 when last frame's G-buffer and reservoirs exist.
 struct GiParams {
     knobs: GiKnobs,
     prev_camera: CameraGpu,
     history: u32,
-    planted_jacobian: u32,
     _pad0: u32,
     _pad1: u32,
+    _pad2: u32,
 }
 
 // A pixel's reservoir as stored, 32 bytes (Rust twin: restir_gi::GiReservoir): its sample's x2
@@ -129,7 +128,7 @@ fn gi_jacobian(s: GiSample, x1_from: vec3<f32>, x1_to: vec3<f32>) -> f32 {
         return 0.0;
     }
     var j = cos_b / cos_a * (da / db);
-    if gi_params.planted_jacobian != 0u {
+    if PLANTED == PLANTED_JACOBIAN_WITHOUT_DISTANCE {
         j = cos_b / cos_a;
     }
     let t = gi_params.knobs.max_jacobian;

@@ -125,7 +125,7 @@ fn gi_reuse(id: Invocation) {
         if has_own && combine == REUSE_PAIRWISE {
             p_n_own = gi_shifted_target(q, own_sample, g.position);
         }
-        let packed = PackedReservoir(src.ucw, ms[n]);
+        let packed = PackedReservoir(src.ucw, render_planted_m(ms[n]));
         if reuse_neighbour_shifted(&c, n, packed, p_target, jacobian, p_n_y, p_n_own, u_merge) {
             out = src;
         }

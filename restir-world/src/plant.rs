@@ -1,0 +1,151 @@
+//! Planted defects: the one test hook in shipped code.
+//!
+//! A statistical test's negative control runs an estimator with a known defect and checks that
+//! the test's own check fails on it. The defect is chosen per method build
+//! ([`RenderOptions::planted`](crate::render::RenderOptions)) and compiled into every kernel of
+//! that build as WGSL constants ([`Planted::wgsl`]): `PLANTED` (the defect's id) and the two
+//! power-check scales. A build without a defect gets `PLANTED = 0` and scales of exactly 1, so
+//! the compiler folds every planted branch away: it costs nothing when unset, and images are
+//! bit for bit those of a tree without the hook. Nothing a user types reaches it (no flag, knob
+//! or file sets it).
+//!
+//! Two kinds:
+//! - defects of an estimator ([`Planted::is_defect`]): a wrong Jacobian, a merge that drops
+//!   the neighbours' M, Russian roulette without its division, an overstated light pdf, a path
+//!   one bounce short, cache updates without their tail. These are the controls of the bias
+//!   tests: each must fail the check its test makes.
+//! - power checks ([`Planted::Scale`]): the finished frames scaled as they are accumulated.
+//!   They show only that a bound can see a shift of that size, never that a check catches a
+//!   defect, and are named so where used.
+
+/// A defect planted in every kernel of one method build (tests' negative controls only).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Hash)]
+pub enum Planted {
+    /// No defect: the shipped estimator.
+    #[default]
+    None,
+    /// Power check, not a defect of an estimator: the direct and indirect frames scaled to
+    /// these percentages as they are accumulated.
+    Scale { direct: u32, indirect: u32 },
+    /// ReSTIR GI's reconnection Jacobian without its distance ratio |x1_q - x2|^2 /
+    /// |x1_r - x2|^2 (the cosine ratio kept).
+    JacobianWithoutDistance,
+    /// Every reuse pass (world-restir, ReSTIR DI, ReSTIR GI) merges each neighbour's reservoir
+    /// without its M (as if it held one sample) while the total confidence still counts it:
+    /// pairwise MIS shares no longer sum to one. (1/M and 1/Z renormalise by what they merged,
+    /// so for them it is a reweighting, not a defect.)
+    MergeWithoutM,
+    /// Russian roulette keeps a surviving path's throughput without dividing it by the
+    /// survival probability.
+    RouletteWithoutDivision,
+    /// Every light sample's pdf overstated by 10% (the light table's density, as NEE, RIS
+    /// candidates and the light tiles read it); MIS weights still use the true density, so
+    /// they no longer sum to one.
+    LightPdfOverstated,
+    /// The path loop (bounces 2..) stops one bounce short of `--bounces`, MIS's last
+    /// emission-hit ray included; at one bounce without MIS there is no loop to shorten.
+    MissingBounce,
+    /// The radiance cache's update paths lose their tail (the radiance beyond their last
+    /// vertex taken as 0): the cells learn only the light of `update-depth` vertices.
+    CacheUpdateWithoutTail,
+}
+
+impl Planted {
+    /// The WGSL id of the defect (`PLANTED`; 0: none, and the power checks).
+    pub fn id(self) -> u32 {
+        match self {
+            Self::None | Self::Scale { .. } => 0,
+            Self::JacobianWithoutDistance => 1,
+            Self::MergeWithoutM => 2,
+            Self::RouletteWithoutDivision => 3,
+            Self::LightPdfOverstated => 4,
+            Self::MissingBounce => 5,
+            Self::CacheUpdateWithoutTail => 6,
+        }
+    }
+
+    /// Whether it is a defect of an estimator (not a power check, not none).
+    pub fn is_defect(self) -> bool {
+        self.id() != 0
+    }
+
+    /// The scales of the (direct, indirect) frames as they are accumulated.
+    pub fn scales(self) -> (f32, f32) {
+        match self {
+            Self::Scale { direct, indirect } => (direct as f32 / 100.0, indirect as f32 / 100.0),
+            _ => (1.0, 1.0),
+        }
+    }
+
+    /// Power check: the direct frames scaled to `percent`.
+    pub fn direct_scaled(percent: u32) -> Self {
+        Self::Scale {
+            direct: percent,
+            indirect: 100,
+        }
+    }
+
+    /// Power check: the indirect frames scaled to `percent`.
+    pub fn indirect_scaled(percent: u32) -> Self {
+        Self::Scale {
+            direct: 100,
+            indirect: percent,
+        }
+    }
+
+    /// The WGSL constants every kernel of a build composes: `PLANTED`, the `PLANTED_*` ids
+    /// the kernels compare it with, and the accumulation scales.
+    pub fn wgsl(self) -> String {
+        let (direct, indirect) = self.scales();
+        let ids = [
+            ("JACOBIAN_WITHOUT_DISTANCE", Self::JacobianWithoutDistance),
+            ("MERGE_WITHOUT_M", Self::MergeWithoutM),
+            ("ROULETTE_WITHOUT_DIVISION", Self::RouletteWithoutDivision),
+            ("LIGHT_PDF_OVERSTATED", Self::LightPdfOverstated),
+            ("MISSING_BOUNCE", Self::MissingBounce),
+            ("CACHE_UPDATE_WITHOUT_TAIL", Self::CacheUpdateWithoutTail),
+        ];
+        let mut s = format!(
+            "// Planted defects (restir_world::plant): 0 and scales of 1 but in tests' controls.\n\
+             const PLANTED: u32 = {}u;\n\
+             const PLANTED_DIRECT_SCALE: f32 = {direct:?};\n\
+             const PLANTED_INDIRECT_SCALE: f32 = {indirect:?};\n",
+            self.id()
+        );
+        for (name, p) in ids {
+            s += &format!("const PLANTED_{name}: u32 = {}u;\n", p.id());
+        }
+        s
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::Planted;
+
+    #[test]
+    fn ids_are_distinct_and_none_is_zero() {
+        let all = [
+            Planted::JacobianWithoutDistance,
+            Planted::MergeWithoutM,
+            Planted::RouletteWithoutDivision,
+            Planted::LightPdfOverstated,
+            Planted::MissingBounce,
+            Planted::CacheUpdateWithoutTail,
+        ];
+        let mut ids: Vec<u32> = all.iter().map(|p| p.id()).collect();
+        ids.sort_unstable();
+        ids.dedup();
+        assert_eq!(ids.len(), all.len());
+        assert!(all.iter().all(|p| p.is_defect()));
+        assert!(!Planted::None.is_defect() && !Planted::indirect_scaled(96).is_defect());
+        assert_eq!(Planted::None.scales(), (1.0, 1.0));
+        assert_eq!(Planted::indirect_scaled(96).scales(), (1.0, 0.96));
+        assert!(Planted::None.wgsl().contains("const PLANTED: u32 = 0u;"));
+        assert!(
+            Planted::None
+                .wgsl()
+                .contains("PLANTED_INDIRECT_SCALE: f32 = 1.0;")
+        );
+    }
+}
