@@ -2,12 +2,16 @@
 //!
 //! A check bounds a measured per-channel relative deviation `d` (a method's image mean over a
 //! reference's, minus 1). Its control is a second, independent measurement: the same estimator
-//! run on other seeds with a known defect planted on the GPU (`Renderer::plant_scale`, which
-//! scales the frames as they are accumulated), or a biased mode. The same check must flag it.
-//! Scaling the already measured number instead proves nothing: if |d| < b, then
-//! |(1 + d)(1 - k) - 1| >= b for every k >= 2b, always.
+//! run on other seeds with a defect planted in it on the GPU ([`restir_world::plant`]: a wrong
+//! Jacobian, a merge without M, roulette without its division, ...), or a biased mode. The same
+//! check must flag it. A planted [`Planted::Scale`] of the finished frames is only a power
+//! check (the bound can see a shift of that size) and is named so; scaling the already
+//! measured number proves nothing: if |d| < b, then |(1 + d)(1 - k) - 1| >= b for every
+//! k >= 2b, always.
 
-use restir_world::methods::{Composed, FrameMethod};
+use restir_world::methods::{self, Composed, MethodSettings};
+use restir_world::plant::Planted;
+use restir_world::render::RenderOptions;
 use restir_world::scene::{Camera, Scene};
 use restir_world::world_restir::WorldRestirConfig;
 
@@ -22,22 +26,31 @@ pub fn world_restir_indirect_means(
     seeds: std::ops::Range<u32>,
     frames: u32,
 ) -> [f64; 3] {
-    world_restir_planted_means(s, cam, config, seeds, frames, 1.0)
+    world_restir_planted_means(s, cam, config, seeds, frames, Planted::None)
 }
 
-/// [`world_restir_indirect_means`] with the indirect frames scaled on the GPU by `planted` as
-/// they are accumulated (a negative control's planted defect; 1: none).
+/// [`world_restir_indirect_means`] with `planted` compiled into the method (a negative
+/// control's defect, or a power check's scale).
 pub fn world_restir_planted_means(
     s: &Scene,
     cam: &Camera,
     config: WorldRestirConfig,
     seeds: std::ops::Range<u32>,
     frames: u32,
-    planted: f32,
+    planted: Planted,
 ) -> [f64; 3] {
+    let settings = MethodSettings {
+        world: Some(config),
+        ..methods::parse_spec("world-restir").expect("spec")
+    };
     mean_over_seeds(seeds, |seed| {
-        let mut wr = Composed::world_restir(gpu::context(), s, cam, config, seed).expect("wr");
-        wr.renderer().plant_scale(gpu::context(), 1.0, planted);
+        let options = RenderOptions {
+            seed,
+            planted,
+            ..Default::default()
+        };
+        let mut wr = Composed::with_options(gpu::context(), s, cam, &settings, &options)
+            .expect("world-restir");
         gpu::render(&mut wr, frames);
         channel_means(&gpu::images(&wr).indirect)
     })

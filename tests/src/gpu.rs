@@ -3,12 +3,15 @@
 use std::sync::OnceLock;
 
 use restir_world::GpuContext;
-use restir_world::gpu::{BindGroupLayout, BindingSet, Kernel, PassTimes, workgroup_size_wgsl};
-use restir_world::methods::{
-    FrameImages, FrameLoop, FrameMethod, MethodError, Readback, run_frames,
+use restir_world::gpu::{
+    BindGroupLayout, BindingSet, FrameEncoder, Kernel, PassTimes, workgroup_size_wgsl,
 };
+use restir_world::methods::{
+    Composed, FrameImages, FrameLoop, FrameMethod, MethodError, Readback, run_frames,
+};
+use restir_world::plant::Planted;
 use restir_world::render::{Paths, RenderOptions};
-use restir_world::scene::CameraPath;
+use restir_world::scene::{Camera, CameraPath, Scene};
 
 /// The shared context. Panics with the fix (install lavapipe) when no adapter exists: GPU tests
 /// must fail loudly, never pass vacuously.
@@ -101,20 +104,72 @@ pub fn with_tracer(tracer: restir_world::gpu::Tracer) -> Option<GpuContext> {
     }
 }
 
-/// `frames` timed frames of `m` on the shared context (static camera), through the one frame
-/// loop; the span totals when the adapter has timestamps.
-pub fn render(m: &mut dyn FrameMethod, frames: u32) -> Option<PassTimes> {
-    render_path(m, frames, CameraPath::Static)
+/// Frames recorded per submission by [`render`] and [`render_path`]: one fence wait per
+/// batch instead of one per frame (these loops are not timed).
+pub const FRAMES_PER_SUBMIT: u32 = 16;
+
+/// `frames` untimed frames of `m` on the shared context (static camera), in batches of
+/// [`FRAMES_PER_SUBMIT`].
+pub fn render(m: &mut dyn FrameMethod, frames: u32) {
+    render_path(m, frames, CameraPath::Static);
 }
 
 /// [`render`] with the camera moving along `path` (frame indices from 0, from the method's
 /// camera when called).
-pub fn render_path(m: &mut dyn FrameMethod, frames: u32, path: CameraPath) -> Option<PassTimes> {
-    let l = FrameLoop {
-        path,
-        ..FrameLoop::frames(frames)
-    };
-    run_frames(context(), m, &l, |_, _| Ok::<(), MethodError>(())).expect("render")
+pub fn render_path(m: &mut dyn FrameMethod, frames: u32, path: CameraPath) {
+    let base = *m.renderer().camera();
+    let camera = |k: u32| (path != CameraPath::Static).then(|| path.camera(&base, k));
+    render_cameras(m, 0..frames, camera);
+}
+
+/// Frames `frames` of `m`, frame k seen by `camera(k)` (`None`: the camera stays), in untimed
+/// batches of [`FRAMES_PER_SUBMIT`]. Each frame's camera is uploaded by its own commands, so
+/// frames of different cameras share a submission.
+pub fn render_cameras(
+    m: &mut dyn FrameMethod,
+    frames: std::ops::Range<u32>,
+    camera: impl Fn(u32) -> Option<Camera>,
+) {
+    let ctx = context();
+    let mut next = frames.start;
+    while next < frames.end {
+        let end = frames.end.min(next + FRAMES_PER_SUBMIT);
+        let mut encoder = ctx.device.create_command_encoder(&Default::default());
+        let mut f = FrameEncoder::new(&ctx.device, &mut encoder, None);
+        for k in next..end {
+            if let Some(c) = camera(k) {
+                m.set_camera(&c).expect("camera");
+            }
+            m.encode_frame(&mut f).expect("frame");
+        }
+        ctx.queue.submit([encoder.finish()]);
+        ctx.wait().expect("GPU wait failed");
+        next = end;
+    }
+}
+
+/// `frames` timed frames of `m` through the one frame loop (one per submission, as the tools
+/// time them): the span totals when the adapter has timestamps.
+pub fn render_timed(m: &mut dyn FrameMethod, frames: u32) -> Option<PassTimes> {
+    run_frames(context(), m, &FrameLoop::frames(frames), |_, _| {
+        Ok::<(), MethodError>(())
+    })
+    .expect("render")
+}
+
+/// `spec` (a registry method spec) built on the shared context, rendering with `options`.
+pub fn build(spec: &str, s: &Scene, cam: &Camera, options: RenderOptions) -> Composed {
+    let settings = restir_world::methods::parse_spec(spec).expect(spec);
+    Composed::with_options(context(), s, cam, &settings, &options).expect(spec)
+}
+
+/// Options of the default paths with `seed` and `planted` compiled in.
+pub fn planted(seed: u32, planted: Planted) -> RenderOptions {
+    RenderOptions {
+        seed,
+        planted,
+        ..Default::default()
+    }
 }
 
 /// The accumulated images of `m`.
@@ -166,5 +221,6 @@ pub fn one_bounce(seed: u32) -> RenderOptions {
             mis: false,
             ..Paths::bounces(1)
         },
+        ..Default::default()
     }
 }

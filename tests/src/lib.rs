@@ -10,6 +10,8 @@
 //! - [`bias`]: bias and equivalence checks with negative controls that can fail.
 //! - [`scenes`](mod@scenes): small scenes the GPU tests share; [`cpu`]: the CPU reference as
 //!   tests call it.
+//! - [`reference`](mod@reference): converged references rendered once per key (the renderer's
+//!   source and the settings) and kept on disk for later binaries and runs.
 //! - [`floors`]: same-harness floor kernels (vec4 copy) that benchmarks compare against.
 //! - [`bench`](mod@bench): GPU-timestamp timing for criterion's `iter_custom` and the `RESULT` line.
 //!
@@ -21,6 +23,7 @@ pub mod bias;
 pub mod cpu;
 pub mod floors;
 pub mod gpu;
+pub mod reference;
 pub mod scenes;
 pub mod wgsl;
 

@@ -65,3 +65,13 @@ pub fn orbit_then_cut(base: &Camera, frame: u32) -> Camera {
         },
     }
 }
+
+/// The frames of [`orbit_then_cut`]'s 500 at which the finiteness tests read images back:
+/// every 50th, the frames around the cut and the last (the frames between render in batches).
+pub fn cut_checkpoints() -> Vec<u32> {
+    let mut f: Vec<u32> = (0..500).step_by(50).collect();
+    f.extend([CUT_FRAME - 1, CUT_FRAME, CUT_FRAME + 1, 499]);
+    f.sort_unstable();
+    f.dedup();
+    f
+}

@@ -8,6 +8,7 @@
 use glam::Vec3;
 use restir_world::cache::{self, CacheCell, CacheConfig, CacheParams};
 use restir_world::methods::{self, Composed, FrameMethod};
+use restir_world::plant::Planted;
 use restir_world::reference::{ReferenceOptions, ReferenceRenderer};
 use restir_world::render::{DebugView, Paths, RenderOptions};
 use restir_world::sampling::Estimator;
@@ -22,6 +23,7 @@ fn unbounded(seed: u32) -> RenderOptions {
     RenderOptions {
         seed,
         paths: Paths::bounces(render_max()),
+        ..Default::default()
     }
 }
 
@@ -31,8 +33,25 @@ fn render_max() -> u32 {
 
 /// `spec` at unbounded paths, seeded.
 fn build(spec: &str, s: &Scene, cam: &Camera, seed: u32) -> Composed {
+    build_planted(spec, s, cam, seed, Planted::None)
+}
+
+/// [`build`] with `planted` compiled in (the controls: update paths without their tail).
+fn build_planted(spec: &str, s: &Scene, cam: &Camera, seed: u32, planted: Planted) -> Composed {
     let settings = methods::parse_spec(spec).expect(spec);
-    Composed::with_options(gpu::context(), s, cam, &settings, &unbounded(seed)).expect(spec)
+    let options = RenderOptions {
+        planted,
+        ..unbounded(seed)
+    };
+    Composed::with_options(gpu::context(), s, cam, &settings, &options).expect(spec)
+}
+
+/// The control's defect: update paths without their tail.
+fn no_tail(planted: bool) -> Planted {
+    match planted {
+        true => Planted::CacheUpdateWithoutTail,
+        false => Planted::None,
+    }
 }
 
 #[test]
@@ -43,7 +62,7 @@ fn layouts_match_wgsl() {
         CacheParams,
         src,
         "CacheParams",
-        [knobs, debug_view, update_paths, planted_no_tail, _pad2]
+        [knobs, debug_view, update_paths, _pad1, _pad2]
     );
     tests::assert_knobs_layout!(CacheConfig, src, "CacheKnobs");
 }
@@ -82,10 +101,7 @@ fn closed_furnace_converges_to_le_over_one_minus_rho() {
     let cam = s.camera_or_default(SIDE, SIDE);
     let want = f64::from(LE) / (1.0 - f64::from(RHO));
     let run = |planted: bool| {
-        let mut m = build("ris+cache", &s, &cam, 7);
-        if planted {
-            m.cache().expect("cache").plant_no_tail(gpu::context());
-        }
+        let mut m = build_planted("ris+cache", &s, &cam, 7, no_tail(planted));
         gpu::render(&mut m, 64);
         relative(mean_of_frames(&mut m, 64, 128), [want; 3])
     };
@@ -125,10 +141,7 @@ fn cornell_cells_match_the_cpu_reference_at_their_centres() {
         })
     };
     let run = |planted: bool| {
-        let mut m = build("ris+cache", &s, &cam, 3);
-        if planted {
-            m.cache().expect("cache").plant_no_tail(gpu::context());
-        }
+        let mut m = build_planted("ris+cache", &s, &cam, 3, no_tail(planted));
         gpu::render(&mut m, FRAMES);
         let ctx = gpu::context();
         let cache = m.cache().expect("cache");
@@ -231,9 +244,10 @@ fn a_moving_camera_and_a_cut_stay_finite_and_bounded() {
     let config = *m.cache().expect("cache").config();
     let mut overflows = 0u64;
     let mut checksums_at_cut = Vec::new();
-    for frame in 0..500 {
-        m.set_camera(&orbit_then_cut(&cam, frame)).expect("camera");
-        gpu::render(&mut m, 1);
+    // The stats are read every 10th frame (the frames between render in one batch).
+    for frame in (9..500).step_by(10) {
+        let frames = frame - 9..frame + 1;
+        gpu::render_cameras(&mut m, frames, |k| Some(orbit_then_cut(&cam, k)));
         let cache = m.cache().expect("cache");
         let stats = cache.stats(ctx).expect("stats");
         assert!(

@@ -5,7 +5,8 @@
 
 use glam::Vec3;
 use restir_world::lights::{KIND_ENV, Lights};
-use restir_world::methods::{Composed, FrameMethod};
+use restir_world::methods::Composed;
+use restir_world::plant::Planted;
 use restir_world::render::Renderer;
 use restir_world::sampling::Estimator;
 use restir_world::scene::{Camera, Environment, Material, Scene, environment};
@@ -50,20 +51,19 @@ fn rel_err(got: [f64; 3], want: [f64; 3]) -> f64 {
 
 /// GPU direct and indirect images (accumulated means) of `frames` frames.
 fn gpu_render(s: &Scene, cam: &Camera, method: Estimator, frames: u32) -> [Vec<[f32; 3]>; 2] {
-    gpu_render_planted(s, cam, method, frames, (11, 1.0))
+    gpu_render_planted(s, cam, method, frames, (11, Planted::None))
 }
 
-/// [`gpu_render`] with seed `seed` and both images scaled by `planted` on the GPU (negative
-/// controls).
+/// [`gpu_render`] with seed `seed` and `planted` compiled in (negative controls).
 fn gpu_render_planted(
     s: &Scene,
     cam: &Camera,
     method: Estimator,
     frames: u32,
-    (seed, planted): (u32, f32),
+    (seed, planted): (u32, Planted),
 ) -> [Vec<[f32; 3]>; 2] {
-    let mut r = Renderer::new(gpu::context(), s, cam, method, seed).expect("renderer");
-    r.plant_scale(gpu::context(), planted, planted);
+    let options = gpu::planted(seed, planted);
+    let mut r = Renderer::with_options(gpu::context(), s, cam, method, &options).expect("renderer");
     gpu::render(&mut r, frames);
     let img = gpu::images(&r);
     [img.direct, img.indirect]
@@ -128,10 +128,14 @@ fn constant_sky_furnace_is_analytic_on_gpu_and_cpu() {
             "{name}: an escaped GI ray added light"
         );
     }
-    let [direct, _] = gpu_render_planted(&s, &cam, Estimator::Nee, 128, (12, 1.04));
+    let pdf = (12, Planted::LightPdfOverstated);
+    let [direct, _] = gpu_render_planted(&s, &cam, Estimator::Nee, 128, pdf);
     let err = rel_err(channel_means(&direct), want);
-    eprintln!("sky furnace control (4% brighter on the GPU): rel err {err:.4}");
-    assert!(err >= 0.015, "the planted 4% went unnoticed: {err}");
+    eprintln!("sky furnace control (light pdf overstated by 10% on the GPU): rel err {err:.4}");
+    assert!(
+        err >= 0.015,
+        "the overstated light pdf went unnoticed: {err}"
+    );
     // Looking up: the sky itself, in every pixel, exactly.
     let up = Camera {
         eye: Vec3::new(0.0, 1.0, 0.0),
@@ -260,14 +264,14 @@ fn world_restir_reuses_sky_samples_without_bias() {
     let mut r = Renderer::new(ctx, &s, &cam, Estimator::Ris { candidates: 16 }, 1000).unwrap();
     gpu::render(&mut r, 512);
     let want = channel_means(&gpu::images(&r).indirect);
-    let mut planted = Composed::world_restir(ctx, &s, &cam, Default::default(), 23).unwrap();
-    planted.renderer().plant_scale(ctx, 1.0, 0.95);
+    let merge = gpu::planted(23, Planted::MergeWithoutM);
+    let mut planted = gpu::build("world-restir", &s, &cam, merge);
     gpu::render(&mut planted, 128);
     let control = rel_err(channel_means(&gpu::images(&planted).indirect), want);
-    eprintln!("world-restir under a sky, control (5% darker on the GPU): {control:.4}");
+    eprintln!("world-restir under a sky, control (merged without M on the GPU): {control:.4}");
     assert!(
         control >= 0.03,
-        "the planted 5% darkening went unnoticed: {control}"
+        "the merge without M went unnoticed: {control}"
     );
     let mut got = [0.0; 3];
     for seed in [21, 22] {

@@ -3,18 +3,20 @@
 //! method registry, same seeds. Both draw the same random numbers and trace the same rays, so
 //! the images differ only where a ray grazes an edge or meets coplanar triangles: the per-channel
 //! means must agree within 0.5% and the per-pixel mean absolute difference stay below 1% of the
-//! mean. Negative control: the BVH image scaled by 1.03 must fail the same check.
+//! mean. Negative control: the ray-query image of `ris` with its light samples' pdf overstated
+//! by 10% (a defect planted on the GPU) must fail the same check, on each scene.
 
 use restir_world::GpuContext;
 use restir_world::gpu::Tracer;
 use restir_world::methods::{self, Readback};
+use restir_world::plant::Planted;
 use restir_world::scene::{BuiltinOptions, builtin};
 use tests::gpu;
 
 const MEAN_TOL: f64 = 5e-3;
 const PIXEL_TOL: f64 = 1e-2;
 
-fn images(ctx: &GpuContext, scene: &str, spec: &str) -> Vec<[f32; 3]> {
+fn images(ctx: &GpuContext, scene: &str, spec: &str, planted: Planted) -> Vec<[f32; 3]> {
     let opts = BuiltinOptions {
         width: 48,
         height: 48,
@@ -23,7 +25,11 @@ fn images(ctx: &GpuContext, scene: &str, spec: &str) -> Vec<[f32; 3]> {
     };
     let s = builtin(scene, &opts).expect("scene");
     let cam = s.camera_or_default(48, 48);
-    let mut m = methods::build_method(spec, ctx, &s, &cam, 5).expect("method");
+    let settings = methods::parse_spec(spec).expect(spec);
+    let options = gpu::planted(5, planted);
+    let mut m = settings
+        .build_with(ctx, &s, &cam, &options)
+        .expect("method");
     let l = methods::FrameLoop::frames(8);
     methods::run_frames(ctx, m.as_mut(), &l, |_, _| {
         Ok::<(), methods::MethodError>(())
@@ -35,22 +41,18 @@ fn images(ctx: &GpuContext, scene: &str, spec: &str) -> Vec<[f32; 3]> {
 }
 
 /// (largest relative difference of a channel mean, mean absolute pixel difference / mean).
-fn difference(a: &[[f32; 3]], b: &[[f32; 3]], scale_b: f32) -> (f64, f64) {
-    let mean = |img: &[[f32; 3]], c: usize, s: f32| {
-        img.iter().map(|p| f64::from(p[c] * s)).sum::<f64>() / img.len() as f64
+fn difference(a: &[[f32; 3]], b: &[[f32; 3]]) -> (f64, f64) {
+    let mean = |img: &[[f32; 3]], c: usize| {
+        img.iter().map(|p| f64::from(p[c])).sum::<f64>() / img.len() as f64
     };
     let worst_mean = (0..3)
-        .map(|c| (mean(a, c, 1.0) / mean(b, c, scale_b) - 1.0).abs())
+        .map(|c| (mean(a, c) / mean(b, c) - 1.0).abs())
         .fold(0.0, f64::max);
-    let total: f64 = (0..3).map(|c| mean(b, c, scale_b)).sum();
+    let total: f64 = (0..3).map(|c| mean(b, c)).sum();
     let abs: f64 = a
         .iter()
         .zip(b)
-        .map(|(p, q)| {
-            (0..3)
-                .map(|c| f64::from((p[c] - q[c] * scale_b).abs()))
-                .sum::<f64>()
-        })
+        .map(|(p, q)| (0..3).map(|c| f64::from((p[c] - q[c]).abs())).sum::<f64>())
         .sum::<f64>()
         / a.len() as f64;
     (worst_mean, abs / total)
@@ -65,23 +67,27 @@ fn ray_query_images_equal_bvh_images() {
     let bvh = gpu::with_tracer(Tracer::Bvh).expect("bvh");
     for scene in ["cornell", "many-lights"] {
         for spec in ["nee", "ris", "world-restir", "restir-di"] {
-            let a = images(&rq, scene, spec);
-            let b = images(&bvh, scene, spec);
+            let a = images(&rq, scene, spec, Planted::None);
+            let b = images(&bvh, scene, spec, Planted::None);
             assert!(
                 a.iter().flatten().all(|v| v.is_finite()),
                 "{scene} {spec}: NaN"
             );
-            let (mean, pixel) = difference(&a, &b, 1.0);
+            let (mean, pixel) = difference(&a, &b);
             eprintln!("{scene} {spec}: means within {mean:.2e}, pixels {pixel:.2e}");
             assert!(
                 mean < MEAN_TOL && pixel < PIXEL_TOL,
                 "{scene} {spec}: ray-query image differs: means {mean:.3e}, pixels {pixel:.3e}"
             );
-            let (mean, pixel) = difference(&a, &b, 1.03);
-            assert!(
-                mean >= MEAN_TOL || pixel >= PIXEL_TOL,
-                "{scene} {spec}: planted 3% difference not detected"
-            );
+            if spec == "ris" {
+                let p = images(&rq, scene, spec, Planted::LightPdfOverstated);
+                let (mean, pixel) = difference(&p, &b);
+                eprintln!("{scene} {spec} control (light pdf overstated): {mean:.2e}, {pixel:.2e}");
+                assert!(
+                    mean >= MEAN_TOL || pixel >= PIXEL_TOL,
+                    "{scene} {spec}: the overstated light pdf went unnoticed"
+                );
+            }
         }
     }
 }

@@ -2,13 +2,13 @@
 //! accumulated mean (bounded at 2%, with negative controls) and single-frame noise (relMSE)
 //! against the `ris` and `nee` baselines at the same sample count, at 96x96 and 64x64.
 
-use restir_world::methods::{self, Composed, FrameImages, FrameMethod, MethodSettings};
+use restir_world::methods::{self, Composed, FrameImages, MethodSettings};
 use restir_world::metrics;
+use restir_world::plant::Planted;
 use restir_world::render::{Paths, RenderOptions, Renderer};
 use restir_world::sampling::Estimator;
 use restir_world::scene::{BuiltinOptions, Camera, Scene};
 use restir_world::world_restir::WorldRestirConfig;
-use std::sync::Mutex;
 
 use tests::bias::{
     assert_checked, assert_within, channel_means, relative, world_restir_indirect_means,
@@ -31,40 +31,51 @@ fn scene(name: &str, side: u32) -> (Scene, Camera) {
     builtin_square(name, side, BuiltinOptions::default())
 }
 
-/// (scene name, side, paths, reference images).
-type Cached = (String, u32, Paths, FrameImages);
-
-/// The converged reference images of a scene at side x side with `options`' paths, computed
-/// once per test binary.
-fn reference_images_at(name: &str, side: u32, options: RenderOptions) -> FrameImages {
-    static CACHE: Mutex<Vec<Cached>> = Mutex::new(Vec::new());
-    let mut cache = CACHE.lock().unwrap_or_else(|e| e.into_inner());
-    let key = |c: &&Cached| c.0 == name && c.1 == side && c.2 == options.paths;
-    if let Some((_, _, _, r)) = cache.iter().find(key) {
-        return r.clone();
-    }
-    let ctx = gpu::context();
-    let (s, cam) = scene(name, side);
-    let ris = Estimator::Ris { candidates: 16 };
-    let options = RenderOptions {
-        seed: 1000,
-        ..options
+/// The converged reference images (direct, indirect) of a scene at side x side with `paths`,
+/// rendered once per key and kept on disk (`tests::reference`).
+fn reference_images_at(name: &str, side: u32, paths: Paths) -> [Vec<[f32; 3]>; 2] {
+    let pixels = (side * side) as usize;
+    let render = || {
+        let ctx = gpu::context();
+        let (s, cam) = scene(name, side);
+        let ris = Estimator::Ris { candidates: 16 };
+        let options = RenderOptions {
+            seed: 1000,
+            paths,
+            ..Default::default()
+        };
+        let mut r = Renderer::with_options(ctx, &s, &cam, ris, &options).expect("ris");
+        gpu::render(&mut r, REFERENCE_FRAMES);
+        gpu::images(&r)
     };
-    let mut r = Renderer::with_options(ctx, &s, &cam, ris, &options).expect("ris");
-    gpu::render(&mut r, REFERENCE_FRAMES);
-    let images = gpu::images(&r);
-    cache.push((name.to_owned(), side, options.paths, images.clone()));
-    images
+    let key = |which: &str| {
+        format!(
+            "world_restir_quality reference {which}: ris seed 1000, {name} {side}x{side}, \
+             {REFERENCE_FRAMES} frames, {paths:?}"
+        )
+    };
+    let mut images: Option<FrameImages> = None;
+    let mut image = |which: &str| {
+        tests::reference::cached_image(&key(which), pixels, || {
+            let i = images.get_or_insert_with(render);
+            match which {
+                "direct" => i.direct.clone(),
+                _ => i.indirect.clone(),
+            }
+        })
+    };
+    [image("direct"), image("indirect")]
 }
 
-/// The converged reference images at the default paths.
-fn reference_images(name: &str, side: u32) -> FrameImages {
-    reference_images_at(name, side, RenderOptions::default())
+/// The converged reference images (direct, indirect) at the default paths.
+fn reference_images(name: &str, side: u32) -> [Vec<[f32; 3]>; 2] {
+    reference_images_at(name, side, Paths::default())
 }
 
 /// The converged reference's indirect image at the default paths.
 fn reference(name: &str, side: u32) -> Vec<[f32; 3]> {
-    reference_images(name, side).indirect
+    let [_, indirect] = reference_images(name, side);
+    indirect
 }
 
 /// Bias at the shipped defaults (pairwise MIS, table sized to the frame, 16 px cells, one
@@ -81,8 +92,8 @@ fn reference(name: &str, side: u32) -> Vec<[f32; 3]> {
 /// measured -8.7/-8.9/-7.6%). The 256-frame mean of one run scatters with a standard deviation
 /// near 1.7% at one bounce (furnace at 64x64, seeds 1-6: temporal reuse keeps a rare bright
 /// sample for many frames). (1/Z is checked on the closed furnace in paths.rs.)
-/// Negative control: the defaults with the indirect frames darkened by twice the bound on the
-/// GPU (seed 103) must fail the same bound.
+/// Negative control: the defaults with the reuse passes merging neighbours without their M
+/// (planted on the GPU, seed 103) must fail the same bound.
 #[test]
 fn bias_at_the_defaults_is_within_two_percent() {
     const BOUND: f64 = 0.02;
@@ -95,9 +106,9 @@ fn bias_at_the_defaults_is_within_two_percent() {
         world_restir_indirect_means(&s, &cam, config, 100..103, FRAMES),
         want,
     );
-    let planted = 1.0 - 2.0 * BOUND as f32;
+    let merge = Planted::MergeWithoutM;
     let control = relative(
-        world_restir_planted_means(&s, &cam, config, 103..104, FRAMES, planted),
+        world_restir_planted_means(&s, &cam, config, 103..104, FRAMES, merge),
         want,
     );
     assert_checked(
@@ -105,7 +116,7 @@ fn bias_at_the_defaults_is_within_two_percent() {
         bias,
         BOUND,
         control,
-        &format!("indirect x {planted} on the GPU, seed 103"),
+        "merged without M, seed 103",
     );
 }
 
@@ -140,8 +151,12 @@ fn single_frame_noise_lower_than_ris_and_nee_on_many_lights() {
     let ctx = gpu::context();
     let (s, cam) = scene("many-lights", NOISE_SIDE);
     let paths = gpu::one_bounce(0).paths;
-    let options = |seed| RenderOptions { seed, paths };
-    let reference = reference_images_at("many-lights", NOISE_SIDE, options(0)).indirect;
+    let options = |seed| RenderOptions {
+        seed,
+        paths,
+        ..Default::default()
+    };
+    let [_, reference] = reference_images_at("many-lights", NOISE_SIDE, paths);
     let mut base = Vec::new();
     for estimator in [Estimator::Ris { candidates: 16 }, Estimator::Nee] {
         let mut r =
@@ -199,23 +214,30 @@ fn single_frame_noise_lower_than_ris_and_nee_on_many_lights() {
 /// averaged over 3 seeds, are within 2% of the converged reference (`ris`, 512 frames) in every
 /// channel on many-lights at 96x96. Measured on lavapipe with 256 frames (128 since 2026-12-02,
 /// for CI's time; it passes there): direct +0.40/+0.27/+0.36%, indirect
-/// +0.14/+0.13/-0.15%. Negative control: the unified cache with its direct frames darkened by
-/// twice the bound on the GPU (seed 203) must fail the bound. (The paper's 1/M measured
-/// -1.04/-1.02/-1.13% on the direct image here, seed 200: too little to serve as a control.)
+/// +0.14/+0.13/-0.15%. Negative control: the unified cache merging neighbours without their M
+/// (planted on the GPU, seed 203) must fail the bound on the direct image. (The paper's 1/M
+/// measured -1.04/-1.02/-1.13% on the direct image here, seed 200: too little to serve as a
+/// control.)
 #[test]
 fn unified_cache_is_unbiased_for_direct_and_indirect_light() {
     const BOUND: f64 = 0.02;
     const FRAMES: u32 = 128;
     let ctx = gpu::context();
     let (s, cam) = scene("many-lights", SIDE);
-    let want = reference_images("many-lights", SIDE);
-    let (want_d, want_i) = (channel_means(&want.direct), channel_means(&want.indirect));
-    let bias = |config: WorldRestirConfig, seeds: std::ops::Range<u32>, planted: f32| {
+    let [want_d, want_i] = reference_images("many-lights", SIDE).map(|i| channel_means(&i));
+    let settings = MethodSettings {
+        world: Some(WorldRestirConfig {
+            unified: true,
+            ..Default::default()
+        }),
+        ..methods::parse_spec("world-restir").expect("spec")
+    };
+    let bias = |seeds: std::ops::Range<u32>, planted: Planted| {
         let runs = seeds.len() as f64;
         let (mut d, mut i) = ([0.0; 3], [0.0; 3]);
         for seed in seeds {
-            let mut wr = Composed::world_restir(ctx, &s, &cam, config, seed).expect("wr");
-            wr.renderer().plant_scale(ctx, planted, 1.0);
+            let options = gpu::planted(seed, planted);
+            let mut wr = Composed::with_options(ctx, &s, &cam, &settings, &options).expect("wr");
             gpu::render(&mut wr, FRAMES);
             let images = gpu::images(&wr);
             let (md, mi) = (
@@ -232,22 +254,17 @@ fn unified_cache_is_unbiased_for_direct_and_indirect_light() {
             [0, 1, 2].map(|c| i[c] / want_i[c] - 1.0),
         )
     };
-    let unified = WorldRestirConfig {
-        unified: true,
-        ..Default::default()
-    };
-    let (direct, indirect) = bias(unified, 200..203, 1.0);
+    let (direct, indirect) = bias(200..203, Planted::None);
     eprintln!(
         "unified cache {SIDE}x{SIDE}, 3 seeds x {FRAMES} frames: direct {direct:+.4?} indirect {indirect:+.4?}"
     );
     assert_within("unified cache, indirect", indirect, BOUND);
-    let planted = 1.0 - 2.0 * BOUND as f32;
-    let (control, _) = bias(unified, 203..204, planted);
+    let (control, _) = bias(203..204, Planted::MergeWithoutM);
     assert_checked(
         "unified cache, direct",
         direct,
         BOUND,
         control,
-        &format!("direct x {planted} on the GPU, seed 203"),
+        "merged without M, seed 203",
     );
 }
