@@ -47,7 +47,9 @@ fn source_hash() -> u64 {
         files.sort();
         let mut h = Fnv64::default();
         for f in files {
-            h.bytes(f.to_string_lossy().as_bytes());
+            // The path within the workspace: clones elsewhere share the key.
+            let name = f.strip_prefix(&root).unwrap_or(&f);
+            h.bytes(name.to_string_lossy().as_bytes());
             h.bytes(&std::fs::read(&f).unwrap_or_default());
         }
         h.finish()
