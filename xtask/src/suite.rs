@@ -56,6 +56,7 @@ pub fn run(
     test_args: &[String],
     envs: &[(&str, &str)],
 ) -> Result<(), String> {
+    // Wall time of the whole run, reported in the table (a runner's report, not a benchmark).
     let started = Instant::now();
     let binaries = build(workspace, cargo_args)?;
     let mut outcomes = Vec::new();
