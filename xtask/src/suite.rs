@@ -4,17 +4,34 @@
 //! closing line `tests: N passed, N failed`. The same table is written to
 //! `target/test-times.md` (docs/testing.md keeps a measured copy).
 //!
+//! Two binaries run at once (`XTASK_TEST_JOBS` sets another count): one binary's tests leave a
+//! core idle while shaders compile or a lone slow test finishes, and the other fills it. The
+//! binaries the last run's table (`target/test-times.md`, else the one in docs/testing.md) found
+//! slowest start first. Each binary's
+//! output is printed whole when it ends, so two binaries' lines never interleave.
+//!
 //! libtest reports a test's time only with `-Z unstable-options --report-time`, which a stable
 //! test binary accepts when `RUSTC_BOOTSTRAP=1` is in its environment; it is set for the test
 //! binaries alone, never for cargo or rustc, so no build depends on it.
 
+use std::collections::VecDeque;
 use std::io::{BufRead, BufReader};
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
+use std::sync::{Arc, Mutex, mpsc};
 use std::time::Instant;
 
 /// The slowest tests listed.
 const SLOWEST: usize = 20;
+
+/// Test binaries run at once unless `XTASK_TEST_JOBS` says otherwise.
+const DEFAULT_JOBS: usize = 2;
+
+/// Where the last run's table is written (and read back to start the slowest binaries first).
+const TIMES: &str = "target/test-times.md";
+
+/// The table kept in the docs: the order on a clean clone.
+const MEASURED: &str = "docs/testing.md";
 
 /// One test binary cargo built: its package, target name, path and package directory (the
 /// working directory cargo test would give it).
@@ -58,18 +75,23 @@ pub fn run(
 ) -> Result<(), String> {
     // Wall time of the whole run, reported in the table (a runner's report, not a benchmark).
     let started = Instant::now();
-    let binaries = build(workspace, cargo_args)?;
-    let mut outcomes = Vec::new();
-    for b in &binaries {
-        outcomes.push(run_binary(b, test_args, envs)?);
-    }
+    let mut binaries = build(workspace, cargo_args)?;
+    // The measured table in docs/testing.md, then this tree's last run where it measured more.
+    let mut last = last_times(&workspace.join(MEASURED));
+    last.extend(last_times(&workspace.join(TIMES)));
+    // Slowest first; a binary the last table does not know (new, or no table yet) counts as slow.
+    binaries.sort_by(|a, b| {
+        let t = |x: &TestBinary| last.get(&x.name()).copied().unwrap_or(f64::INFINITY);
+        t(b).total_cmp(&t(a))
+    });
+    let mut outcomes = run_binaries(binaries, jobs()?, test_args, envs)?;
     // Doc tests (only for a whole-workspace run: a selection of test targets names none).
     if cargo_args.is_empty() {
         outcomes.push(run_doc_tests(workspace, test_args, envs)?);
     }
     let table = table(&outcomes, started.elapsed().as_secs_f64());
     println!("\n{table}");
-    let out = workspace.join("target/test-times.md");
+    let out = workspace.join(TIMES);
     if let Err(e) = std::fs::write(&out, &table) {
         eprintln!("xtask: could not write {}: {e}", out.display());
     }
@@ -145,23 +167,93 @@ fn json_string(line: &str, key: &str) -> Option<String> {
     Some(line[start..end].to_owned())
 }
 
-/// Runs one test binary with per-test times, passing its output through.
+/// `XTASK_TEST_JOBS` (binaries run at once), or the default.
+fn jobs() -> Result<usize, String> {
+    match std::env::var("XTASK_TEST_JOBS") {
+        Err(_) => Ok(DEFAULT_JOBS),
+        Ok(v) => match v.parse::<usize>() {
+            Ok(n) if (1..=64).contains(&n) => Ok(n),
+            _ => Err(format!(
+                "XTASK_TEST_JOBS must be a whole number from 1 to 64, not {v:?}"
+            )),
+        },
+    }
+}
+
+/// Each binary's seconds in the table at `path` (none if there is no table).
+fn last_times(path: &Path) -> std::collections::HashMap<String, f64> {
+    let text = std::fs::read_to_string(path).unwrap_or_default();
+    let mut times = std::collections::HashMap::new();
+    // Rows `| name | seconds | passed | failed | ignored |` of the first table.
+    for line in text.lines() {
+        let cells: Vec<&str> = line.split('|').map(str::trim).collect();
+        if cells.len() == 7
+            && let Ok(s) = cells[2].parse::<f64>()
+        {
+            times.insert(cells[1].to_owned(), s);
+        }
+    }
+    times
+}
+
+/// Runs `binaries` in order, `jobs` at a time, printing each one's output whole as it ends.
+/// The outcomes come back in the order the binaries ended.
+fn run_binaries(
+    binaries: Vec<TestBinary>,
+    jobs: usize,
+    test_args: &[String],
+    envs: &[(&str, &str)],
+) -> Result<Vec<Outcome>, String> {
+    let count = binaries.len();
+    let queue = Arc::new(Mutex::new(VecDeque::from(binaries)));
+    let (send, receive) = mpsc::channel();
+    let envs: Vec<(String, String)> = envs
+        .iter()
+        .map(|(k, v)| (k.to_string(), v.to_string()))
+        .collect();
+    std::thread::scope(|scope| {
+        for _ in 0..jobs.min(count) {
+            let (queue, send, envs) = (Arc::clone(&queue), send.clone(), &envs);
+            scope.spawn(move || {
+                while let Some(b) = queue.lock().map(|mut q| q.pop_front()).ok().flatten() {
+                    println!("     Running {} ({})", b.name(), b.path.display());
+                    if send.send(run_binary(&b, test_args, envs)).is_err() {
+                        break;
+                    }
+                }
+            });
+        }
+        drop(send);
+        let mut outcomes = Vec::with_capacity(count);
+        for result in receive {
+            let (o, output) = result?;
+            print!("{output}");
+            outcomes.push(o);
+        }
+        Ok(outcomes)
+    })
+}
+
+/// Runs one test binary with per-test times: its outcome and its whole standard output.
 fn run_binary(
     b: &TestBinary,
     test_args: &[String],
-    envs: &[(&str, &str)],
-) -> Result<Outcome, String> {
-    println!("     Running {} ({})", b.name(), b.path.display());
+    envs: &[(String, String)],
+) -> Result<(Outcome, String), String> {
     let mut cmd = Command::new(&b.path);
     cmd.current_dir(&b.dir)
         .env("RUSTC_BOOTSTRAP", "1")
         .env("CARGO_MANIFEST_DIR", &b.dir)
-        .envs(envs.iter().copied())
+        .envs(envs.iter().map(|(k, v)| (k, v)))
         .args(["-Z", "unstable-options", "--report-time"])
         .args(test_args);
-    let mut o = capture(cmd, &b.name())?;
+    let mut output = format!("\n---- {} ----\n", b.name());
+    let mut o = capture(cmd, &b.name(), &mut |line| {
+        output.push_str(line);
+        output.push('\n');
+    })?;
     o.name = b.name();
-    Ok(o)
+    Ok((o, output))
 }
 
 /// `cargo test --workspace --doc`, its output passed through and counted.
@@ -176,13 +268,14 @@ fn run_doc_tests(
         .envs(envs.iter().copied())
         .args(["test", "--workspace", "--doc", "--"])
         .args(test_args);
-    let mut o = capture(cmd, "doc tests")?;
+    let mut o = capture(cmd, "doc tests", &mut |line| println!("{line}"))?;
     o.name = "doc tests".into();
     Ok(o)
 }
 
-/// Runs `cmd`, echoing its standard output line by line and reading libtest's lines from it.
-fn capture(mut cmd: Command, what: &str) -> Result<Outcome, String> {
+/// Runs `cmd`, handing each line of its standard output to `echo` and reading libtest's lines
+/// from it.
+fn capture(mut cmd: Command, what: &str, echo: &mut dyn FnMut(&str)) -> Result<Outcome, String> {
     let started = Instant::now();
     let mut child = cmd
         .stdout(Stdio::piped())
@@ -191,7 +284,7 @@ fn capture(mut cmd: Command, what: &str) -> Result<Outcome, String> {
     let mut o = Outcome::default();
     if let Some(stdout) = child.stdout.take() {
         for line in BufReader::new(stdout).lines().map_while(Result::ok) {
-            println!("{line}");
+            echo(&line);
             read_line(&line, &mut o);
         }
     }
@@ -261,7 +354,7 @@ fn table(outcomes: &[Outcome], total: f64) -> String {
         .collect();
     tests.sort_by(|a, b| b.2.total_cmp(&a.2));
     t += &format!(
-        "\nThe {SLOWEST} slowest tests (each test's own time; a binary runs two at once):\n\n\
+        "\nThe {SLOWEST} slowest tests (each test's own time; a binary runs two at once, beside another binary):\n\n\
          | binary | test | s |\n|---|---|---:|\n"
     );
     for (binary, name, s) in tests.iter().take(SLOWEST) {
@@ -287,6 +380,25 @@ mod tests {
         );
         assert_eq!((o.passed, o.failed, o.ignored), (3, 1, 2));
         assert_eq!(o.tests, vec![("a::b".into(), 1.5), ("c".into(), 0.25)]);
+    }
+
+    #[test]
+    fn reads_back_the_binaries_times_of_its_table() {
+        let o = |name: &str, seconds| Outcome {
+            name: name.into(),
+            seconds,
+            passed: 1,
+            tests: vec![("t".into(), seconds)],
+            ..Default::default()
+        };
+        let dir = std::env::temp_dir().join(format!("xtask-times-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = dir.join("times.md");
+        std::fs::write(&path, table(&[o("tests/a", 12.5), o("b", 0.5)], 13.0)).unwrap();
+        let times = last_times(&path);
+        std::fs::remove_dir_all(&dir).unwrap();
+        assert_eq!(times.len(), 2);
+        assert_eq!((times["tests/a"], times["b"]), (12.5, 0.5));
     }
 
     #[test]
