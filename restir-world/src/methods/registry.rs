@@ -78,28 +78,25 @@ impl MethodEntry {
 
     /// What `name:` accepts, for `--help`: the named variants, or the knobs.
     pub fn variants_help(&self) -> String {
-        let knobs = |k: &[Knob]| k.iter().map(|k| k.name).collect::<Vec<_>>().join(", ");
         match self.variant_of {
             VariantOf::Nothing => "none".into(),
             VariantOf::RisCandidates => "K (candidate count)".into(),
-            VariantOf::WorldRestir
-            | VariantOf::RestirDi
-            | VariantOf::RestirGi
-            | VariantOf::Cache => {
-                let names: Vec<&str> = self.variants().iter().map(|v| v.name).collect();
-                let all = match self.variant_of {
-                    VariantOf::WorldRestir => WorldRestirConfig::KNOBS,
-                    VariantOf::RestirGi => RestirGiConfig::KNOBS,
-                    VariantOf::Cache => CacheConfig::KNOBS,
-                    _ => RestirDiConfig::KNOBS,
-                };
-                format!(
-                    "{}, or knobs key=value ({}), joined by +",
-                    names.join(", "),
-                    knobs(all)
-                )
-            }
+            VariantOf::WorldRestir => self.knobs_help(WorldRestirConfig::KNOBS),
+            VariantOf::RestirDi => self.knobs_help(RestirDiConfig::KNOBS),
+            VariantOf::RestirGi => self.knobs_help(RestirGiConfig::KNOBS),
+            VariantOf::Cache => self.knobs_help(CacheConfig::KNOBS),
         }
+    }
+
+    /// The help of a stage's variant: its named variants, or its knobs `all`.
+    fn knobs_help(&self, all: &[Knob]) -> String {
+        let names: Vec<&str> = self.variants().iter().map(|v| v.name).collect();
+        let knobs: Vec<&str> = all.iter().map(|k| k.name).collect();
+        format!(
+            "{}, or knobs key=value ({}), joined by +",
+            names.join(", "),
+            knobs.join(", ")
+        )
     }
 
     fn bad(&self, msg: impl Into<String>) -> MethodError {
@@ -292,13 +289,14 @@ impl MethodSettings {
     /// These settings with one knob of the variant changed, checked.
     pub fn with_knob(&self, key: &str, value: &str) -> Result<MethodSettings, MethodError> {
         let mut next = *self;
-        let set = match (self.entry.variant_of, &mut next) {
-            (VariantOf::WorldRestir, MethodSettings { world: Some(w), .. }) => w.set(key, value),
-            (VariantOf::RestirDi, MethodSettings { di: Some(d), .. }) => d.set(key, value),
-            (VariantOf::RestirGi, MethodSettings { gi: Some(g), .. }) => g.set(key, value),
-            (VariantOf::Cache, MethodSettings { cache: Some(c), .. }) => c.set(key, value),
-            _ => Err(format!("{} has no knobs", self.entry.name)),
-        };
+        let set = match self.entry.variant_of {
+            VariantOf::WorldRestir => next.world.as_mut().map(|w| w.set(key, value)),
+            VariantOf::RestirDi => next.di.as_mut().map(|d| d.set(key, value)),
+            VariantOf::RestirGi => next.gi.as_mut().map(|g| g.set(key, value)),
+            VariantOf::Cache => next.cache.as_mut().map(|c| c.set(key, value)),
+            VariantOf::Nothing | VariantOf::RisCandidates => None,
+        }
+        .unwrap_or_else(|| Err(format!("{} has no knobs", self.entry.name)));
         set.map_err(|e| self.entry.bad(e))?;
         next.validate()?;
         Ok(next)

@@ -1,0 +1,218 @@
+//! The Rust twins of the render library's WGSL structs, and the tables the renderer uploads.
+
+use crate::sampling::{CameraGpu, Estimator};
+use crate::scene::{Camera, Scene};
+
+use super::RenderOptions;
+use super::library::{METHOD_NEE, METHOD_RIS};
+
+/// WGSL `StoredReservoir` (16 bytes): a reservoir as world-restir and restir-di store it, its
+/// light sample as the light and the packed coordinates on it, and reservoir's packed (W, M).
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct StoredReservoir {
+    /// The sample's `lights::KIND_*` in the low 2 bits, its light table index above.
+    pub light_kind: u32,
+    /// Barycentrics of a triangle point (two unorm16), or an environment direction's
+    /// octahedral coordinates (two snorm16); 0 for punctual lights.
+    pub coords: u32,
+    pub ucw: f32,
+    pub m: u32,
+}
+
+/// WGSL `GVertex`.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct GVertex {
+    pub position: [f32; 3],
+    pub prim: u32,
+    pub normal: [f32; 3],
+    pub _pad0: u32,
+    pub albedo: [f32; 3],
+    pub _pad1: u32,
+    pub emission: [f32; 3],
+    pub _pad2: u32,
+    /// Unit shading normal (interpolated vertex normals, on the side of `normal`; equal to
+    /// `normal` for a triangle without them).
+    pub shading: [f32; 3],
+    pub _pad3: u32,
+}
+
+/// [`TriangleAttributes::flags`]: the vertex normals are set.
+pub const ATTR_NORMALS: u32 = 1;
+/// [`TriangleAttributes::flags`]: the texture coordinates are set.
+pub const ATTR_UV: u32 = 2;
+
+/// WGSL `TriangleAttributes`: per scene triangle (indexed by `Scene::triangles` order), its
+/// vertex normals and texture coordinates, each present when its flag is set.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct TriangleAttributes {
+    pub n0: [f32; 3],
+    pub flags: u32,
+    pub n1: [f32; 3],
+    /// The triangle's material's emissive texture (1 + texture ref, 0: none), for light
+    /// samples, which know their triangle but not its material.
+    pub emissive_texture: u32,
+    pub n2: [f32; 3],
+    pub _pad1: u32,
+    pub uv0: [f32; 2],
+    pub uv1: [f32; 2],
+    pub uv2: [f32; 2],
+    pub _pad2: [u32; 2],
+}
+
+/// The per-triangle attributes of `scene`, or `None` when no triangle has vertex normals or
+/// texture coordinates (the renderer then binds one dummy entry and shades flat).
+pub fn triangle_attributes(scene: &Scene) -> Option<Vec<TriangleAttributes>> {
+    if scene
+        .triangles
+        .iter()
+        .all(|t| t.n.is_none() && t.uv.is_none())
+    {
+        return None;
+    }
+    Some(
+        scene
+            .triangles
+            .iter()
+            .map(|t| {
+                let mut a: TriangleAttributes = bytemuck::Zeroable::zeroed();
+                if let Some(n) = t.n {
+                    a.flags |= ATTR_NORMALS;
+                    (a.n0, a.n1, a.n2) = (n[0].to_array(), n[1].to_array(), n[2].to_array());
+                }
+                a.emissive_texture = scene
+                    .materials
+                    .get(t.material as usize)
+                    .map_or(0, |m| m.emissive_texture);
+                if let Some(uv) = t.uv {
+                    a.flags |= ATTR_UV;
+                    (a.uv0, a.uv1, a.uv2) = (uv[0].to_array(), uv[1].to_array(), uv[2].to_array());
+                }
+                a
+            })
+            .collect(),
+    )
+}
+
+/// WGSL `TextureGpu`: one texture ref (a material's use of a texture): its affine map of the
+/// texture coordinates, its texels' offset in `render_texels`, size, and wrap modes
+/// (s | t << 8, [`crate::scene::Wrap`] values).
+#[repr(C)]
+#[derive(Debug, Clone, Copy, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct TextureGpu {
+    pub row0: [f32; 4],
+    pub row1: [f32; 4],
+    pub offset: u32,
+    pub width: u32,
+    pub height: u32,
+    pub wrap: u32,
+}
+
+/// The scene's texture refs and all texels (RGBA8 sRGB, one u32 each, textures one after the
+/// other); one dummy each when the scene has none.
+pub fn texture_tables(scene: &Scene) -> (Vec<TextureGpu>, Vec<u32>) {
+    let mut texels = Vec::new();
+    let mut offsets = Vec::new();
+    for t in &scene.textures {
+        offsets.push(texels.len() as u32);
+        texels.extend(t.texels.iter().map(|p| u32::from_le_bytes(*p)));
+    }
+    let refs: Vec<TextureGpu> = scene
+        .texture_refs
+        .iter()
+        .map(|r| {
+            let t = &scene.textures[r.texture as usize];
+            TextureGpu {
+                row0: [r.row0[0], r.row0[1], r.row0[2], 0.0],
+                row1: [r.row1[0], r.row1[1], r.row1[2], 0.0],
+                offset: offsets[r.texture as usize],
+                width: t.width,
+                height: t.height,
+                wrap: r.wrap[0] as u32 | (r.wrap[1] as u32) << 8,
+            }
+        })
+        .collect();
+    match (refs.is_empty(), texels.is_empty()) {
+        (false, false) => (refs, texels),
+        _ => (vec![bytemuck::Zeroable::zeroed()], vec![0]),
+    }
+}
+
+/// WGSL `RenderParams`.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct RenderParams {
+    pub camera: CameraGpu,
+    pub pixel_count: u32,
+    pub seed: u32,
+    pub method: u32,
+    pub candidates: u32,
+    /// Smallest scale ray offsets are relative to: [`ray_offset_floor`] of the scene.
+    pub ray_offset_floor: f32,
+    /// 1 when `render_attributes` holds the scene's [`TriangleAttributes`], 0 when it is a
+    /// dummy (flat shading, no texture coordinates).
+    pub attributes: u32,
+    /// [`Paths::bounces`] and [`Paths::roulette_from`].
+    pub bounces: u32,
+    pub roulette_from: u32,
+    /// [`Paths::mis`] as 0 or 1.
+    pub mis: u32,
+    /// 1 when the indirect passes write the radiance leaving the secondary vertex towards the
+    /// primary (ReSTIR GI's sample, [`Renderer::set_secondary_radiance`]), 0 when they write
+    /// the primary's reflected light (that radiance times the primary's albedo).
+    pub secondary_radiance: u32,
+    pub _pad0: u32,
+    pub _pad1: u32,
+}
+
+impl RenderParams {
+    /// The parameters of a render of `camera` with `estimator` and `options`, for a scene
+    /// without triangle attributes and with the default ray-offset floor.
+    pub(super) fn new(camera: &Camera, estimator: Estimator, options: &RenderOptions) -> Self {
+        let (method, candidates) = match estimator {
+            Estimator::Nee => (METHOD_NEE, 1),
+            Estimator::Ris { candidates } => (METHOD_RIS, candidates),
+        };
+        Self {
+            camera: CameraGpu::new(camera),
+            pixel_count: camera.width * camera.height,
+            seed: options.seed,
+            method,
+            candidates,
+            ray_offset_floor: 1.0,
+            attributes: 0,
+            bounces: options.paths.bounces,
+            roulette_from: options.paths.roulette_from,
+            mis: u32::from(options.paths.mis),
+            secondary_radiance: 0,
+            _pad0: 0,
+            _pad1: 0,
+        }
+    }
+}
+
+/// The floor of the ray-offset scale for `scene`: its extent (largest side of its bounding
+/// box), capped at 1. Offsets are `RAY_EPS` times the larger of this and the point's largest
+/// coordinate, so scenes of extent 1 and more keep absolute 1e-4 offsets near the origin while a
+/// scene in small units (a box of 1e-5) keeps the same relative ones instead of offsetting rays
+/// past its walls.
+pub fn ray_offset_floor(scene: &Scene) -> f32 {
+    let extent = scene
+        .bounds()
+        .map_or(1.0, |(lo, hi)| (hi - lo).max_element());
+    if extent.is_finite() && extent > 0.0 {
+        extent.min(1.0)
+    } else {
+        1.0
+    }
+}
+
+/// WGSL `RenderState`.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct RenderState {
+    pub frame: u32,
+    pub _pad: [u32; 3],
+}
