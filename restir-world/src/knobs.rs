@@ -398,15 +398,25 @@ macro_rules! knobs {
     };
 }
 
-/// Test helper: each `(knob, value)` of `cases`, set alone on `default`, is refused by
-/// `validate` with an error that names the knob.
+/// Test helper for a stage's knob table: `default` validates and spells as the empty spec;
+/// `set` applied in order spells as `spec`; each `(knob, value)` of `refused`, set alone on
+/// `default`, is refused by `validate` with an error that names the knob.
 #[cfg(test)]
-pub(crate) fn assert_each_refused<C: Knobs, E: std::fmt::Display>(
+pub(crate) fn assert_knob_table<C: Knobs, E: std::fmt::Display + std::fmt::Debug>(
     default: C,
     validate: impl Fn(&C) -> Result<(), E>,
-    cases: &[(&str, &str)],
+    set: &[(&str, &str)],
+    spec: &str,
+    refused: &[(&str, &str)],
 ) {
-    for (k, v) in cases {
+    validate(&default).unwrap();
+    assert_eq!(default.knobs_spec(), "");
+    let mut c = default;
+    for (k, v) in set {
+        c.set(k, v).unwrap();
+    }
+    assert_eq!(c.knobs_spec(), spec);
+    for (k, v) in refused {
         let mut c = default;
         c.set(k, v).unwrap();
         let e = validate(&c)

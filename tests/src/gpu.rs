@@ -224,3 +224,60 @@ pub fn one_bounce(seed: u32) -> RenderOptions {
         ..Default::default()
     }
 }
+
+/// The camera-cut check of a screen-space reuse stage: renders `m` along
+/// [`crate::scenes::orbit_then_cut`] of `cam` to each of [`crate::scenes::cut_checkpoints`];
+/// every checked frame and the accumulated images are finite; the frame before the cut has
+/// reused history (some final reservoir's M, read by `max_m`, above 1 + `spatial_k`), the cut
+/// frame has none (every M at most 1 + `spatial_k`: the reprojection found nothing).
+pub fn check_cut_drops_history(
+    m: &mut Composed,
+    cam: &Camera,
+    spatial_k: u32,
+    max_m: impl Fn(&Composed) -> u32,
+) {
+    use crate::scenes::{CUT_FRAME, cut_checkpoints, orbit_then_cut};
+    let finite = |img: &[[f32; 3]]| img.iter().flatten().all(|v| v.is_finite());
+    let mut next = 0;
+    for frame in cut_checkpoints() {
+        render_cameras(m, next..frame + 1, |k| Some(orbit_then_cut(cam, k)));
+        next = frame + 1;
+        let last = last_frame(m);
+        assert!(finite(&last.direct), "frame {frame}: direct not finite");
+        assert!(finite(&last.indirect), "frame {frame}: indirect not finite");
+        if frame == CUT_FRAME - 1 {
+            assert!(max_m(m) > 1 + spatial_k, "no history reused before the cut");
+        }
+        if frame == CUT_FRAME {
+            let after = max_m(m);
+            assert!(
+                after <= 1 + spatial_k,
+                "history survived the cut: M up to {after}"
+            );
+        }
+    }
+    let acc = images(m);
+    assert!(finite(&acc.direct) && finite(&acc.indirect));
+}
+
+/// `run(spec, seed)` renders the same images twice at `seed`, and at `seed + 1` another
+/// `image` (the one the stage under test writes); every image is finite.
+pub fn check_seeded(
+    run: impl Fn(&str, u32) -> FrameImages,
+    spec: &str,
+    seed: u32,
+    image: fn(&FrameImages) -> &Vec<[f32; 3]>,
+) {
+    let a = run(spec, seed);
+    assert_eq!(a, run(spec, seed), "{spec}: same seed, different images");
+    assert_ne!(
+        image(&a),
+        image(&run(spec, seed + 1)),
+        "{spec}: the seed changes nothing"
+    );
+    let finite = |img: &[[f32; 3]]| img.iter().flatten().all(|v| v.is_finite());
+    assert!(
+        finite(&a.direct) && finite(&a.indirect),
+        "{spec}: not finite"
+    );
+}

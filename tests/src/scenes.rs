@@ -16,6 +16,20 @@ pub fn builtin_square(name: &str, side: u32, opts: BuiltinOptions) -> (Scene, Ca
     (s, cam)
 }
 
+/// Lights of the many-lights hall in the tests (the scene's default is 10,000; 2,000 keeps its
+/// BVH build and the runs short).
+pub const MANY_LIGHTS: u32 = 2000;
+
+/// The built-in scene `name` at `side` x `side` (many-lights with [`MANY_LIGHTS`]) and its
+/// default camera.
+pub fn test_scene(name: &str, side: u32) -> (Scene, Camera) {
+    let opts = BuiltinOptions {
+        lights: MANY_LIGHTS,
+        ..Default::default()
+    };
+    builtin_square(name, side, opts)
+}
+
 /// A 4 x 4 slab of albedo 0.6 with a 1 x 1 x 1 block on it and a 0.3 x 0.3 emissive quad of
 /// radiance `lamp` above one corner: shadows from every light a test adds.
 pub fn lit_slab(lamp: [f32; 3]) -> Scene {

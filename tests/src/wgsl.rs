@@ -146,3 +146,12 @@ macro_rules! assert_knobs_layout {
         }
     };
 }
+
+/// Checks WGSL `ScreenParams` in `source` (a screen-space stage's kernel) against the words
+/// `screen_reuse::params_words` uploads for knobs of `knob_words` words.
+pub fn assert_screen_params_layout(source: &str, knob_words: usize) {
+    let (size, fields) = restir_world::screen_reuse::params_layout(knob_words);
+    if let Err(e) = check_layout(source, "ScreenParams", size, &fields) {
+        panic!("{e}");
+    }
+}

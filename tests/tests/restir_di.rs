@@ -10,25 +10,12 @@
 use restir_world::methods::{self, Composed, FrameMethod, MethodSettings};
 use restir_world::plant::Planted;
 use restir_world::render::RenderOptions;
-use restir_world::restir_di::{self, DiParams, RestirDiConfig};
-use restir_world::scene::{BuiltinOptions, Camera, Scene};
+use restir_world::restir_di::{self, RestirDiConfig};
+use restir_world::scene::{Camera, Scene};
 use restir_world::world_restir::WorldRestirConfig;
 use tests::bias::{assert_checked, channel_means, mean_over_seeds, relative};
 use tests::gpu;
-use tests::scenes::{CUT_FRAME, builtin_square, orbit_then_cut};
-
-/// Lights of the many-lights hall in these tests (the scene's default is 10,000; 2,000 as in
-/// world_restir.rs keeps its BVH and the runs short).
-const MANY_LIGHTS: u32 = 2000;
-
-/// A built-in scene at side x side and its default camera.
-fn scene(name: &str, side: u32) -> (Scene, Camera) {
-    let opts = BuiltinOptions {
-        lights: MANY_LIGHTS,
-        ..Default::default()
-    };
-    builtin_square(name, side, opts)
-}
+use tests::scenes::{MANY_LIGHTS, test_scene as scene};
 
 /// `spec` at one bounce: these tests check direct light (and that the indirect path is left
 /// intact), so deeper paths would only add cost (`ris:128`'s candidates at every vertex).
@@ -176,13 +163,8 @@ const BIAS_RUNS: [(&str, u32, u32, &[u32]); 2] = [
 #[test]
 fn layouts_match_wgsl() {
     let src = &restir_di::kernels()[2].source;
-    tests::assert_wgsl_layout!(
-        DiParams,
-        src,
-        "DiParams",
-        [knobs, prev_camera, history, _pad0, _pad1, _pad2]
-    );
-    tests::assert_knobs_layout!(RestirDiConfig, src, "DiKnobs");
+    tests::wgsl::assert_screen_params_layout(src, RestirDiConfig::GPU_WORDS);
+    tests::assert_knobs_layout!(RestirDiConfig, src, "ScreenKnobs");
     let sample = tests::wgsl::check_layout(
         src,
         "LightSample",
@@ -296,10 +278,6 @@ fn biased_mode_bias_is_bounded() {
     assert_bias_bounded("restir-di:biased", 0.02, Planted::LightPdfOverstated);
 }
 
-fn all_finite(img: &[[f32; 3]]) -> bool {
-    img.iter().all(|p| p.iter().all(|v| v.is_finite()))
-}
-
 /// 500 frames at 32x32 on many-lights with the camera orbiting (a full turn every 100 frames,
 /// frames 0-239), still for 10 frames, then cut at frame 250 (it turns round on the spot to
 /// look away from everything it saw) and still again:
@@ -322,32 +300,7 @@ fn camera_motion_and_a_cut_stay_finite() {
             .expect("reservoirs");
         r.iter().map(|r| r.m).max().unwrap_or(0)
     };
-    let mut next = 0;
-    for frame in tests::scenes::cut_checkpoints() {
-        gpu::render_cameras(&mut m, next..frame + 1, |k| Some(orbit_then_cut(&cam, k)));
-        next = frame + 1;
-        let last = gpu::last_frame(&m);
-        assert!(all_finite(&last.direct), "frame {frame}: direct not finite");
-        assert!(
-            all_finite(&last.indirect),
-            "frame {frame}: indirect not finite"
-        );
-        if frame == CUT_FRAME - 1 {
-            assert!(
-                max_m(&m) > 1 + config.spatial_k,
-                "no history reused before the cut"
-            );
-        }
-        if frame == CUT_FRAME {
-            let after = max_m(&m);
-            assert!(
-                after <= 1 + config.spatial_k,
-                "history survived the cut: M up to {after}"
-            );
-        }
-    }
-    let acc = gpu::images(&m);
-    assert!(all_finite(&acc.direct) && all_finite(&acc.indirect));
+    gpu::check_cut_drops_history(&mut m, &cam, config.spatial_k, max_m);
 }
 
 /// Same seed, bit-identical images (restir-di and world-restir+restir-di, 8 frames of
@@ -363,14 +316,7 @@ fn deterministic_and_the_indirect_path_is_intact() {
         gpu::images(m.as_ref())
     };
     for spec in ["restir-di", "restir-di:biased", "world-restir+restir-di"] {
-        let a = run(spec, 5);
-        assert_eq!(a, run(spec, 5), "{spec}: same seed, different images");
-        assert_ne!(
-            a.direct,
-            run(spec, 6).direct,
-            "{spec}: the seed changes nothing"
-        );
-        assert!(all_finite(&a.direct) && all_finite(&a.indirect), "{spec}");
+        gpu::check_seeded(run, spec, 5, |i| &i.direct);
     }
     let di = run("restir-di", 5);
     // Each combination knob takes effect: the same seed with another mode gives other images.

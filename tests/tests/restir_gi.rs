@@ -7,25 +7,12 @@
 use restir_world::methods::{self, Composed, FrameMethod};
 use restir_world::plant::Planted;
 use restir_world::render::{RenderOptions, Renderer};
-use restir_world::restir_gi::{self, GiParams, GiReservoir, RestirGiConfig};
+use restir_world::restir_gi::{self, GiReservoir, RestirGiConfig};
 use restir_world::sampling::Estimator;
-use restir_world::scene::{BuiltinOptions, Camera, CameraPath, Scene};
+use restir_world::scene::{Camera, CameraPath, Scene};
 use tests::bias::{channel_means, mean_over_seeds, relative, within};
 use tests::gpu;
-use tests::scenes::{CUT_FRAME, builtin_square, orbit_then_cut};
-
-/// Lights of the many-lights hall in these tests (2,000, as in restir_di.rs: a shorter BVH
-/// build and shorter runs than the scene's default 10,000).
-const MANY_LIGHTS: u32 = 2000;
-
-/// A built-in scene at side x side and its default camera.
-fn scene(name: &str, side: u32) -> (Scene, Camera) {
-    let opts = BuiltinOptions {
-        lights: MANY_LIGHTS,
-        ..Default::default()
-    };
-    builtin_square(name, side, opts)
-}
+use tests::scenes::{MANY_LIGHTS, test_scene as scene};
 
 /// `spec` at the default paths, seeded.
 fn build(spec: &str, s: &Scene, cam: &Camera, seed: u32) -> Composed {
@@ -41,12 +28,8 @@ fn layouts_match_wgsl() {
         "GiReservoir",
         [position, ucw, radiance, normal_m]
     );
-    tests::assert_wgsl_layout!(
-        GiParams,
-        src,
-        "GiParams",
-        [knobs, prev_camera, history, _pad0, _pad1, _pad2]
-    );
+    tests::wgsl::assert_screen_params_layout(src, RestirGiConfig::GPU_WORDS);
+    tests::assert_knobs_layout!(RestirGiConfig, src, "ScreenKnobs");
 }
 
 /// With reuse off, each pixel's reservoir holds its own path with W = 1 / its cosine pdf, and
@@ -250,10 +233,6 @@ fn restir_gi_over_world_restir_is_unbiased() {
     assert!(!within(control, BOUND), "the biased composition passed");
 }
 
-fn all_finite(img: &[[f32; 3]]) -> bool {
-    img.iter().flatten().all(|v| v.is_finite())
-}
-
 /// 500 frames at 32x32 on many-lights: orbiting (a full turn every 100 frames, frames 0-239),
 /// still for 10 frames, then cut at frame 250 (turned round on the spot to look away from all
 /// it saw) and still again. Every checked frame and the accumulated images are finite. After the
@@ -269,25 +248,7 @@ fn camera_motion_and_a_cut_stay_finite_and_drop_history() {
         let r = m.gi().unwrap().reservoirs(ctx).expect("reservoirs");
         r.iter().map(GiReservoir::m).max().unwrap_or(0)
     };
-    let mut next = 0;
-    for frame in tests::scenes::cut_checkpoints() {
-        gpu::render_cameras(&mut m, next..frame + 1, |k| Some(orbit_then_cut(&cam, k)));
-        next = frame + 1;
-        let last = gpu::last_frame(&m);
-        assert!(
-            all_finite(&last.indirect),
-            "frame {frame}: indirect not finite"
-        );
-        if frame == CUT_FRAME - 1 {
-            assert!(max_m(&m) > 1 + k, "no history reused before the cut");
-        }
-        if frame == CUT_FRAME {
-            let after = max_m(&m);
-            assert!(after <= 1 + k, "history survived the cut: M up to {after}");
-        }
-    }
-    let acc = gpu::images(&m);
-    assert!(all_finite(&acc.direct) && all_finite(&acc.indirect));
+    gpu::check_cut_drops_history(&mut m, &cam, k, max_m);
 }
 
 /// Same seed, bit-identical images (restir-gi and the full stack, 8 frames of cornell at
@@ -303,13 +264,7 @@ fn deterministic_and_the_direct_image_is_intact() {
         gpu::images(&m)
     };
     for spec in ["restir-gi", "restir-di+restir-gi+world-restir"] {
-        let a = run(spec, 3);
-        assert_eq!(a, run(spec, 3), "{spec}: same seed, different images");
-        assert_ne!(
-            a.indirect,
-            run(spec, 4).indirect,
-            "{spec}: seeds do not matter"
-        );
+        gpu::check_seeded(run, spec, 3, |i| &i.indirect);
     }
     assert_eq!(run("restir-gi", 3).direct, run("ris", 3).direct);
     // ReSTIR DI leaves the paths alone: the full stack's indirect image is

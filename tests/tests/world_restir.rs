@@ -6,19 +6,10 @@ use restir_world::methods::{self, Composed, FrameMethod, MethodSettings};
 use restir_world::plant::Planted;
 use restir_world::render::{DebugView, Renderer};
 use restir_world::sampling::Estimator;
-use restir_world::scene::{BuiltinOptions, Camera, CameraPath, Scene};
+use restir_world::scene::{Camera, CameraPath, Scene};
 use restir_world::world_restir::{self, WorldRestirConfig, WrParams};
 use tests::gpu;
-use tests::scenes::builtin_square;
-
-/// A built-in scene (many-lights with 2,000 lights) at side x side and its default camera.
-fn scene(name: &str, side: u32) -> (Scene, Camera) {
-    let opts = BuiltinOptions {
-        lights: 2000,
-        ..Default::default()
-    };
-    builtin_square(name, side, opts)
-}
+use tests::scenes::test_scene as scene;
 
 /// A table of 4 buckets of 2 slots: it overflows on every built-in scene.
 fn tiny_table() -> WorldRestirConfig {

@@ -556,15 +556,11 @@ mod tests {
     #[test]
     fn knobs_set_get_and_validate() {
         let d = CacheConfig::default();
-        d.validate().unwrap();
-        assert_eq!(d.knobs_spec(), "");
-        let mut c = d;
-        c.set("after", "3").unwrap();
-        c.set("update-fraction", "0.5").unwrap();
-        assert_eq!(c.knobs_spec(), "after=3+update-fraction=0.5");
-        crate::knobs::assert_each_refused(
+        crate::knobs::assert_knob_table(
             d,
             |c: &_| c.validate(),
+            &[("after", "3"), ("update-fraction", "0.5")],
+            "after=3+update-fraction=0.5",
             &[
                 ("after", "1"),
                 ("after", "65"),

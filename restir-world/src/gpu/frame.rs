@@ -60,13 +60,18 @@ impl<'a> FrameEncoder<'a> {
     /// Writes `data` into `dst` at `offset` from inside the encoder (through a small staging
     /// buffer), so that it takes effect in recording order, not at the next submission.
     pub fn upload<T: bytemuck::Pod>(&mut self, dst: &wgpu::Buffer, offset: u64, data: &T) {
+        self.upload_slice(dst, offset, std::slice::from_ref(data));
+    }
+
+    /// [`FrameEncoder::upload`] of a slice.
+    pub fn upload_slice<T: bytemuck::Pod>(&mut self, dst: &wgpu::Buffer, offset: u64, data: &[T]) {
         let staging = super::buffers::with_usage(
             self.device,
             "frame upload",
-            std::slice::from_ref(data),
+            data,
             wgpu::BufferUsages::COPY_SRC,
         );
-        let size = size_of::<T>() as u64;
+        let size = size_of_val(data) as u64;
         self.encoder
             .copy_buffer_to_buffer(&staging, 0, dst, offset, size);
     }

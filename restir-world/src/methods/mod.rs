@@ -12,9 +12,8 @@ use std::fmt;
 use crate::cache::{CacheError, CacheStats};
 use crate::gpu::{FrameEncoder, GpuContext, GpuError, GpuTimer, PassTimes, SpanTimes};
 use crate::render::{DebugView, RenderError, Renderer};
-use crate::restir_di::RestirDiError;
-use crate::restir_gi::RestirGiError;
 use crate::scene::{Camera, CameraPath};
+use crate::screen_reuse::ScreenReuseError;
 use crate::world_restir::WorldRestirError;
 
 mod composed;
@@ -34,10 +33,9 @@ pub enum MethodError {
     Render(#[from] RenderError),
     #[error(transparent)]
     WorldRestir(#[from] WorldRestirError),
+    /// restir-di's or restir-gi's.
     #[error(transparent)]
-    RestirDi(#[from] RestirDiError),
-    #[error(transparent)]
-    RestirGi(#[from] RestirGiError),
+    ScreenReuse(#[from] ScreenReuseError),
     #[error(transparent)]
     Cache(#[from] CacheError),
     #[error(transparent)]

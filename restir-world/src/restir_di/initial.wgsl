@@ -1,27 +1,27 @@
-// Pass "di-initial": RIS over di_params.knobs.candidates light samples at each primary vertex,
+// Pass "di-initial": RIS over screen_params.knobs.candidates light samples at each primary vertex,
 // drawn uniformly from the tile its 8x8 pixel block picked this frame (one random tile per
 // block per frame: coherent memory), target = luminance of the unshadowed reflected radiance. The stored
-// confidence is 1 (one frame of candidates), as RTXDI's. Writes di_out.
+// confidence is 1 (one frame of candidates), as RTXDI's. Writes screen_out.
 
 @compute @workgroup_size(WORKGROUP_SIZE)
-fn di_initial(id: Invocation) {
+fn screen_initial(id: Invocation) {
     let i = item_index(id);
     if i >= render_params.pixel_count { return; }
     var out: StoredReservoir;
     let g = render_gbuffer[i];
     if g.prim == BVH_NO_HIT {
-        di_out[i] = out;
+        screen_out[i] = out;
         return;
     }
     out.m = 1u;
     if lights_info.count == 0u {
-        di_out[i] = out;
+        screen_out[i] = out;
         return;
     }
-    let first = light_tiles_first(i, di_params.knobs.tiles, di_params.knobs.tile_size);
+    let first = light_tiles_first(i, screen_params.knobs.tiles, screen_params.knobs.tile_size);
     var rng = render_rng(i, STREAM_DI_INITIAL);
-    let ris = light_tiles_ris(g.position, g.normal, g.shading, g.albedo, first, di_params.knobs.tile_size,
-                              di_params.knobs.candidates, &rng);
+    let ris = light_tiles_ris(g.position, g.normal, g.shading, g.albedo, first, screen_params.knobs.tile_size,
+                              screen_params.knobs.candidates, &rng);
     out = render_store_reservoir(ris.light, PackedReservoir(ris.reservoir.ucw, 1u));
-    di_out[i] = out;
+    screen_out[i] = out;
 }

@@ -3,62 +3,33 @@
 //! renderer's direct-light shading (`render_direct_frame`) and leaves the indirect path of the
 //! method it is combined with alone.
 //!
-//! Per frame, after the renderer's `primary` pass, each step its own compute pass and GPU
-//! timestamp span:
-//!
-//! | span | pass | reads | writes |
-//! |---|---|---|---|
-//! | `light-tiles` | [`LightTiles`] | lights | T tiles x S power-sampled light samples |
-//! | `di-initial` | `di_initial` | G-buffer, the block's tile | reservoirs R0 (RIS over `candidates`) |
-//! | `di-temporal` | `di_reuse` | R0, last frame's reservoirs, G-buffer and camera | R1 |
-//! | `di-spatial` | `di_reuse` | R(cur), G-buffer | R(1-cur) |
-//! | `di-shade` | `di_shade` | final reservoirs | `render_direct_frame` (one shadow ray) |
-//! | `di-persist` | copies | final reservoirs, G-buffer | last frame's |
+//! Per frame, after the renderer's `primary` pass and the light tiles' fill ([`LightTiles`]:
+//! T tiles x S power-sampled light samples), the chain of [`crate::screen_reuse`]: `di-initial`
+//! (RIS over `candidates` drawn from the block's tile -> reservoirs R0), `di-temporal`,
+//! `di-spatial`, `di-shade` (one shadow ray -> `render_direct_frame`), `di-persist`.
 //!
 //! Each 8x8 pixel block draws its candidates from one tile picked at random per block and
 //! frame. A tile entry is a sample of the light table's power pdf (the tiles only reorder the
 //! draws), so a candidate's RIS weight is p_hat / pdf as in `ris`. The target is `ris`'s:
 //! luminance of the unshadowed reflected radiance. Light samples are in their own measure
 //! (area, solid angle, discrete), independent of the receiver: reuse needs no Jacobian.
-//!
-//! The stage keeps the camera of the last frame it recorded, so [`RestirDi::encode`] after a
-//! `set_camera` reprojects through last frame's camera; a camera cut fails the depth and normal
-//! tests and merges nothing.
 
 use reservoir::reuse::Combination;
 
-use crate::gpu::{
-    Access, FrameEncoder, GpuContext, GpuError, Pass, Resource, Tracer, WgslModule, buffers,
-};
+use crate::gpu::{FrameEncoder, GpuContext, GpuError, WgslModule};
 use crate::knobs::{Knobs, Variant, reuse_variants};
 use crate::light_tiles::{self, LightTiles};
-use crate::render::{
-    self, ComposedKernel, KernelDef, RESERVOIRS, REUSE_IO, RenderError, Renderer, ReusePass,
-    STAGE_GROUP, SharedGroups,
+use crate::render::{self, ComposedKernel, Renderer};
+use crate::screen_reuse::{
+    self, Chain, Kernel, ScreenReuse, ScreenReuseError, ScreenStage, StageBuffers,
 };
-use crate::sampling::CameraGpu;
-use crate::scene::Camera;
-use crate::screen_reuse::{ReuseBuffers, ReuseChain};
 
-/// Library WGSL (structs and helpers shared by the passes).
-pub const WGSL: &str = include_str!("restir_di.wgsl");
 const INITIAL_WGSL: &str = include_str!("initial.wgsl");
 const REUSE_WGSL: &str = include_str!("reuse.wgsl");
 const SHADE_WGSL: &str = include_str!("shade.wgsl");
 
-/// Most spatial neighbours per pixel (`spatial-k`).
-pub const MAX_SPATIAL_K: u32 = 16;
-
-/// Errors of ReSTIR DI.
-#[derive(Debug, thiserror::Error)]
-pub enum RestirDiError {
-    #[error(transparent)]
-    Render(#[from] RenderError),
-    #[error(transparent)]
-    Gpu(#[from] GpuError),
-    #[error("bad restir-di setting: {0}")]
-    Config(String),
-}
+/// Errors of ReSTIR DI (those of every screen-space reuse stage).
+pub type RestirDiError = ScreenReuseError;
 
 crate::knobs! {
     /// Every knob of ReSTIR DI with its default.
@@ -76,7 +47,7 @@ crate::knobs! {
         /// Cap of a reused reservoir's confidence M, in frames of candidates (default 20).
         [gpu] temporal_m_cap: u32 = 20, "temporal-m-cap", 1..=u32::MAX;
         /// Spatial neighbours per pixel (default 4; 0: no spatial pass).
-        [gpu] spatial_k: u32 = 4, "spatial-k", 0..=MAX_SPATIAL_K;
+        [gpu] spatial_k: u32 = 4, "spatial-k", 0..=screen_reuse::MAX_SPATIAL_K;
         /// Radius of the spatial neighbourhood in pixels (default 3). RTXDI's 32 is for 1080p;
         /// on many-lights at 128x128 (small lights near the surfaces: the target changes within
         /// a few pixels) the frame relMSE of the direct image was 3.07 at 30 px, 2.10 at 4, 1.53
@@ -115,9 +86,10 @@ impl RestirDiConfig {
     /// Checks every knob (device-independent limits; [`RestirDi::new`] also checks the tile
     /// buffer against the device).
     pub fn validate(&self) -> Result<(), RestirDiError> {
-        self.check_ranges().map_err(RestirDiError::Config)?;
+        self.check_ranges()
+            .map_err(ScreenReuseError::config("restir-di"))?;
         if self.tiles.checked_mul(self.tile_size).is_none() {
-            return Err(RestirDiError::Config(format!(
+            return Err(ScreenReuseError::config("restir-di")(format!(
                 "tiles x tile-size = {} x {} does not fit u32",
                 self.tiles, self.tile_size
             )));
@@ -126,179 +98,44 @@ impl RestirDiConfig {
     }
 }
 
-/// WGSL `DiParams`: the knobs and the frame's history, uploaded every frame.
-#[repr(C)]
-#[derive(Debug, Clone, Copy, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
-pub struct DiParams {
-    /// [`RestirDiConfig::gpu_words`] (WGSL `DiKnobs`).
-    pub knobs: [u32; RestirDiConfig::GPU_WORDS],
-    pub prev_camera: CameraGpu,
-    /// 1 when last frame's G-buffer and reservoirs exist.
-    pub history: u32,
-    pub _pad0: u32,
-    pub _pad1: u32,
-    pub _pad2: u32,
-}
+/// ReSTIR DI as a screen-space reuse stage: light samples (the render library's
+/// `StoredReservoir`), no shift.
+pub static STAGE: ScreenStage = ScreenStage {
+    name: "restir-di",
+    short: "di",
+    reservoir: "StoredReservoir",
+    reservoir_size: size_of::<render::StoredReservoir>(),
+    library: "",
+    constants: constants_wgsl,
+    sources: [INITIAL_WGSL, REUSE_WGSL, SHADE_WGSL],
+    own: [&[light_tiles::BINDING], &[], &[]],
+    extra_modules,
+};
 
-/// Generated constants header and the knobs' struct.
+/// The knobs' struct, as the shared screen-space WGSL reads it.
 pub fn constants_wgsl() -> String {
-    format!(
-        "const DI_MAX_NEIGHBOURS: u32 = {MAX_SPATIAL_K}u;\n{}",
-        RestirDiConfig::wgsl_struct("DiKnobs")
-    )
+    RestirDiConfig::wgsl_struct("ScreenKnobs")
 }
 
-const PARAMS: (&str, &str, Access) = ("di_params", "DiParams", Access::Uniform);
-const INITIAL: KernelDef = KernelDef::new(
-    "initial",
-    &["di_initial"],
-    INITIAL_WGSL,
-    &[&[
-        PARAMS,
-        light_tiles::BINDING,
-        ("di_out", RESERVOIRS, Access::ReadWrite),
-    ]],
-);
-const REUSE: KernelDef = KernelDef::new(
-    "reuse",
-    &["di_reuse"],
-    REUSE_WGSL,
-    &[
-        &[PARAMS],
-        REUSE_IO,
-        &[("di_prev_gbuffer", "array<GVertex>", Access::Read)],
-    ],
-);
-const SHADE: KernelDef = KernelDef::new(
-    "shade",
-    &["di_shade"],
-    SHADE_WGSL,
-    &[&[PARAMS, ("di_final", RESERVOIRS, Access::Read)]],
-);
-const KERNELS: [&KernelDef; 3] = [&INITIAL, &REUSE, &SHADE];
-
-/// The modules of kernel `k`, composed after the render library (+ the light-tiles reader for
-/// kernels that bind the tiles).
-fn modules(k: &KernelDef) -> Vec<WgslModule> {
-    let mut modules = vec![
-        WgslModule::new("di-constants", &[], constants_wgsl()),
-        WgslModule::new(
-            "di-bindings",
-            &["restir-di"],
-            k.bindings().wgsl(STAGE_GROUP),
-        ),
-        WgslModule::new("restir-di", &["render", "reservoir", "di-constants"], WGSL),
-        WgslModule::new(k.name, &["restir-di", "di-bindings", "workgroup"], k.source),
-    ];
-    modules.extend(k.binds("light_tiles").then(light_tiles::reader_module));
-    modules
+/// The light-tiles reader, for the initial kernel (it binds the tiles).
+fn extra_modules(k: Kernel) -> Vec<WgslModule> {
+    match k {
+        Kernel::Initial => vec![light_tiles::reader_module()],
+        Kernel::Reuse | Kernel::Shade => Vec::new(),
+    }
 }
 
 /// Every kernel of ReSTIR DI, composed as used, with its binding sets.
 pub fn kernels() -> Vec<ComposedKernel> {
-    KERNELS
-        .iter()
-        .map(|k| {
-            let source = render::compose_with_library(Tracer::Bvh, modules(k));
-            let name = format!("restir-world/restir_di/{}", k.name);
-            ComposedKernel::stage(name, source, k.bindings())
-        })
-        .collect()
+    STAGE.composed()
 }
 
-/// ReSTIR DI's buffers.
-#[derive(Debug)]
-struct DiBuffers {
-    params: wgpu::Buffer,
-    reuse: ReuseBuffers,
-}
-
-impl DiBuffers {
-    fn new(
-        ctx: &GpuContext,
-        renderer: &Renderer,
-        config: &RestirDiConfig,
-    ) -> Result<Self, GpuError> {
-        let reservoir_size = size_of::<render::StoredReservoir>();
-        let reuse = ReuseBuffers::new(ctx, "restir-di", renderer.pixels(), reservoir_size)?;
-        let params = RestirDi::params(config, renderer.camera(), false);
-        Ok(Self {
-            params: buffers::with_usage(
-                &ctx.device,
-                "di params",
-                &[params],
-                wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
-            ),
-            reuse,
-        })
-    }
-}
-
-/// The frame's passes.
-#[derive(Debug)]
-struct DiPasses {
-    initial: Pass,
-    chain: ReuseChain,
-    shade: Pass,
-}
-
-impl DiPasses {
-    /// Binds every pass (the chain: [`ReuseChain`]).
-    fn new(
-        ctx: &GpuContext,
-        shared: &SharedGroups,
-        b: &DiBuffers,
-        config: &RestirDiConfig,
-        tiles: &LightTiles,
-    ) -> Result<Self, GpuError> {
-        let device = &ctx.device;
-        let kernel = |k: &KernelDef| {
-            let name = format!("restir-di {}", k.name);
-            shared.own_kernel(ctx, &name, &k.bindings(), modules(k), k.entries)
-        };
-        let [initial, reuse, shade] = KERNELS.map(kernel);
-        let (initial, reuse, shade) = (initial?, reuse?, shade?);
-        let params = || ("di_params", Resource::from(&b.params));
-        let reuse_pass = |temporal: bool, [src, own, out]: [&wgpu::Buffer; 3]| {
-            let u = ReusePass::buffer(device, temporal, 0);
-            let res = vec![
-                params(),
-                ("reuse_pass", (&u).into()),
-                ("reuse_src", src.into()),
-                ("reuse_self", own.into()),
-                ("reuse_out", out.into()),
-                ("di_prev_gbuffer", (&b.reuse.prev_gbuffer).into()),
-            ];
-            shared.bound_pass(device, &reuse, "di_reuse", res, None)
-        };
-        let spans = ["di-temporal", "di-spatial", "di-persist"];
-        let spatial = config.spatial_k > 0;
-        let chain = ReuseChain::new(&b.reuse, config.temporal, spatial, spans, reuse_pass)?;
-        let r = &b.reuse.reservoirs;
-        let initial_res = vec![
-            params(),
-            ("light_tiles", tiles.buffer().into()),
-            ("di_out", (&r[0]).into()),
-        ];
-        let shade_res = vec![params(), ("di_final", (&r[chain.final_index()]).into())];
-        Ok(Self {
-            initial: shared.bound_pass(device, &initial, "di_initial", initial_res, None)?,
-            chain,
-            shade: shared.bound_pass(device, &shade, "di_shade", shade_res, None)?,
-        })
-    }
-}
-
-/// The ReSTIR DI stage of a frame: built on a [`Renderer`]'s shared groups and a frame's
-/// [`LightTiles`], it records the direct image in place of
-/// [`Renderer::encode_shade_direct`].
+/// The ReSTIR DI stage of a frame: built on a [`Renderer`] and a frame's [`LightTiles`], it
+/// records the direct image in place of [`Renderer::encode_shade_direct`].
 #[derive(Debug)]
 pub struct RestirDi {
     config: RestirDiConfig,
-    buffers: DiBuffers,
-    passes: DiPasses,
-    /// The camera of the last frame recorded (`None` before the first).
-    last_camera: Option<Camera>,
+    reuse: ScreenReuse,
 }
 
 impl RestirDi {
@@ -312,32 +149,23 @@ impl RestirDi {
     ) -> Result<Self, RestirDiError> {
         config.validate()?;
         if tiles.dims() != (config.tiles, config.tile_size) {
-            return Err(RestirDiError::Config(format!(
+            return Err(ScreenReuseError::config("restir-di")(format!(
                 "the light tiles are {:?}, the configuration wants ({}, {})",
                 tiles.dims(),
                 config.tiles,
                 config.tile_size
             )));
         }
-        let buffers = DiBuffers::new(ctx, renderer, &config)?;
-        let passes = DiPasses::new(ctx, &renderer.shared, &buffers, &config, tiles)?;
-        Ok(Self {
-            config,
-            buffers,
-            passes,
-            last_camera: None,
-        })
-    }
-
-    fn params(config: &RestirDiConfig, prev: &Camera, history: bool) -> DiParams {
-        DiParams {
-            knobs: config.gpu_words(),
-            prev_camera: CameraGpu::new(prev),
-            history: u32::from(history),
-            _pad0: 0,
-            _pad1: 0,
-            _pad2: 0,
-        }
+        let chain = Chain {
+            temporal: config.temporal,
+            spatial: config.spatial_k > 0,
+        };
+        let own = StageBuffers {
+            initial: vec![("light_tiles", tiles.buffer())],
+            ..Default::default()
+        };
+        let reuse = ScreenReuse::new(ctx, renderer, &STAGE, &config.gpu_words(), chain, own)?;
+        Ok(Self { config, reuse })
     }
 
     pub fn config(&self) -> &RestirDiConfig {
@@ -349,17 +177,7 @@ impl RestirDi {
     /// `render_direct_frame`, and keeps this frame's reservoirs, G-buffer and camera for the
     /// next.
     pub fn encode(&mut self, f: &mut FrameEncoder, renderer: &Renderer) {
-        let camera = *renderer.camera();
-        let prev = self.last_camera.unwrap_or(camera);
-        let params = Self::params(&self.config, &prev, self.last_camera.is_some());
-        f.upload(&self.buffers.params, 0, &params);
-        let p = &self.passes;
-        f.span("di-initial", |f| f.dispatch(&p.initial));
-        p.chain.encode(f);
-        f.span("di-shade", |f| f.dispatch(&p.shade));
-        p.chain
-            .persist(f, &self.buffers.reuse, &renderer.buffers.gbuffer);
-        self.last_camera = Some(camera);
+        self.reuse.encode(f, renderer);
     }
 
     /// The last frame's final reservoirs, per pixel.
@@ -368,10 +186,7 @@ impl RestirDi {
         ctx: &GpuContext,
         renderer: &Renderer,
     ) -> Result<Vec<render::StoredReservoir>, GpuError> {
-        let mut v: Vec<render::StoredReservoir> = buffers::read(
-            ctx,
-            &self.buffers.reuse.reservoirs[self.passes.chain.final_index()],
-        )?;
+        let mut v: Vec<render::StoredReservoir> = self.reuse.reservoirs(ctx)?;
         v.truncate(renderer.pixels() as usize);
         Ok(v)
     }
@@ -382,38 +197,8 @@ mod tests {
     use super::*;
 
     #[test]
-    fn knobs_set_get_and_validate() {
-        let d = RestirDiConfig::default();
-        d.validate().unwrap();
-        assert_eq!(d.knobs_spec(), "");
-        let mut c = d;
-        c.set("spatial-k", "2").unwrap();
-        c.set("combine", "biased").unwrap();
-        c.set("temporal", "off").unwrap();
-        assert_eq!(c.knobs_spec(), "temporal=off+spatial-k=2+combine=biased");
-        crate::knobs::assert_each_refused(
-            d,
-            |c: &_| c.validate(),
-            &[
-                ("tiles", "0"),
-                ("tile-size", "0"),
-                ("candidates", "0"),
-                ("temporal-m-cap", "0"),
-                ("spatial-k", "17"),
-                ("spatial-radius", "-1"),
-                ("normal-threshold", "2"),
-                ("depth-threshold", "NaN"),
-            ],
-        );
-        let mut c = d;
-        c.set("tiles", "70000").unwrap();
-        c.set("tile-size", "65535").unwrap();
-        assert!(c.validate().unwrap_err().to_string().contains("fit u32"));
-    }
-
-    #[test]
     fn the_knob_struct_is_the_wgsl_one() {
         assert_eq!(RestirDiConfig::GPU_KNOBS, 9);
-        assert!(constants_wgsl().contains("struct DiKnobs {\n    tiles: u32,"));
+        assert!(constants_wgsl().contains("struct ScreenKnobs {\n    tiles: u32,"));
     }
 }

@@ -3,9 +3,9 @@
 // render_shade_direct writes otherwise).
 
 @compute @workgroup_size(WORKGROUP_SIZE)
-fn di_shade(id: Invocation) {
+fn screen_shade(id: Invocation) {
     let i = item_index(id);
     if i >= render_params.pixel_count { return; }
-    let c = render_direct_from_stored(render_gbuffer[i], di_final[i], render_secondary[i]);
+    let c = render_direct_from_stored(render_gbuffer[i], screen_final[i], render_secondary[i]);
     render_direct_frame[i] = vec4<f32>(c, 1.0);
 }

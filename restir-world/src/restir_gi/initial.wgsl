@@ -2,17 +2,17 @@
 // = the radiance the renderer's indirect passes wrote to render_indirect_frame (with
 // render_params.secondary_radiance = 1). The GI ray was drawn with the cosine density about
 // the primary's shading normal, so W = 1 / pdf = pi / cos (one RIS candidate). M = 1; a GI ray
-// that escaped or found no light gives W = 0. Writes gi_out; clears gi_debug.
+// that escaped or found no light gives W = 0. Writes screen_out; clears gi_debug.
 
 @compute @workgroup_size(WORKGROUP_SIZE)
-fn gi_initial(id: Invocation) {
+fn screen_initial(id: Invocation) {
     let i = item_index(id);
     if i >= render_params.pixel_count { return; }
     gi_debug[i] = 0u;
     let g = render_gbuffer[i];
     var out: GiReservoir;
     if g.prim == BVH_NO_HIT {
-        gi_out[i] = out;
+        screen_out[i] = out;
         return;
     }
     let x2 = render_secondary[i];
@@ -25,5 +25,5 @@ fn gi_initial(id: Invocation) {
             packed.ucw = 1.0 / pdf;
         }
     }
-    gi_out[i] = gi_store(sample, packed);
+    screen_out[i] = gi_store(sample, packed);
 }

@@ -1,7 +1,8 @@
 // Screen-space ReSTIR GI library (Ouyang et al. 2021): the path sample, its target, the
 // reconnection shift's Jacobian, and the knobs of the restir-gi passes. Structs and functions
 // only. Needs the render library (render::library), reservoir::wgsl() and the constants header
-// restir_gi::constants_wgsl().
+// restir_gi::constants_wgsl(), and the screen-reuse library
+// (screen_reuse::WGSL: ScreenParams, the knobs in screen_params.knobs).
 //
 // A sample is the secondary vertex x2 of a pixel's path (position, the normal on the side its
 // primary saw it from) and the radiance leaving it towards that primary, L (the renderer's
@@ -9,18 +10,6 @@
 // beyond it). Samples live in the solid angle at the primary vertex x1: a pixel's own sample has
 // the GI ray's cosine density; a neighbour's is shifted to the receiver by reconnection (the
 // receiver's x1 joins the neighbour's x2; L is kept: x2 is diffuse).
-
-// Knobs (GiKnobs, generated from restir_gi::RestirGiConfig) and the frame's history (Rust
-// twin: restir_gi::GiParams), uploaded every frame. prev_camera: last frame's camera; history
-// = 1 when last frame's G-buffer and reservoirs exist.
-struct GiParams {
-    knobs: GiKnobs,
-    prev_camera: CameraGpu,
-    history: u32,
-    _pad0: u32,
-    _pad1: u32,
-    _pad2: u32,
-}
 
 // A pixel's reservoir as stored, 32 bytes (Rust twin: restir_gi::GiReservoir): its sample's x2
 // and L, W, and normal_m = x2's normal (octahedral, two 11-bit snorm) | M << 22 (M saturates
@@ -131,16 +120,9 @@ fn gi_jacobian(s: GiSample, x1_from: vec3<f32>, x1_to: vec3<f32>) -> f32 {
     if PLANTED == PLANTED_JACOBIAN_WITHOUT_DISTANCE {
         j = cos_b / cos_a;
     }
-    let t = gi_params.knobs.max_jacobian;
+    let t = screen_params.knobs.max_jacobian;
     if !(j <= t && j * t >= 1.0) {
         return 0.0;
     }
     return j;
-}
-
-// Geometric similarity of a reused pixel's vertex q to the receiver g, both seen from eye
-// (render_similar with the knobs' thresholds).
-fn gi_similar(g: GVertex, q: GVertex, eye: vec3<f32>) -> bool {
-    return render_similar(g, q, eye, gi_params.knobs.depth_threshold,
-                          gi_params.knobs.normal_threshold);
 }

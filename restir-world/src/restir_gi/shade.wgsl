@@ -5,11 +5,11 @@
 // none was, and none is.
 
 @compute @workgroup_size(WORKGROUP_SIZE)
-fn gi_shade(id: Invocation) {
+fn screen_shade(id: Invocation) {
     let i = item_index(id);
     if i >= render_params.pixel_count { return; }
     let g = render_gbuffer[i];
-    let r = gi_final[i];
+    let r = screen_final[i];
     var c = vec3<f32>(0.0);
     if g.prim != BVH_NO_HIT && gi_has_sample(r) {
         c = gi_contribution(g, gi_sample(r)) * r.ucw;
