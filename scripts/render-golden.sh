@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Renders a fixed set of images (same seeds, same sizes) with the restir-demo binary BIN into
 # OUT: every method and variant of the registry, static and with an orbiting camera, on cornell
-# and many-lights, and the baselines and world-restir on furnace and colonnade.
+# and many-lights; the baselines and world-restir on furnace and colonnade; and a set at one bounce
+# without MIS (--bounces 1 --mis off) on cornell.
 # `scripts/same-images.sh` runs it for two revisions and checks the EXRs are byte-identical.
 # usage: scripts/render-golden.sh BIN OUT [EXTRA-RENDER-ARGS...]
 set -euo pipefail
@@ -15,7 +16,9 @@ methods=(nee ris ris:4
   world-restir:no-adaptive world-restir:no-jitter world-restir:biased world-restir:one-over-z
   world-restir:paper-grid world-restir:unified
   restir-di restir-di:no-reuse restir-di:temporal restir-di:spatial restir-di:biased
-  world-restir+restir-di world-restir+restir-di:gi-tiles world-restir+restir-di:biased)
+  world-restir+restir-di world-restir+restir-di:gi-tiles world-restir+restir-di:biased
+  restir-gi restir-gi:no-reuse restir-gi:temporal restir-gi:spatial restir-gi:biased
+  restir-gi+world-restir restir-di+restir-gi+world-restir ris+cache restir-gi+cache)
 render() { # name, args...
   local name=$1
   shift
@@ -35,5 +38,11 @@ for scene in furnace colonnade; do
     tag=${method//[:+]/_}
     render "$scene-$tag-static" --scene "$scene" --method "$method" --size 48x32 --frames 4 --seed 7
   done
+done
+for method in nee ris world-restir restir-di restir-gi world-restir+restir-di \
+  restir-di+restir-gi+world-restir; do
+  tag=${method//[:+]/_}
+  render "cornell-$tag-bounces1-nomis" --scene cornell --method "$method" --size 48x32 --frames 4 \
+    --seed 7 --bounces 1 --mis off
 done
 find "$out" -name '*.exr' | sort
