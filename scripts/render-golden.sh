@@ -1,8 +1,8 @@
 #!/usr/bin/env bash
 # Renders a fixed set of images (same seeds, same sizes) with the restir-demo binary BIN into
 # OUT: every method and variant of the registry, static and with an orbiting camera, on cornell
-# and many-lights; the baselines and world-restir on furnace and colonnade; and a set at one bounce
-# without MIS (--bounces 1 --mis off) on cornell.
+# and many-lights; the baselines and world-restir on furnace and colonnade; the radiance cache
+# (unbounded paths); and a set at one bounce without MIS (--bounces 1 --mis off) on cornell.
 # `scripts/same-images.sh` runs it for two revisions and checks the EXRs are byte-identical.
 # usage: scripts/render-golden.sh BIN OUT [EXTRA-RENDER-ARGS...]
 set -euo pipefail
@@ -18,11 +18,12 @@ methods=(nee ris ris:4
   restir-di restir-di:no-reuse restir-di:temporal restir-di:spatial restir-di:biased
   world-restir+restir-di world-restir+restir-di:gi-tiles world-restir+restir-di:biased
   restir-gi restir-gi:no-reuse restir-gi:temporal restir-gi:spatial restir-gi:biased
-  restir-gi+world-restir restir-di+restir-gi+world-restir ris+cache restir-gi+cache)
+  restir-gi+world-restir restir-di+restir-gi+world-restir)
 render() { # name, args...
   local name=$1
   shift
-  "$bin" render "$@" "${extra[@]}" --out "$out/$name" >/dev/null 2>>"$out/render.log"
+  "$bin" render "$@" "${extra[@]}" --out "$out/$name" >/dev/null 2>>"$out/render.log" ||
+    { echo "render $name failed:" >&2; tail -3 "$out/render.log" >&2; exit 1; }
 }
 for scene in cornell many-lights; do
   for method in "${methods[@]}"; do
@@ -37,6 +38,13 @@ for scene in furnace colonnade; do
   for method in nee ris world-restir restir-di world-restir+restir-di; do
     tag=${method//[:+]/_}
     render "$scene-$tag-static" --scene "$scene" --method "$method" --size 48x32 --frames 4 --seed 7
+  done
+done
+for scene in cornell many-lights; do
+  for method in ris+cache restir-gi+cache; do
+    tag=${method//[:+]/_}
+    render "$scene-$tag-static" --scene "$scene" --lights 2000 --method "$method" --size 64x48 \
+      --frames 6 --seed 7 --bounces 64
   done
 done
 for method in nee ris world-restir restir-di restir-gi world-restir+restir-di \
