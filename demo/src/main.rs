@@ -12,6 +12,7 @@ use glam::Vec3;
 use indicatif::{ProgressBar, ProgressStyle};
 use restir_world::gpu::{Access, BindingSet, Kernel, Tracer, buffers, workgroup_size_wgsl};
 use restir_world::lights::Lights;
+use restir_world::methods::MethodSettings;
 use restir_world::render::RenderOptions;
 use restir_world::sampling::Estimator;
 use restir_world::scene::Scene;
@@ -513,11 +514,13 @@ fn render(args: &RenderArgs) -> Result<()> {
     if !(args.exposure.is_finite() && args.exposure > 0.0) {
         anyhow::bail!("--exposure must be a positive number");
     }
+    // The method spec, parsed once: checked here, built by render_method.
+    let mut settings = None;
     if args.method != CPU_REFERENCE {
-        restir_world::methods::check_spec(&args.method)?;
-        restir_world::methods::check_paths(&args.method, &args.paths.paths()?)?;
+        let s = restir_world::methods::parse_spec(&args.method)?;
+        s.check_paths(&args.paths.paths()?)?;
         args.anim.validate()?;
-        restir_world::methods::check_camera(&args.method, &camera).with_context(|| {
+        s.check_camera(&camera).with_context(|| {
             format!(
                 "--size {}x{} (with --method {}): use a larger --size",
                 camera.width, camera.height, args.method
@@ -529,6 +532,7 @@ fn render(args: &RenderArgs) -> Result<()> {
                  --method ris:K)"
             );
         }
+        settings = Some(s);
     } else if args.anim.used() {
         anyhow::bail!(
             "--animation and --debug-views are options of GPU methods, not cpu-reference"
@@ -546,11 +550,16 @@ fn render(args: &RenderArgs) -> Result<()> {
             );
         }
     }
-    with_out_dir(&args.out, || render_into(args, &scene, &camera, samples))
+    with_out_dir(&args.out, || {
+        render_into(args, settings.as_ref(), &scene, &camera, samples)
+    })
 }
 
+/// Renders `args.method` (its parsed `settings`, `None` for the CPU reference) and writes the
+/// images.
 fn render_into(
     args: &RenderArgs,
+    settings: Option<&MethodSettings>,
     scene: &Scene,
     camera: &restir_world::scene::Camera,
     samples: u32,
@@ -570,8 +579,8 @@ fn render_into(
             }
         })
         .collect();
-    let images = match args.method.as_str() {
-        CPU_REFERENCE => {
+    let images = match settings {
+        None => {
             let method = if args.reference_ris {
                 Estimator::Ris {
                     candidates: args.candidates.unwrap_or(render::DEFAULT_CANDIDATES),
@@ -602,8 +611,9 @@ fn render_into(
             );
             out
         }
-        spec => render_cmd::render_method(
-            spec,
+        Some(settings) => render_cmd::render_method(
+            &args.method,
+            settings,
             &args.anim,
             scene,
             camera,

@@ -7,7 +7,7 @@ use std::path::Path;
 use anyhow::Result;
 use clap::Args;
 use restir_world::image_io::{Image, write_png};
-use restir_world::methods::{self, FrameLoop, MethodError, Readback, run_frames};
+use restir_world::methods::{FrameLoop, MethodError, MethodSettings, Readback, run_frames};
 use restir_world::reference::Rendered;
 use restir_world::render::{DebugView, RenderOptions};
 use restir_world::scene::{Camera, Scene};
@@ -62,11 +62,13 @@ impl AnimArgs {
     }
 }
 
-/// Renders `frames` frames of the registry method `spec` and returns the accumulated images;
-/// writes the debug views into `out` when asked (`tag` prefixes their names).
+/// Renders `frames` frames of the registry method `spec` (parsed: `settings`) and returns the
+/// accumulated images; writes the debug views into `out` when asked (`tag` prefixes their
+/// names).
 #[allow(clippy::too_many_arguments)]
 pub fn render_method(
     spec: &str,
+    settings: &MethodSettings,
     args: &AnimArgs,
     scene: &Scene,
     camera: &Camera,
@@ -77,7 +79,7 @@ pub fn render_method(
 ) -> Result<Rendered> {
     let ctx = crate::gpu_context()?;
     eprintln!("{}", ctx.describe());
-    let mut m = methods::parse_spec(spec)?.build_with(&ctx, scene, camera, options)?;
+    let mut m = settings.build_with(&ctx, scene, camera, options)?;
     let l = FrameLoop {
         path: args
             .animation
