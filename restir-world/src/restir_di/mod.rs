@@ -103,7 +103,7 @@ impl RestirDiConfig {
 pub static STAGE: ScreenStage = ScreenStage {
     name: "restir-di",
     short: "di",
-    reservoir: "StoredReservoir",
+    reservoirs: "array<StoredReservoir>",
     reservoir_size: size_of::<render::StoredReservoir>(),
     library: "",
     constants: constants_wgsl,

@@ -123,7 +123,7 @@ const DEBUG: Buffer = ("gi_debug", "array<u32>", Access::ReadWrite);
 pub static STAGE: ScreenStage = ScreenStage {
     name: "restir-gi",
     short: "gi",
-    reservoir: "GiReservoir",
+    reservoirs: "array<GiReservoir>",
     reservoir_size: size_of::<GiReservoir>(),
     library: WGSL,
     constants: constants_wgsl,

@@ -61,9 +61,6 @@ impl ScreenReuseError {
     }
 }
 
-/// Stands for the stage's reservoir array in the shared declarations.
-const RESERVOIRS: &str = "array<R>";
-
 /// A screen-space reuse stage, as declared by its module: its reservoir, its WGSL and the
 /// buffers of its own its kernels bind beside the shared ones.
 #[derive(Debug)]
@@ -73,8 +70,9 @@ pub struct ScreenStage {
     /// The prefix of its spans: `di` names them `di-initial`, `di-temporal`, `di-spatial`,
     /// `di-shade`, `di-persist`.
     pub short: &'static str,
-    /// The WGSL type of one stored reservoir, and its size in bytes.
-    pub reservoir: &'static str,
+    /// The WGSL array of its stored reservoirs (`array<StoredReservoir>`), and the size of
+    /// one in bytes.
+    pub reservoirs: &'static str,
     pub reservoir_size: usize,
     /// Its WGSL library (structs and functions its kernels share; may be empty).
     pub library: &'static str,
@@ -116,19 +114,14 @@ impl ScreenStage {
     /// The group-3 bindings of kernel `k`: [`PARAMS`], the reservoirs it reads and writes,
     /// then the stage's own.
     pub fn bindings(&self, k: Kernel) -> BindingSet {
-        let array = format!("array<{}>", self.reservoir);
-        let rw = Access::ReadWrite;
         let set = BindingSet::new(k.names().0).buffer(PARAMS.0, PARAMS.1, PARAMS.2);
         let set = match k {
-            Kernel::Initial => set.buffer("screen_out", &array, rw),
-            // render::reuse_io with this stage's reservoir array in place of the placeholder.
-            Kernel::Reuse => render::reuse_io(RESERVOIRS)
+            Kernel::Initial => set.buffer("screen_out", self.reservoirs, Access::ReadWrite),
+            Kernel::Reuse => render::reuse_io(self.reservoirs)
                 .iter()
-                .fold(set, |set, &(name, ty, access)| {
-                    set.buffer(name, if ty == RESERVOIRS { &array } else { ty }, access)
-                })
-                .buffer(PREV_GBUFFER.0, PREV_GBUFFER.1, PREV_GBUFFER.2),
-            Kernel::Shade => set.buffer("screen_final", &array, Access::Read),
+                .chain([&PREV_GBUFFER])
+                .fold(set, |set, &(name, ty, access)| set.buffer(name, ty, access)),
+            Kernel::Shade => set.buffer("screen_final", self.reservoirs, Access::Read),
         };
         self.own[k as usize]
             .iter()
