@@ -287,9 +287,9 @@ fn render_structs_match_wgsl_layout() {
             bounces,
             roulette_from,
             mis,
-            secondary_radiance,
             _pad0,
-            _pad1
+            _pad1,
+            _pad2
         ]
     );
     tests::assert_wgsl_layout!(RenderState, src, "RenderState", [frame, _pad]);

@@ -17,9 +17,9 @@ use crate::world_restir::{WorldRestir, WorldRestirConfig};
 /// 1. the renderer's `primary` and `gi` passes;
 /// 2. the light tiles, when a stage draws from them (`light-tiles`); the radiance cache's
 ///    update and resolve, when the method has one;
-/// 3. the indirect image: world-restir, or the renderer's NEE at the secondary vertex, then
-///    the path beyond it (ending in the radiance cache, with one); with ReSTIR GI these are
-///    the radiance leaving the secondary vertex, which it resamples into the indirect image;
+/// 3. the path samples and the indirect image: world-restir, or the renderer's NEE at the
+///    secondary vertex, then the path beyond it (ending in the radiance cache, with one); with
+///    ReSTIR GI the path samples are resampled and the indirect image rewritten from them;
 /// 4. the direct image: world-restir's unified cache, ReSTIR DI, or the renderer's NEE;
 /// 5. accumulation.
 #[derive(Debug)]

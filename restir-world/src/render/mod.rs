@@ -7,15 +7,17 @@
 //!    (`render_gbuffer`, one [`GVertex`] per pixel).
 //! 2. `gi`: one cosine-weighted ray from each primary hit -> secondary vertex
 //!    (`render_secondary`).
-//! 3. *(ReSTIR passes: read the G-buffer and secondary vertices, write `render_indirect_frame`
-//!    instead of step 5.)*
+//! 3. *(ReSTIR passes: read the G-buffer and secondary vertices; world-restir's shade writes
+//!    step 5's first pass's outputs instead of it.)*
 //! 4. `shade_direct`: emission seen at the primary + NEE there -> `render_direct_frame`
 //!    (`restir_di::RestirDi` writes it instead in the `restir-di` methods).
-//! 5. `shade_indirect`: primary albedo x NEE at the secondary vertex -> `render_indirect_frame`.
+//! 5. `shade_indirect`: NEE at the secondary vertex -> the radiance leaving it towards the
+//!    primary (`render_path_radiance`) and primary albedo x that -> `render_indirect_frame`.
 //!    `path` (with [`Paths::bounces`] > 1): the path goes on from the secondary vertex
 //!    by cosine sampling, with NEE at every vertex, Russian roulette from
-//!    [`Paths::roulette_from`]; it adds bounces 2.. to `render_indirect_frame`, after
-//!    whichever pass wrote bounce 1 (world-restir's shade included).
+//!    [`Paths::roulette_from`]; it adds bounces 2.. to both, after whichever pass wrote
+//!    bounce 1 (world-restir's shade included). The secondary vertex and the radiance leaving
+//!    it are the pixel's *path sample* (WGSL `PathLight`), which ReSTIR GI resamples.
 //! 6. `accumulate`: running sums of both frames; advances the GPU frame counter that seeds
 //!    every pass.
 //!
@@ -338,7 +340,8 @@ impl Renderer {
         f.span("shade_direct", |f| f.dispatch(&self.passes.shade_direct));
     }
 
-    /// Step 5: primary albedo x NEE at the secondary vertex -> `render_indirect_frame`.
+    /// Step 5: NEE at the secondary vertex -> `render_path_radiance`, and primary albedo x
+    /// that -> `render_indirect_frame`.
     pub fn encode_shade_indirect(&self, f: &mut FrameEncoder) {
         f.span("shade_indirect", |f| {
             f.dispatch(&self.passes.shade_indirect)
@@ -346,7 +349,7 @@ impl Renderer {
     }
 
     /// Step 5b: bounces 2..=bounces of the path beyond the secondary vertex, added to
-    /// `render_indirect_frame` (nothing with one bounce and no MIS).
+    /// `render_path_radiance` and `render_indirect_frame` (nothing with one bounce and no MIS).
     pub fn encode_path(&self, f: &mut FrameEncoder) {
         if self.options.paths.bounces > 1 || self.options.paths.mis {
             f.span("path", |f| f.dispatch(&self.passes.path));
@@ -372,17 +375,6 @@ impl Renderer {
         self.encode_shade_indirect(f);
         self.encode_path(f);
         self.encode_accumulate(f);
-    }
-
-    /// Whether the indirect passes (`shade_indirect`, `path`, world-restir's shade) write the
-    /// radiance leaving the secondary vertex towards the primary instead of the primary's
-    /// reflected light: set by a stage that resamples that radiance (ReSTIR GI) and writes the
-    /// indirect image itself.
-    pub fn set_secondary_radiance(&self, ctx: &GpuContext, on: bool) {
-        let offset = std::mem::offset_of!(RenderParams, secondary_radiance) as u64;
-        let word = [u32::from(on)];
-        ctx.queue
-            .write_buffer(&self.buffers.params, offset, bytemuck::cast_slice(&word));
     }
 
     /// The last frame's primary vertices (G-buffer), per pixel.

@@ -54,21 +54,23 @@ fn render_shade_direct(id: Invocation) {
     render_direct_frame[i] = vec4<f32>(c, 1.0);
 }
 
-// One-bounce indirect light: primary albedo x (NEE at the secondary vertex); the cosine pdf of
-// the GI ray cancels the cosine and 1/pi of the primary's BRDF. (ReSTIR GI: NEE alone, see
-// render_indirect_weight.)
+// One-bounce indirect light: NEE at the secondary vertex is the radiance leaving it towards the
+// primary (the path sample's, PathLight); the primary reflects its albedo x that (the cosine pdf
+// of the GI ray cancels the cosine and 1/pi of the primary's BRDF).
 @compute @workgroup_size(WORKGROUP_SIZE)
 fn render_shade_indirect(id: Invocation) {
     let i = item_index(id);
     if i >= render_params.pixel_count { return; }
     let g = render_gbuffer[i];
     let s = render_secondary[i];
-    var c = vec3<f32>(0.0);
+    var light = PathLight(vec3<f32>(0.0), vec3<f32>(0.0));
     if g.prim != BVH_NO_HIT && s.prim != BVH_NO_HIT {
         var rng = render_rng(i, STREAM_INDIRECT);
-        c = render_indirect_weight(g) * render_nee(s, &rng);
+        let nee = render_nee(s, &rng);
+        light = PathLight(g.albedo * nee, nee);
     }
-    render_indirect_frame[i] = vec4<f32>(c, 1.0);
+    render_indirect_frame[i] = vec4<f32>(light.reflected, 1.0);
+    render_path_radiance[i] = vec4<f32>(light.leaving, 1.0);
 }
 
 // Bounces 2..=render_params.bounces of the path beyond the secondary vertex (render_path_pixel,

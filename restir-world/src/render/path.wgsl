@@ -19,9 +19,11 @@ fn render_path_spread(v: GVertex, w: GVertex, dir: vec3<f32>) -> f32 {
 // Bounces 2..=render_params.bounces of pixel i: the path goes on from the secondary vertex by
 // cosine sampling, with the render's light estimate (render_nee) at every vertex, weighted by
 // the throughput (albedo products: the cosine pdf cancels the BRDF's cos / pi); Russian
-// roulette from bounce roulette_from on. Adds the primary albedo x that radiance to the
-// indirect image that bounce 1's pass wrote. Emission the path hits is not added (NEE at the
-// vertex before counts it), nor the environment an escaping ray sees, except with MIS
+// roulette from bounce roulette_from on. Adds what it finds to both parts of the pixel's
+// PathLight, the radiance leaving the secondary vertex (render_path_radiance, throughput from 1)
+// and the primary's reflected light (render_indirect_frame, throughput from the primary's
+// albedo), which the secondary vertex's pass wrote. Emission the path hits is not added (NEE at
+// the vertex before counts it), nor the environment an escaping ray sees, except with MIS
 // (render_params.mis), which weighs both ways to the light and traces one more ray for the last
 // bounce's hits. A vertex whose cached radiance path_cache_radiance gives ends the path: that
 // radiance stands for its light estimate and every bounce beyond it.
@@ -31,8 +33,10 @@ fn render_path_pixel(i: u32) {
     if g.prim == BVH_NO_HIT || v.prim == BVH_NO_HIT {
         return;
     }
-    var throughput = render_indirect_weight(g);
-    var l = vec3<f32>(0.0);
+    // The two throughputs: leaving the secondary vertex, and reflected at the primary.
+    var leaving = vec3<f32>(1.0);
+    var reflected = g.albedo;
+    var light = PathLight(vec3<f32>(0.0), vec3<f32>(0.0));
     var footprint = render_path_spread(g, v, normalize(v.position - g.position));
     // One bounce fewer under the planted defect MISSING_BOUNCE (restir_world::plant).
     let bounces = render_params.bounces - select(0u, 1u, PLANTED == PLANTED_MISSING_BOUNCE);
@@ -45,24 +49,34 @@ fn render_path_pixel(i: u32) {
             if !(rng_next_f32(&rng) < q) {
                 break;
             }
-            throughput /= render_roulette_divisor(q);
+            leaving /= render_roulette_divisor(q);
+            reflected /= render_roulette_divisor(q);
         }
-        throughput *= v.albedo;
+        leaving *= v.albedo;
+        reflected *= v.albedo;
         let w = render_path_step(v, &rng);
-        l += throughput * render_hit_emission(v, w);
+        render_path_add(&light, leaving, reflected, render_hit_emission(v, w));
         if w.prim == BVH_NO_HIT || bounce > bounces {
             break;
         }
         footprint += render_path_spread(v, w, normalize(w.position - v.position));
         let cached = path_cache_radiance(w, bounce, footprint);
         if cached.w > 0.0 {
-            l += throughput * cached.xyz;
+            render_path_add(&light, leaving, reflected, cached.xyz);
             break;
         }
-        l += throughput * render_nee(w, &rng);
+        render_path_add(&light, leaving, reflected, render_nee(w, &rng));
         v = w;
     }
-    render_indirect_frame[i] += vec4<f32>(l, 0.0);
+    render_path_radiance[i] += vec4<f32>(light.leaving, 0.0);
+    render_indirect_frame[i] += vec4<f32>(light.reflected, 0.0);
+}
+
+// Adds radiance l, found along the path with the two throughputs, to both parts of `light`.
+fn render_path_add(light: ptr<function, PathLight>, leaving: vec3<f32>, reflected: vec3<f32>,
+                   l: vec3<f32>) {
+    (*light).leaving += leaving * l;
+    (*light).reflected += reflected * l;
 }
 
 // One diffuse bounce from v: the vertex a cosine-sampled ray about v's shading normal finds

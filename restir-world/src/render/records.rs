@@ -159,12 +159,9 @@ pub struct RenderParams {
     pub roulette_from: u32,
     /// [`Paths::mis`] as 0 or 1.
     pub mis: u32,
-    /// 1 when the indirect passes write the radiance leaving the secondary vertex towards the
-    /// primary (ReSTIR GI's sample, [`Renderer::set_secondary_radiance`]), 0 when they write
-    /// the primary's reflected light (that radiance times the primary's albedo).
-    pub secondary_radiance: u32,
     pub _pad0: u32,
     pub _pad1: u32,
+    pub _pad2: u32,
 }
 
 impl RenderParams {
@@ -186,9 +183,9 @@ impl RenderParams {
             bounces: options.paths.bounces,
             roulette_from: options.paths.roulette_from,
             mis: u32::from(options.paths.mis),
-            secondary_radiance: 0,
             _pad0: 0,
             _pad1: 0,
+            _pad2: 0,
         }
     }
 }

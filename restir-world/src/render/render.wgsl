@@ -72,18 +72,23 @@ struct RenderParams {
     roulette_from: u32,
     // 1: light samples and the emission rays hit are weighted by multiple importance sampling.
     mis: u32,
-    // 1: the indirect passes write the radiance leaving the secondary vertex towards the
-    // primary (ReSTIR GI resamples it), 0: the primary's reflected light.
-    secondary_radiance: u32,
     _pad0: u32,
     _pad1: u32,
+    _pad2: u32,
 }
 
-// What the radiance leaving the secondary vertex towards primary vertex g is weighted by in
-// the indirect image: g's albedo (the GI ray's cosine pdf cancels g's cosine and 1/pi), or 1
-// when ReSTIR GI takes that radiance as its sample (render_params.secondary_radiance).
-fn render_indirect_weight(g: GVertex) -> vec3<f32> {
-    return select(g.albedo, vec3<f32>(1.0), render_params.secondary_radiance != 0u);
+// A pixel's path sample (what ReSTIR GI resamples): its reconnection vertex x2 (the secondary
+// vertex, render_secondary, with its normal) and the radiance leaving x2 towards the primary
+// vertex x1 along the pixel's path (render_path_radiance: the light estimate at x2 plus every
+// bounce beyond). The indirect image is x1's albedo times that radiance (the GI ray's cosine
+// pdf cancels x1's cosine and 1/pi), summed in the same passes with its own throughput so that
+// neither depends on who reads the other. The path's random numbers are pixel i's streams of
+// the frame (render_rng(i, STREAM_INDIRECT), render_rng_salted(i, STREAM_PATH, bounce)).
+struct PathLight {
+    // x1's reflected light (the indirect image's share).
+    reflected: vec3<f32>,
+    // The radiance leaving x2 towards x1 (the path sample's).
+    leaving: vec3<f32>,
 }
 
 // GPU-side frame counter: advanced by render_accumulate, read by every pass for its seeds.
@@ -351,10 +356,10 @@ fn render_hit_emission(v: GVertex, w: GVertex) -> vec3<f32> {
     return w.emission * render_power_heuristic(p_ray, p_light);
 }
 
-// f(y) W of a stored reservoir's light sample y at vertex v, times `weight` (applied first),
-// with one shadow ray: 0 when the reservoir is empty or y is occluded. Every reuse method
-// shades its final reservoirs with it.
-fn render_shade_stored(v: GVertex, res: StoredReservoir, weight: vec3<f32>) -> vec3<f32> {
+// f(y) of a stored reservoir's light sample y at vertex v (MIS-weighted with MIS on), with one
+// shadow ray: 0 when the reservoir is empty or y is occluded. Every reuse method shades its
+// final reservoirs with it, as weight x f(y) x W (render_shade_stored).
+fn render_stored_light(v: GVertex, res: StoredReservoir) -> vec3<f32> {
     if res.m == 0u || !(res.ucw > 0.0) {
         return vec3<f32>(0.0);
     }
@@ -366,6 +371,12 @@ fn render_shade_stored(v: GVertex, res: StoredReservoir, weight: vec3<f32>) -> v
     if render_params.mis != 0u {
         f *= render_light_mis(v.position, v.shading, y);
     }
+    return f;
+}
+
+// f(y) W of a stored reservoir's light sample y at vertex v, times `weight` (applied first):
+// render_stored_light's f(y) for a light f already traced.
+fn render_shade_stored(f: vec3<f32>, res: StoredReservoir, weight: vec3<f32>) -> vec3<f32> {
     return weight * f * res.ucw;
 }
 
@@ -406,7 +417,7 @@ fn render_reuse_store(c: ptr<function, Reuse>, own: StoredReservoir,
 fn render_direct_from_stored(g: GVertex, res: StoredReservoir, secondary: GVertex) -> vec3<f32> {
     var c = g.emission;
     if g.prim != BVH_NO_HIT {
-        c += render_shade_stored(g, res, vec3<f32>(1.0));
+        c += render_shade_stored(render_stored_light(g, res), res, vec3<f32>(1.0));
         if render_params.mis != 0u {
             c += g.albedo * render_hit_emission(g, secondary);
         }

@@ -15,6 +15,9 @@ pub(crate) struct RenderBuffers {
     pub secondary: wgpu::Buffer,
     pub direct_frame: wgpu::Buffer,
     pub indirect_frame: wgpu::Buffer,
+    /// The radiance leaving each pixel's secondary vertex towards its primary along the
+    /// pixel's path (with `secondary`, the pixel's path sample: WGSL `PathLight`).
+    pub path_radiance: wgpu::Buffer,
     pub accum_direct: wgpu::Buffer,
     pub accum_indirect: wgpu::Buffer,
     /// Per material.
@@ -49,6 +52,7 @@ impl RenderBuffers {
             secondary: zeroed("render_secondary", vertices),
             direct_frame: zeroed("render_direct_frame", px * 16),
             indirect_frame: zeroed("render_indirect_frame", px * 16),
+            path_radiance: zeroed("render_path_radiance", px * 16),
             accum_direct: zeroed("render_accum_direct", px * 16),
             accum_indirect: zeroed("render_accum_indirect", px * 16),
             materials: buffers::storage_from(device, "render_materials", materials),
@@ -59,7 +63,7 @@ impl RenderBuffers {
     }
 
     /// The buffers of [`bindings`], by name.
-    pub(super) fn resources(&self) -> [(&'static str, Resource<'_>); 12] {
+    pub(super) fn resources(&self) -> [(&'static str, Resource<'_>); 13] {
         [
             ("render_params", (&self.params).into()),
             ("render_state", (&self.state).into()),
@@ -67,6 +71,7 @@ impl RenderBuffers {
             ("render_secondary", (&self.secondary).into()),
             ("render_direct_frame", (&self.direct_frame).into()),
             ("render_indirect_frame", (&self.indirect_frame).into()),
+            ("render_path_radiance", (&self.path_radiance).into()),
             ("render_accum_direct", (&self.accum_direct).into()),
             ("render_accum_indirect", (&self.accum_indirect).into()),
             ("render_materials", (&self.materials).into()),

@@ -1,6 +1,5 @@
 // Pass "gi-initial": each pixel's own path sample from this frame: x2 = its secondary vertex, L
-// = the radiance the renderer's indirect passes wrote to render_indirect_frame (with
-// render_params.secondary_radiance = 1). The GI ray was drawn with the cosine density about
+// = the radiance leaving it that the indirect passes recorded (render_path_radiance). The GI ray was drawn with the cosine density about
 // the primary's shading normal, so W = 1 / pdf = pi / cos (one RIS candidate). M = 1; a GI ray
 // that escaped or found no light gives W = 0. Writes screen_out; clears gi_debug.
 
@@ -19,7 +18,7 @@ fn screen_initial(id: Invocation) {
     var sample: GiSample;
     var packed = PackedReservoir(0.0, 1u);
     if x2.prim != BVH_NO_HIT {
-        sample = GiSample(x2.position, x2.normal, render_indirect_frame[i].xyz);
+        sample = GiSample(x2.position, x2.normal, render_path_radiance[i].xyz);
         let pdf = max(dot(g.shading, normalize(x2.position - g.position)), 0.0) * SAMPLING_INV_PI;
         if pdf > 0.0 && gi_target(g, sample) > 0.0 {
             packed.ucw = 1.0 / pdf;

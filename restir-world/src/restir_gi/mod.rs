@@ -3,8 +3,8 @@
 //! reused between pixels and frames by reconnection, written as a stage that replaces the
 //! indirect image of the method it is combined with.
 //!
-//! The renderer's indirect passes (or world-restir's, in `restir-gi+world-restir`) estimate the
-//! radiance leaving each pixel's x2 ([`Renderer::set_secondary_radiance`]); then the chain of
+//! The renderer's indirect passes (or world-restir's, in `restir-gi+world-restir`) record each
+//! pixel's path sample (x2 and the radiance leaving it, `render_path_radiance`); then the chain of
 //! [`crate::screen_reuse`]: `gi-initial` (each pixel's own path sample: W = pi / cos, M = 1 ->
 //! reservoirs R0), `gi-temporal`, `gi-spatial`, `gi-shade` (-> `render_indirect_frame`),
 //! `gi-persist`.
@@ -137,8 +137,8 @@ pub fn kernels() -> Vec<ComposedKernel> {
     STAGE.composed()
 }
 
-/// The ReSTIR GI stage of a frame: built on a [`Renderer`], it resamples the paths whose
-/// secondary radiance the indirect passes left in `render_indirect_frame` and writes the
+/// The ReSTIR GI stage of a frame: built on a [`Renderer`], it resamples the path samples the
+/// indirect passes recorded (`render_secondary`, `render_path_radiance`) and rewrites the
 /// indirect image.
 #[derive(Debug)]
 pub struct RestirGi {
@@ -149,8 +149,7 @@ pub struct RestirGi {
 }
 
 impl RestirGi {
-    /// The stage for `renderer`'s scene and image with `config`; switches the renderer's
-    /// indirect passes to writing the secondary vertex's radiance.
+    /// The stage for `renderer`'s scene and image with `config`.
     pub fn new(
         ctx: &GpuContext,
         renderer: &Renderer,
@@ -169,7 +168,6 @@ impl RestirGi {
             ..Default::default()
         };
         let reuse = ScreenReuse::new(ctx, renderer, &STAGE, &config.gpu_words(), chain, own)?;
-        renderer.set_secondary_radiance(ctx, true);
         Ok(Self {
             config,
             reuse,
@@ -182,7 +180,7 @@ impl RestirGi {
     }
 
     /// Records the stage for the frame whose camera is `renderer`'s, after the indirect passes
-    /// wrote the secondary radiance: initial samples, temporal and spatial reuse, shading into
+    /// recorded the path samples: initial samples, temporal and spatial reuse, shading into
     /// `render_indirect_frame`, and keeps this frame's reservoirs, G-buffer and camera.
     pub fn encode(&mut self, f: &mut FrameEncoder, renderer: &Renderer) {
         self.reuse.encode(f, renderer);

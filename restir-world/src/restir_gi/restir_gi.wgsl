@@ -5,9 +5,9 @@
 // (screen_reuse::WGSL: ScreenParams, the knobs in screen_params.knobs).
 //
 // A sample is the secondary vertex x2 of a pixel's path (position, the normal on the side its
-// primary saw it from) and the radiance leaving it towards that primary, L (the renderer's
-// indirect passes with render_params.secondary_radiance = 1: x2's light estimate and the path
-// beyond it). Samples live in the solid angle at the primary vertex x1: a pixel's own sample has
+// primary saw it from) and the radiance leaving it towards that primary, L (the pixel's path
+// sample as the indirect passes record it, PathLight: x2's light estimate and the path beyond
+// it). Samples live in the solid angle at the primary vertex x1: a pixel's own sample has
 // the GI ray's cosine density; a neighbour's is shifted to the receiver by reconnection (the
 // receiver's x1 joins the neighbour's x2; L is kept: x2 is diffuse).
 

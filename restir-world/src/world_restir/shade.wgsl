@@ -1,18 +1,21 @@
 // Pass "shade": one shadow ray for each vertex's selected sample; radiance leaving the
-// secondary vertex towards the primary = f(y) W; indirect at the primary = primary albedo x
-// that radiance (the cosine pdf of the GI ray cancels the primary's cosine and 1/pi), or the
-// radiance itself for ReSTIR GI (render_indirect_weight).
+// secondary vertex towards the primary = f(y) W (the pixel's path sample, PathLight), indirect
+// at the primary = primary albedo x that radiance (the cosine pdf of the GI ray cancels the
+// primary's cosine and 1/pi).
 
 @compute @workgroup_size(WORKGROUP_SIZE)
 fn wr_shade(id: Invocation) {
     let i = item_index(id);
     if i >= render_params.pixel_count { return; }
-    var c = vec3<f32>(0.0);
+    var light = PathLight(vec3<f32>(0.0), vec3<f32>(0.0));
     if wr_has_vertex(i) {
-        c = render_shade_stored(render_secondary[i], wr_final[i],
-                                render_indirect_weight(render_gbuffer[i]));
+        let res = wr_final[i];
+        let f = render_stored_light(render_secondary[i], res);
+        light = PathLight(render_shade_stored(f, res, render_gbuffer[i].albedo),
+                          render_shade_stored(f, res, vec3<f32>(1.0)));
     }
-    render_indirect_frame[i] = vec4<f32>(c, 1.0);
+    render_indirect_frame[i] = vec4<f32>(light.reflected, 1.0);
+    render_path_radiance[i] = vec4<f32>(light.leaving, 1.0);
 }
 
 // Pass "shade_direct" of the unified cache: direct light at pixel i's primary vertex = its
