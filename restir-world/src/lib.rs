@@ -26,6 +26,7 @@ pub mod cache;
 pub mod framing;
 pub mod gpu;
 pub mod gpu_reference;
+pub mod grid;
 pub mod image_io;
 pub mod images;
 pub mod knobs;

@@ -1,7 +1,8 @@
 // The world-space radiance cache's library: its parameters, the cell record, a vertex's cell
-// (gpu-hash's adaptive cell with the normal folded into the key), the cached radiance, and
+// (the world-space grid's, restir_world::grid: gpu-hash's adaptive cell with the normal folded
+// into the key), the cached radiance, and
 // `path_cache_radiance`, through which the shared path (render/path.wgsl) ends in the cache.
-// Needs the render library, gpu-hash's table role (hash_params, hash_checksums,
+// Needs the render library, the grid library (grid::WGSL), gpu-hash's table role (hash_params, hash_checksums,
 // hash_counters, hash_stats) and the bindings header (cache_params, cache_cells, cache_debug).
 // Rust twin of the layout and the key: restir_world::cache.
 
@@ -31,30 +32,11 @@ struct CacheSample {
     slot: u32,
 }
 
-// 0..5: the axis the normal points along most, and its sign.
-fn cache_normal_axis(n: vec3<f32>) -> u32 {
-    let a = abs(n);
-    if a.x >= a.y && a.x >= a.z {
-        return select(1u, 0u, n.x >= 0.0);
-    }
-    if a.y >= a.z {
-        return select(3u, 2u, n.y >= 0.0);
-    }
-    return select(5u, 4u, n.z >= 0.0);
-}
-
-// The cell of a surface vertex: gpu-hash's adaptive cell of its position, its level moved to
-// one of six level ranges by the normal's axis, so that the faces of a corner or of a thin
-// wall never share a cell.
+// The cell of a surface vertex: the world-space grid's cell of its position with the normal's
+// axis folded into the key (grid_cell), so that the faces of a corner or of a thin wall never
+// share a cell.
 fn cache_cell(v: GVertex) -> HashCell {
-    var c = hash_cell(hash_params, v.position);
-    if c.status != HASH_STATUS_OK {
-        return c;
-    }
-    let key = HashKey(c.coords, c.level + (hash_params.max_level + 1u) * cache_normal_axis(v.normal));
-    c.bucket = hash_bucket_of(key, hash_params.num_buckets);
-    c.checksum = hash_checksum_of(key);
-    return c;
+    return grid_cell(hash_params, v.position, v.normal, true);
 }
 
 // The slot of v's cell, or a sentinel (not found, rejected).

@@ -31,6 +31,7 @@ use crate::gpu::{
     Access, BindingSet, FrameEncoder, GpuContext, GpuError, Pass, Resource, Tracer, WgslModule,
     buffers,
 };
+use crate::grid;
 use crate::knobs::{Knobs, Variant};
 use crate::render::{
     self, Buffer, ComposedKernel, DebugView, GVertex, KernelDef, MAX_BOUNCES, OwnKernel,
@@ -153,14 +154,7 @@ impl CacheConfig {
 
     /// The cell sizing for `camera`.
     pub fn sizing(&self, camera: &Camera) -> CellSizing {
-        CellSizing {
-            min_cell_size: self.min_cell_size,
-            projected_size: self.projected_size,
-            fov_y: camera.vfov_deg.to_radians(),
-            width: camera.width,
-            height: camera.height,
-            max_level: 24,
-        }
+        grid::cell_sizing(camera, self.min_cell_size, self.projected_size, true)
     }
 
     /// Update paths per frame of `pixels`: `update-fraction` of them, at least one.
@@ -303,7 +297,8 @@ fn modules() -> Vec<WgslModule> {
         WgslModule::new("cache-constants", &[], constants_wgsl()),
         WgslModule::new("cache-bindings", &["cache"], bindings().wgsl(STAGE_GROUP)),
         WgslModule::new("gpu-hash", &[], gpu_hash::wgsl::compose(Some(at), None)),
-        WgslModule::new("cache", &["render", "gpu-hash", "cache-constants"], WGSL),
+        grid::cell_module(),
+        WgslModule::new("cache", &["render", "grid", "cache-constants"], WGSL),
         WgslModule::new(
             render::PATH_CACHE,
             &["cache", "cache-bindings"],
@@ -475,24 +470,15 @@ impl RadianceCache {
     }
 
     /// The cell a surface vertex at `position` with geometric normal `normal` falls in, seen
-    /// from `eye` (twin of WGSL `cache_cell`): gpu-hash's cell of the position with the bucket
-    /// and checksum of the key the normal is folded into; `None` where gpu-hash rejects it.
+    /// from `eye` (twin of WGSL `cache_cell`): the grid's cell with the normal folded into the key; `None` where gpu-hash rejects it.
     pub fn cell_of(
         &self,
         eye: glam::Vec3,
         position: glam::Vec3,
         normal: glam::Vec3,
     ) -> Option<gpu_hash::HashCell> {
-        let grid = self.grid_params.with_eye(eye).ok()?;
-        let mut c = grid.cell(position);
-        if !c.is_ok() {
-            return None;
-        }
-        let mut key = c.key();
-        key.level += (grid.max_level + 1) * normal_axis(normal);
-        c.bucket = key.bucket(grid.num_buckets);
-        c.checksum = key.checksum();
-        Some(c)
+        let params = self.grid_params.with_eye(eye).ok()?;
+        grid::cell_of(&params, position, normal, true)
     }
 
     /// The cell of `v` in `cells` (as [`RadianceCache::read_cells`] gives them), as the GPU's
@@ -536,19 +522,6 @@ impl RadianceCache {
     }
 }
 
-/// Twin of WGSL `cache_normal_axis`: 0..5, the axis `n` points along most and its sign.
-pub fn normal_axis(n: glam::Vec3) -> u32 {
-    let a = n.abs();
-    let (axis, positive) = if a.x >= a.y && a.x >= a.z {
-        (0, n.x >= 0.0)
-    } else if a.y >= a.z {
-        (1, n.y >= 0.0)
-    } else {
-        (2, n.z >= 0.0)
-    };
-    2 * axis + u32::from(!positive)
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -584,16 +557,6 @@ mod tests {
         assert_eq!(BYTES_PER_CELL as usize, size_of::<CacheCell>() + 8);
         assert!(constants_wgsl().contains("struct CacheKnobs {\n    after: u32,"));
         assert!(WGSL.contains("struct CacheCell {\n    r: atomic<u32>,"));
-    }
-
-    #[test]
-    fn normal_axis_is_the_dominant_signed_axis() {
-        use glam::Vec3;
-        assert_eq!(normal_axis(Vec3::X), 0);
-        assert_eq!(normal_axis(-Vec3::X), 1);
-        assert_eq!(normal_axis(Vec3::new(0.1, 0.9, 0.2)), 2);
-        assert_eq!(normal_axis(Vec3::new(0.1, -0.9, 0.2)), 3);
-        assert_eq!(normal_axis(Vec3::new(0.5, 0.5, -0.7)), 5);
     }
 
     #[test]

@@ -8,7 +8,7 @@ fn wr_debug_view(id: Invocation) {
     let i = item_index(id);
     if i >= render_params.pixel_count { return; }
     var c = vec3<f32>(0.0);
-    let e = wr_vertex_slot[i];
+    let e = wr_item_slot[i];
     if wr_has_vertex(i) {
         if wr_params.debug_view == WR_VIEW_CELLS {
             if e.x < WR_FIRST_SENTINEL {

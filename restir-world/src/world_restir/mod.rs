@@ -8,7 +8,7 @@
 //! |---|---|---|---|
 //! | `primary`, `gi` | the renderer's | camera, BVH | G-buffer, secondary vertices |
 //! | `generate` | `wr_generate` (Alg. 1) | secondary, lights | reservoirs R0 |
-//! | `build` | clear table, `wr_insert`, gpu-scan, `wr_scatter`, `wr_sort_cells` (Alg. 2) | secondary | table\[p\], vertex_slot, offsets\[p\], cells\[p\] |
+//! | `build` | the [`WorldGrid`]'s (Alg. 2): clear, insert, gpu-scan, scatter, sort cells | secondary | grid\[p\] |
 //! | `temporal` | `wr_reuse` over table\[1-p\] (Alg. 3) | R0, prev reservoirs | R1 |
 //! | `spatial` | k x `wr_reuse` over table\[p\], ping-pong | R1/R0 | R0/R1 |
 //! | `shade` | `wr_shade` | final reservoirs | `render_indirect_frame` |
@@ -19,17 +19,17 @@
 //! The passes from `generate` to `spatial` run over the grid's items: the secondary vertices,
 //! followed by the primary ones with the unified cache ([`WorldRestirConfig::unified`]).
 //!
-//! `p` is the frame's parity: the two hash tables, slot-offset buffers and cell storages are
-//! double-buffered and swap roles each frame, so the temporal pass looks vertices up in last
-//! frame's grid with last frame's eye (each table's own params uniform).
+//! `p` is the frame's parity: the grid ([`crate::grid`]) is double-buffered and its two
+//! halves swap roles each frame, so the temporal pass looks vertices up in last frame's grid
+//! with last frame's eye.
 //!
-//! Composition: each kernel is a `KernelDef`: its own group-3 [`BindingSet`] (plus gpu-hash's
-//! table or lookup role as the block `wr_hash`) and its WGSL file, composed after
-//! `render::library()` (render buffers at group 0, BVH at 1, lights at 2, rng and reservoir
-//! WGSL) with `world_restir.wgsl`. No scan, hash or reservoir math is written here.
+//! Composition: each kernel is a `KernelDef`: its own group-3 [`BindingSet`] (plus the grid's
+//! lookup for the reuse pass) and its WGSL file, composed after `render::library()` (render
+//! buffers at group 0, BVH at 1, lights at 2, rng and reservoir WGSL) with `world_restir.wgsl`.
+//! No grid, scan, hash or reservoir math is written here: the grid items are the secondary
+//! vertices (`items.wgsl`), the record per item is a light reservoir.
 
-use gpu_hash::{CellSizing, HashGridParams, HashStats, HashTable, TableConfig};
-use gpu_scan::{Scan, ScanBinding, ScanDescriptor, ScanKind};
+use gpu_hash::{CellSizing, HashStats, TableConfig};
 
 use reservoir::reuse::Combination;
 
@@ -37,19 +37,21 @@ use crate::gpu::{
     Access, BindingSet, FrameEncoder, GpuContext, GpuError, Pass, Resource, Tracer, WgslModule,
     buffers,
 };
+use crate::grid::{self, GridError, GridItems, GridSettings, WorldGrid};
 use crate::knobs::{Knobs, Variant, reuse_variants};
 use crate::light_tiles::{self, LightTiles};
 use crate::render::{
-    self, ComposedKernel, DebugView, KernelDef, OwnKernel, RESERVOIRS, REUSE_IO, RenderError,
-    Renderer, ReusePass, STAGE_GROUP, SharedGroups,
+    self, Buffer, ComposedKernel, DebugView, KernelDef, OwnKernel, RESERVOIRS, REUSE_IO,
+    RenderError, Renderer, ReusePass, STAGE_GROUP, SharedGroups, Stream,
 };
 use crate::scene::Camera;
+
+pub use crate::grid::{GridReadback, auto_buckets};
 
 /// Library WGSL (structs and helpers shared by the passes).
 pub const WGSL: &str = include_str!("world_restir.wgsl");
 const GENERATE_WGSL: &str = include_str!("generate.wgsl");
-const INSERT_WGSL: &str = include_str!("insert.wgsl");
-const SCATTER_WGSL: &str = include_str!("scatter.wgsl");
+const ITEMS_WGSL: &str = include_str!("items.wgsl");
 const REUSE_WGSL: &str = include_str!("reuse.wgsl");
 const SHADE_WGSL: &str = include_str!("shade.wgsl");
 const DEBUG_WGSL: &str = include_str!("debug.wgsl");
@@ -62,7 +64,7 @@ pub enum WorldRestirError {
     #[error(transparent)]
     Hash(#[from] gpu_hash::HashError),
     #[error(transparent)]
-    Scan(#[from] gpu_scan::ScanError),
+    Grid(#[from] GridError),
     #[error(transparent)]
     Gpu(#[from] GpuError),
     #[error("bad world-restir setting: {0}")]
@@ -101,7 +103,7 @@ crate::knobs! {
         projected_size: f32 = 16.0, "projected-size";
         /// Tangent-plane jitter of the vertex position by up to one cell before insertion and
         /// lookup (default on).
-        [gpu] jitter: bool = true, "jitter";
+        jitter: bool = true, "jitter";
         /// Cell size adapted to the distance from the eye (paper Algorithm 4; default on). Off:
         /// every cell is `min_cell_size`.
         adaptive_cell_size: bool = true, "adaptive-cell-size";
@@ -201,13 +203,23 @@ impl WorldRestirConfig {
 
     /// The cell sizing for `camera`.
     pub fn sizing(&self, camera: &Camera) -> CellSizing {
-        CellSizing {
-            min_cell_size: self.min_cell_size,
-            projected_size: self.projected_size,
-            fov_y: camera.vfov_deg.to_radians(),
-            width: camera.width,
-            height: camera.height,
-            max_level: if self.adaptive_cell_size { 24 } else { 0 },
+        grid::cell_sizing(
+            camera,
+            self.min_cell_size,
+            self.projected_size,
+            self.adaptive_cell_size,
+        )
+    }
+
+    /// The grid of frames seen by `camera` (the normal is not folded into the key: a stored
+    /// reservoir is skipped where its normal differs, `normal-threshold`).
+    pub fn grid(&self, camera: &Camera) -> GridSettings {
+        GridSettings {
+            table: self.table(camera.width, camera.height),
+            sizing: self.sizing(camera),
+            jitter: self.jitter,
+            fold_normal: false,
+            sort_cells: self.sort_cells,
         }
     }
 
@@ -217,16 +229,6 @@ impl WorldRestirConfig {
         self.table(1, 1).validate()?;
         Ok(())
     }
-}
-
-/// Buckets of a table sized to the frame: twice as many slots as vertices, so the table's load
-/// stays at most 1/2 even when every vertex has a cell of its own (a bucket of 32 slots then
-/// overflows with Poisson(16) probability 1e-4; cells hold about 4 vertices at the default
-/// projected size, a load near 1/8), and at least 64 buckets.
-pub fn auto_buckets(vertices: u32, slots_per_bucket: u32) -> u32 {
-    let slots = u64::from(vertices) * 2;
-    let buckets = slots.div_ceil(u64::from(slots_per_bucket.max(1)));
-    buckets.clamp(64, u64::from(u32::MAX)) as u32
 }
 
 /// WGSL `WrParams`: the knobs the kernels read and the frame's layout.
@@ -247,10 +249,9 @@ pub struct WrParams {
 /// Generated constants header and the knobs' struct.
 pub fn constants_wgsl() -> String {
     format!(
-        "const WR_NO_SLOT: u32 = {:#x}u;\nconst WR_FULL: u32 = {:#x}u;\n\
+        "const WR_FULL: u32 = {:#x}u;\n\
          const WR_FIRST_SENTINEL: u32 = {:#x}u;\nconst WR_VIEW_CELLS: u32 = {}u;\n\
          const WR_VIEW_M: u32 = {}u;\n{}",
-        gpu_hash::HASH_NOT_FOUND,
         gpu_hash::HASH_FULL,
         gpu_hash::HASH_FIRST_SENTINEL,
         DebugView::Cells as u32,
@@ -259,14 +260,7 @@ pub fn constants_wgsl() -> String {
     )
 }
 
-/// Which gpu-hash role a kernel composes (its bindings follow the kernel's own).
-#[derive(Clone, Copy, PartialEq, Eq)]
-enum HashRole {
-    Table,
-    Lookup,
-}
-
-const PARAMS: (&str, &str, Access) = ("wr_params", "WrParams", Access::Uniform);
+const PARAMS: Buffer = ("wr_params", "WrParams", Access::Uniform);
 const GENERATE: KernelDef = KernelDef::new(
     "generate",
     &["wr_generate"],
@@ -277,27 +271,6 @@ const GENERATE: KernelDef = KernelDef::new(
         light_tiles::BINDING,
     ]],
 );
-const INSERT: KernelDef = KernelDef::new(
-    "insert",
-    &["wr_insert"],
-    INSERT_WGSL,
-    &[&[
-        PARAMS,
-        ("wr_vertex_slot", "array<vec2<u32>>", Access::ReadWrite),
-    ]],
-);
-const SCATTER: KernelDef = KernelDef::new(
-    "scatter",
-    &["wr_scatter", "wr_sort_cells"],
-    SCATTER_WGSL,
-    &[&[
-        PARAMS,
-        ("wr_vertex_slot", "array<vec2<u32>>", Access::Read),
-        ("wr_offsets", "array<u32>", Access::Read),
-        ("wr_counters", "array<u32>", Access::Read),
-        ("wr_cells", "array<u32>", Access::ReadWrite),
-    ]],
-);
 const REUSE: KernelDef = KernelDef::new(
     "reuse",
     &["wr_reuse"],
@@ -305,11 +278,8 @@ const REUSE: KernelDef = KernelDef::new(
     &[
         &[PARAMS],
         REUSE_IO,
-        &[
-            ("wr_lookup_offsets", "array<u32>", Access::Read),
-            ("wr_lookup_cells", "array<u32>", Access::Read),
-            ("wr_prev_vertices", "array<GVertex>", Access::Read),
-        ],
+        grid::LOOKUP,
+        &[("wr_prev_vertices", "array<GVertex>", Access::Read)],
     ],
 );
 const SHADE: KernelDef = KernelDef::new(
@@ -325,81 +295,92 @@ const DEBUG: KernelDef = KernelDef::new(
     &[&[
         PARAMS,
         ("wr_final", RESERVOIRS, Access::Read),
-        ("wr_vertex_slot", "array<vec2<u32>>", Access::Read),
+        ("wr_item_slot", "array<vec2<u32>>", Access::Read),
         ("wr_debug", "array<vec4<f32>>", Access::ReadWrite),
     ]],
 );
-const KERNELS: [(&KernelDef, Option<HashRole>); 6] = [
-    (&GENERATE, None),
-    (&INSERT, Some(HashRole::Table)),
-    (&SCATTER, None),
-    (&REUSE, Some(HashRole::Lookup)),
-    (&SHADE, None),
-    (&DEBUG, None),
+/// The kernels and whether each looks the grid up.
+const KERNELS: [(&KernelDef, bool); 4] = [
+    (&GENERATE, false),
+    (&REUSE, true),
+    (&SHADE, false),
+    (&DEBUG, false),
 ];
 
-/// Group 3 of kernel `k`: its own buffers, then its gpu-hash role's as the block `wr_hash`.
-fn bindings(k: &KernelDef, hash: Option<HashRole>) -> BindingSet {
-    match hash {
-        Some(HashRole::Table) => k
-            .bindings()
-            .block("wr_hash", gpu_hash::bind_group_layout_entries),
-        Some(HashRole::Lookup) => k
-            .bindings()
-            .block("wr_hash", gpu_hash::lookup_bind_group_layout_entries),
-        None => k.bindings(),
+/// Group 3 of kernel `k`: its own buffers, then the grid's lookup block when it looks up.
+fn bindings(k: &KernelDef, lookup: bool) -> BindingSet {
+    match lookup {
+        true => grid::with_lookup(k.bindings()),
+        false => k.bindings(),
     }
 }
 
-/// The modules of kernel `k`, composed after the render library.
-fn modules(k: &KernelDef, hash: Option<HashRole>) -> Vec<WgslModule> {
-    let at = gpu_hash::wgsl::BindAt {
-        group: STAGE_GROUP,
-        first_binding: k.buffers().count() as u32,
-    };
-    let role = |r| (hash == Some(r)).then_some(at);
-    let hash_wgsl = match hash {
-        Some(_) => gpu_hash::wgsl::compose(role(HashRole::Table), role(HashRole::Lookup)),
-        None => String::new(),
-    };
-    let mut modules = vec![
+/// The library modules of every world-restir kernel (the grid's items among them).
+fn library_modules() -> Vec<WgslModule> {
+    vec![
         WgslModule::new("wr-constants", &[], constants_wgsl()),
-        WgslModule::new("wr-bindings", &[], bindings(k, hash).wgsl(STAGE_GROUP)),
-        WgslModule::new("gpu-hash", &[], hash_wgsl),
         WgslModule::new(
             "world-restir",
             &["render", "reservoir", "wr-constants"],
             WGSL,
         ),
-        WgslModule::new(
-            k.name,
-            &["world-restir", "wr-bindings", "gpu-hash", "workgroup"],
-            k.source,
-        ),
-    ];
+    ]
+}
+
+/// The modules of kernel `k`, composed after the render library.
+fn modules(k: &KernelDef, lookup: bool) -> Vec<WgslModule> {
+    let mut modules = library_modules();
+    modules.push(WgslModule::new(
+        "wr-bindings",
+        &[],
+        bindings(k, lookup).wgsl(STAGE_GROUP),
+    ));
+    let mut deps = vec!["world-restir", "wr-bindings", "workgroup"];
+    if lookup {
+        modules.extend(grid::lookup_modules(k.buffers().count() as u32));
+        deps.push("grid-lookup");
+    }
+    modules.push(WgslModule::new(k.name, &deps, k.source));
     modules.extend(k.binds("light_tiles").then(light_tiles::reader_module));
     modules
+}
+
+/// The grid's items: the secondary vertices (then the primary ones, unified) that generate a
+/// reservoir this frame; `params`: the `wr_params` they read (none to compose the kernels).
+fn grid_items(params: Option<&wgpu::Buffer>, count: u32) -> GridItems<'_> {
+    let mut modules = library_modules();
+    modules.push(WgslModule::new(
+        "grid-items",
+        &["world-restir", "grid"],
+        ITEMS_WGSL,
+    ));
+    GridItems {
+        name: "world-restir",
+        count,
+        stream: Stream::WrBuild,
+        modules,
+        bindings: &[PARAMS],
+        buffers: params.into_iter().collect(),
+    }
 }
 
 /// Every kernel of world-space ReSTIR, composed as used, with its binding sets.
 pub fn kernels() -> Vec<ComposedKernel> {
     KERNELS
         .iter()
-        .map(|(k, hash)| {
-            let source = render::compose_with_library(Tracer::Bvh, modules(k, *hash));
+        .map(|(k, lookup)| {
+            let source = render::compose_with_library(Tracer::Bvh, modules(k, *lookup));
             let name = format!("restir-world/world_restir/{}", k.name);
-            ComposedKernel::stage(name, source, bindings(k, *hash))
+            ComposedKernel::stage(name, source, bindings(k, *lookup))
         })
+        .chain(grid::kernels(&grid_items(None, 0)))
         .collect()
 }
 
-/// World-space ReSTIR's buffers besides the hash tables.
+/// World-space ReSTIR's buffers besides the grid.
 #[derive(Debug)]
 struct WrBuffers {
     params: wgpu::Buffer,
-    offsets: [wgpu::Buffer; 2],
-    cells: [wgpu::Buffer; 2],
-    vertex_slot: wgpu::Buffer,
     reservoirs: [wgpu::Buffer; 2],
     prev_reservoirs: wgpu::Buffer,
     /// Last frame's grid items' vertices: secondary, then primary when unified (the temporal
@@ -416,7 +397,6 @@ impl WrBuffers {
         ctx: &GpuContext,
         config: &WorldRestirConfig,
         pixels: u32,
-        slots: u64,
         tiles: Option<(u32, u32)>,
     ) -> Result<Self, WorldRestirError> {
         let px = u64::from(pixels);
@@ -441,9 +421,6 @@ impl WrBuffers {
                 &[wr_params],
                 wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
             ),
-            offsets: pair("wr offsets", slots * 4),
-            cells: pair("wr cells", items * 4),
-            vertex_slot: zeroed("wr vertex slot", items * 8),
             reservoirs: pair("wr reservoirs", res_bytes),
             prev_reservoirs: zeroed("wr prev reservoirs", res_bytes),
             prev_vertices: zeroed("wr prev vertices", vertex_bytes),
@@ -454,16 +431,22 @@ impl WrBuffers {
 }
 
 /// The created kernels, in [`KERNELS`] order.
-struct WrKernels([OwnKernel; 6]);
+struct WrKernels([OwnKernel; 4]);
 
 impl WrKernels {
     fn new(ctx: &GpuContext, shared: &SharedGroups) -> Result<Self, GpuError> {
-        let kernel = |(k, hash): (&KernelDef, Option<HashRole>)| {
+        let kernel = |(k, lookup): (&KernelDef, bool)| {
             let name = format!("world-restir {}", k.name);
-            shared.own_kernel(ctx, &name, &bindings(k, hash), modules(k, hash), k.entries)
+            shared.own_kernel(
+                ctx,
+                &name,
+                &bindings(k, lookup),
+                modules(k, lookup),
+                k.entries,
+            )
         };
-        let [a, b, c, d, e, f] = KERNELS.map(kernel);
-        Ok(Self([a?, b?, c?, d?, e?, f?]))
+        let [a, b, c, d] = KERNELS.map(kernel);
+        Ok(Self([a?, b?, c?, d?]))
     }
 }
 
@@ -471,9 +454,6 @@ impl WrKernels {
 #[derive(Debug)]
 struct WrPasses {
     generate: Pass,
-    insert: [Pass; 2],
-    scatter: [Pass; 2],
-    sort: Option<[Pass; 2]>,
     temporal: Option<[Pass; 2]>,
     spatial: [Vec<Pass>; 2],
     shade: Pass,
@@ -489,7 +469,7 @@ struct Binder<'a> {
     ctx: &'a GpuContext,
     shared: &'a SharedGroups,
     b: &'a WrBuffers,
-    tables: &'a [HashTable; 2],
+    grid: &'a WorldGrid,
     k: WrKernels,
     items: u32,
 }
@@ -512,28 +492,6 @@ impl Binder<'_> {
             .bound_pass(&self.ctx.device, &self.k.0[i], entry, res, items)
     }
 
-    fn insert(&self, p: usize) -> Result<Pass, GpuError> {
-        let first = INSERT.buffers().count() as u32;
-        let hash = Resource::Block(self.tables[p].bind_group_entries(first));
-        let res = vec![
-            self.params(),
-            ("wr_vertex_slot", (&self.b.vertex_slot).into()),
-            ("wr_hash", hash),
-        ];
-        self.pass(1, "wr_insert", res, true)
-    }
-
-    fn scatter(&self, entry: &str, p: usize) -> Result<Pass, GpuError> {
-        let res = vec![
-            self.params(),
-            ("wr_vertex_slot", (&self.b.vertex_slot).into()),
-            ("wr_offsets", (&self.b.offsets[p]).into()),
-            ("wr_counters", self.tables[p].counters().into()),
-            ("wr_cells", (&self.b.cells[p]).into()),
-        ];
-        self.pass(2, entry, res, true)
-    }
-
     /// One reuse pass: reads `src` (and `own` for the receiver), writes `out`, looks up the
     /// grid of parity `grid`.
     fn reuse(
@@ -545,20 +503,16 @@ impl Binder<'_> {
     ) -> Result<Pass, GpuError> {
         let u = ReusePass::buffer(&self.ctx.device, temporal, index);
         let first = REUSE.buffers().count() as u32;
-        let hash = self.tables[grid].lookup_bind_group_entries(first);
-        let b = self.b;
-        let res = vec![
+        let mut res = vec![
             self.params(),
             ("reuse_pass", (&u).into()),
             ("reuse_src", src.into()),
             ("reuse_self", own.into()),
             ("reuse_out", out.into()),
-            ("wr_lookup_offsets", (&b.offsets[grid]).into()),
-            ("wr_lookup_cells", (&b.cells[grid]).into()),
-            ("wr_prev_vertices", (&b.prev_vertices).into()),
-            ("wr_hash", Resource::Block(hash)),
+            ("wr_prev_vertices", (&self.b.prev_vertices).into()),
         ];
-        self.pass(3, "wr_reuse", res, true)
+        res.extend(self.grid.lookup_resources(grid, first));
+        self.pass(1, "wr_reuse", res, true)
     }
 
     fn both(&self, f: impl Fn(usize) -> Result<Pass, GpuError>) -> Result<[Pass; 2], GpuError> {
@@ -611,25 +565,19 @@ impl WrPasses {
         let debug_res = vec![
             params(),
             last(),
-            ("wr_vertex_slot", (&b.vertex_slot).into()),
+            ("wr_item_slot", binder.grid.item_slots().into()),
             ("wr_debug", (&b.debug).into()),
         ];
         Ok(Self {
             generate: binder.pass(0, "wr_generate", generate_res, true)?,
-            insert: binder.both(|p| binder.insert(p))?,
-            scatter: binder.both(|p| binder.scatter("wr_scatter", p))?,
-            sort: match config.sort_cells {
-                true => Some(binder.both(|p| binder.scatter("wr_sort_cells", p))?),
-                false => None,
-            },
             temporal,
             spatial,
-            shade: binder.pass(4, "wr_shade", vec![params(), last()], false)?,
+            shade: binder.pass(2, "wr_shade", vec![params(), last()], false)?,
             shade_direct: match config.unified {
-                true => Some(binder.pass(4, "wr_shade_direct", vec![params(), last()], false)?),
+                true => Some(binder.pass(2, "wr_shade_direct", vec![params(), last()], false)?),
                 false => None,
             },
-            debug: binder.pass(5, "wr_debug_view", debug_res, false)?,
+            debug: binder.pass(3, "wr_debug_view", debug_res, false)?,
             final_index: cur,
         })
     }
@@ -642,14 +590,9 @@ impl WrPasses {
 pub struct WorldRestir {
     config: WorldRestirConfig,
     pixels: u32,
-    grid_params: HashGridParams,
-    tables: [HashTable; 2],
+    grid: WorldGrid,
     buffers: WrBuffers,
-    scan: Scan,
-    /// The slot-offset scan of table p's counters into offsets[p], bound once.
-    scan_bindings: [ScanBinding; 2],
     passes: WrPasses,
-    parity: usize,
 }
 
 impl WorldRestir {
@@ -663,45 +606,29 @@ impl WorldRestir {
         tiles: Option<&LightTiles>,
     ) -> Result<Self, WorldRestirError> {
         config.validate()?;
-        let (device, camera) = (&ctx.device, renderer.camera());
-        let table = config.table(camera.width, camera.height);
-        let grid_params = HashGridParams::new(&table, &config.sizing(camera), camera.eye)?;
-        let [t0, t1] = [0, 1].map(|_| HashTable::new(device, &ctx.queue, &grid_params));
-        let tables = [t0?, t1?];
-        let slots = u32::try_from(table.num_slots()).map_err(|_| {
-            WorldRestirError::Config(format!("{} slots do not fit u32", table.num_slots()))
-        })?;
+        let camera = renderer.camera();
         let pixels = renderer.pixels();
-        let dims = tiles.map(LightTiles::dims);
-        let buffers = WrBuffers::new(ctx, &config, pixels, table.num_slots(), dims)?;
-        let scan = Scan::new(device, &ScanDescriptor::for_device(device, slots.max(1)))?;
-        let bind_scan = |p: usize| {
-            let (counters, offsets) = (tables[p].counters(), &buffers.offsets[p]);
-            scan.bind(device, counters, offsets, slots, ScanKind::Exclusive, None)
-        };
-        let scan_bindings = [bind_scan(0)?, bind_scan(1)?];
-        let shared = &renderer.shared;
-        let k = WrKernels::new(ctx, shared)?;
         let items = config.items(pixels);
+        let dims = tiles.map(LightTiles::dims);
+        let buffers = WrBuffers::new(ctx, &config, pixels, dims)?;
+        let shared = &renderer.shared;
+        let grid_items = grid_items(Some(&buffers.params), items);
+        let grid = WorldGrid::new(ctx, shared, config.grid(camera), grid_items, camera.eye)?;
         let binder = Binder {
             ctx,
             shared,
             b: &buffers,
-            tables: &tables,
-            k,
+            grid: &grid,
+            k: WrKernels::new(ctx, shared)?,
             items,
         };
         let passes = WrPasses::new(&binder, &config, tiles.map(LightTiles::buffer))?;
         Ok(Self {
             config,
             pixels,
-            grid_params,
-            tables,
+            grid,
             buffers,
-            scan,
-            scan_bindings,
             passes,
-            parity: 0,
         })
     }
 
@@ -722,11 +649,10 @@ impl WorldRestir {
         f: &mut FrameEncoder,
         renderer: &Renderer,
     ) -> Result<(), WorldRestirError> {
-        let (p, passes) = (self.parity, &self.passes);
-        let grid = self.grid_params.with_eye(renderer.camera().eye)?;
-        f.upload(self.tables[p].params(), 0, &grid);
+        let passes = &self.passes;
         f.span("generate", |f| f.dispatch(&passes.generate));
-        f.span("build", |f| self.encode_build(f, p))?;
+        let (grid, eye) = (&mut self.grid, renderer.camera().eye);
+        let p = f.span("build", |f| grid.encode_build(f, eye))?;
         if let Some(temporal) = &passes.temporal {
             f.span("temporal", |f| f.dispatch(&temporal[p]));
         }
@@ -742,20 +668,6 @@ impl WorldRestir {
         if self.config.temporal {
             f.span("persist", |f| self.encode_persist(f, renderer));
         }
-        self.parity = 1 - p;
-        Ok(())
-    }
-
-    /// Algorithm 2 into table `p`: clear, insert, scan the slot counts, scatter, sort cells.
-    fn encode_build(&self, f: &mut FrameEncoder, p: usize) -> Result<(), WorldRestirError> {
-        self.tables[p].encode_clear(f.raw());
-        f.dispatch(&self.passes.insert[p]);
-        self.scan.encode(f.raw(), &self.scan_bindings[p])?;
-        f.dispatch(&self.passes.scatter[p]);
-        self.passes
-            .sort
-            .iter()
-            .for_each(|sort| f.dispatch(&sort[p]));
         Ok(())
     }
 
@@ -778,9 +690,7 @@ impl WorldRestir {
 
     /// Statistics of the last built grid (overflows = vertices left out of it).
     pub fn grid_stats(&self, ctx: &GpuContext) -> Result<HashStats, GpuError> {
-        let t = &self.tables[1 - self.parity];
-        let v: Vec<HashStats> = buffers::read(ctx, t.stats())?;
-        Ok(v[0])
+        self.grid.stats(ctx)
     }
 
     /// The last frame's final reservoirs, per pixel.
@@ -794,18 +704,7 @@ impl WorldRestir {
     /// The last built grid, read back: per vertex (slot, index in slot) (slot >= 0xffff_fff0:
     /// not in the grid), per slot counts and exclusive offsets, and the compact cell storage.
     pub fn grid(&self, ctx: &GpuContext) -> Result<GridReadback, GpuError> {
-        let p = 1 - self.parity;
-        let n = self.pixels as usize;
-        let mut vertex_slot: Vec<[u32; 2]> = buffers::read(ctx, &self.buffers.vertex_slot)?;
-        vertex_slot.truncate(n);
-        let mut cells: Vec<u32> = buffers::read(ctx, &self.buffers.cells[p])?;
-        cells.truncate(n);
-        Ok(GridReadback {
-            vertex_slot,
-            counters: buffers::read(ctx, self.tables[p].counters())?,
-            offsets: buffers::read(ctx, &self.buffers.offsets[p])?,
-            cells,
-        })
+        self.grid.read(ctx, self.pixels as usize)
     }
 
     /// Renders a debug view of the last frame (RGB per pixel, row-major).
@@ -824,15 +723,6 @@ impl WorldRestir {
         ctx.queue.submit([encoder.finish()]);
         render::read_rgb(ctx, &self.buffers.debug, self.pixels, 1.0)
     }
-}
-
-/// The grid of one frame, read back (see [`WorldRestir::grid`]).
-#[derive(Debug, Clone, PartialEq)]
-pub struct GridReadback {
-    pub vertex_slot: Vec<[u32; 2]>,
-    pub counters: Vec<u32>,
-    pub offsets: Vec<u32>,
-    pub cells: Vec<u32>,
 }
 
 #[cfg(test)]
@@ -929,13 +819,7 @@ mod tests {
     }
 
     #[test]
-    fn auto_buckets_keep_load_at_most_half() {
-        assert_eq!(auto_buckets(9216, 32), 576);
-        assert_eq!(auto_buckets(0, 32), 64);
-        for v in [1u32, 1000, 9216, 65_536, 1 << 20] {
-            let b = auto_buckets(v, 32);
-            assert!(u64::from(b) * 32 >= 2 * u64::from(v), "{v}");
-        }
+    fn the_table_is_sized_to_the_frame_unless_set() {
         let c = WorldRestirConfig::default();
         assert_eq!(c.table(96, 96).num_buckets, 576);
         let paper = WorldRestirConfig {

@@ -1,7 +1,7 @@
 // Passes "temporal" and "spatial" (paper Algorithm 3): each vertex (the canonical reservoir,
 // reuse_self) merges a stochastic subset of up to max_count reservoirs (reuse_src) of the cell it
-// falls in, looked up (jittered) in a grid bound in gpu-hash's lookup role with its compact cell
-// storage (wr_lookup_offsets, wr_lookup_cells): last frame's grid, eye, reservoirs and vertices
+// falls in, looked up (jittered) in the world-space grid (grid_visit, restir_world::grid): last
+// frame's grid, eye, reservoirs and vertices
 // (wr_prev_vertices) for the temporal pass (at most temporal_m_cap of M taken from last frame in
 // total), this frame's for the spatial passes (ping-pong reuse_self -> reuse_out). Reservoirs whose
 // generating normal differs from the receiver's beyond normal_threshold (cosine) are skipped.
@@ -18,42 +18,19 @@ fn wr_source_vertex(j: u32, temporal: bool) -> GVertex {
     return wr_vertex(j);
 }
 
-// The cell's visited subset: `count` reservoirs from `start`, every `increment`-th from
-// `offset`, and the temporal M cap of each.
+// The cell's visited subset (the grid's, restir_world::grid) and the temporal M cap of each
+// visited reservoir.
 struct WrVisit {
-    count: u32,
-    start: u32,
-    increment: u32,
-    offset: u32,
+    cell: GridVisit,
     cap: u32,
 }
 
 fn wr_visit(v: GVertex, rng: ptr<function, u32>) -> WrVisit {
-    var s = WrVisit(0u, 0u, 1u, 0u, 0u);
-    var pos = v.position;
-    let u = vec2<f32>(rng_next_f32(rng), rng_next_f32(rng));
-    if wr_params.knobs.jitter != 0u {
-        pos = hash_jitter(pos, v.normal, u, hash_cell_size(hash_lookup_params, pos));
-    }
-    let slot = hash_lookup_position(pos);
-    if hash_lookup_is_slot(slot) {
-        s.count = hash_lookup_slot_count(slot);
-        s.start = wr_lookup_offsets[slot];
-        let max_count = max(wr_params.knobs.max_count, 1u);
-        s.increment = max((s.count + max_count - 1u) / max_count, 1u);
-        s.offset = rng_next_u32(rng) % s.increment;
-        // Temporal: the M taken from last frame is capped at temporal_m_cap in total, split
-        // over the (at most max_count) reservoirs this lookup visits.
-        let visited = (s.count + s.increment - 1u) / s.increment;
-        let cap = wr_params.knobs.temporal_m_cap * wr_params.knobs.candidates;
-        s.cap = max(cap / max(visited, 1u), 1u);
-    }
-    return s;
-}
-
-// The index of the n-th visited reservoir.
-fn wr_visited(s: WrVisit, k: u32) -> u32 {
-    return wr_lookup_cells[s.start + (k + s.offset) % s.count];
+    let cell = grid_visit(v.position, v.normal, wr_params.knobs.max_count, rng);
+    // Temporal: the M taken from last frame is capped at temporal_m_cap in total, split over
+    // the (at most max_count) reservoirs this lookup visits.
+    let cap = wr_params.knobs.temporal_m_cap * wr_params.knobs.candidates;
+    return WrVisit(cell, max(cap / max(grid_visited_count(cell), 1u), 1u));
 }
 
 // M of source reservoir j as merged at receiver i, 0 when it is not merged (no vertex, the
@@ -87,8 +64,8 @@ fn wr_reuse(id: Invocation) {
     // k merged neighbours and their total confidence.
     var k = 0u;
     var m_neighbours = 0u;
-    for (var n = 0u; n < visit.count; n += visit.increment) {
-        let m = wr_merged_m(i, wr_visited(visit, n), v, temporal, visit.cap);
+    for (var n = 0u; n < visit.cell.count; n += visit.cell.increment) {
+        let m = wr_merged_m(i, grid_visited(visit.cell, n), v, temporal, visit.cap);
         k += select(0u, 1u, m > 0u);
         m_neighbours = reservoir_add_m(m_neighbours, m);
     }
@@ -96,8 +73,8 @@ fn wr_reuse(id: Invocation) {
     var c = reuse_begin(wr_params.knobs.combine, PackedReservoir(own.ucw, own.m), p_own, k,
                         m_neighbours, u_own);
     var out = own;
-    for (var n = 0u; n < visit.count; n += visit.increment) {
-        let j = wr_visited(visit, n);
+    for (var n = 0u; n < visit.cell.count; n += visit.cell.increment) {
+        let j = grid_visited(visit.cell, n);
         let u_merge = rng_next_f32(&rng);
         let m = wr_merged_m(i, j, v, temporal, visit.cap);
         if m == 0u {
@@ -111,8 +88,8 @@ fn wr_reuse(id: Invocation) {
     if wr_params.knobs.combine == REUSE_ONE_OVER_Z && c.p_hat > 0.0 {
         // Z: the receiver and every merged reservoir whose own vertex could have produced y.
         let y = render_stored_sample(out);
-        for (var n = 0u; n < visit.count; n += visit.increment) {
-            let j = wr_visited(visit, n);
+        for (var n = 0u; n < visit.cell.count; n += visit.cell.increment) {
+            let j = grid_visited(visit.cell, n);
             let m = wr_merged_m(i, j, v, temporal, visit.cap);
             if m > 0u {
                 reuse_count_z(&c, m, render_light_target(wr_source_vertex(j, temporal), y));
