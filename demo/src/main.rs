@@ -72,6 +72,12 @@ enum Command {
         scene: Option<String>,
         #[command(flatten)]
         scene_opts: scenes::SceneArgs,
+        /// A method spec whose frame to print: each step in order, with what it reads and
+        /// writes (at the path flags given).
+        #[arg(long)]
+        method: Option<String>,
+        #[command(flatten)]
+        paths: paths::PathArgs,
     },
     /// Render a scene: direct, indirect and combined images as linear EXR + sRGB PNG.
     Render(Box<RenderArgs>),
@@ -268,7 +274,12 @@ fn main() -> ExitCode {
         out: "out".into(),
         size: (256, 256),
     }) {
-        Command::Info { scene, scene_opts } => info(scene.as_deref(), &scene_opts),
+        Command::Info {
+            scene,
+            scene_opts,
+            method,
+            paths,
+        } => info(scene.as_deref(), &scene_opts, method.as_deref(), &paths),
         Command::Render(args) => render(&args),
         Command::Smoke { out, size } => smoke(&out, size),
         Command::Compare(args) => compare_cmd(*args),
@@ -361,10 +372,28 @@ pub(crate) fn write_all_or_none(
     Ok(())
 }
 
-fn info(scene_name: Option<&str>, opts: &scenes::SceneArgs) -> Result<()> {
+fn info(
+    scene_name: Option<&str>,
+    opts: &scenes::SceneArgs,
+    method: Option<&str>,
+    paths: &paths::PathArgs,
+) -> Result<()> {
+    // The method and its frame are checked before the adapter is opened.
+    let plan = match method {
+        Some(spec) => {
+            let settings = restir_world::methods::parse_spec(spec).context("--method")?;
+            let paths = paths.paths()?;
+            settings.check_paths(&paths).context("--method")?;
+            Some((spec, settings.plan(&paths).context("--method")?))
+        }
+        None => None,
+    };
     let ctx = gpu_context()?;
     print_adapter(&ctx);
     print_methods();
+    if let Some((spec, plan)) = plan {
+        println!("one frame of {spec} (each step enters its owner once):\n{plan}");
+    }
     if let Some(name) = scene_name {
         print_scene(name, &scenes::load(name, opts, None)?);
     }

@@ -1,6 +1,7 @@
 //! [`Composed`]: a method made of the renderer and the stages that replace its shading, in the
 //! one order every method shares.
 
+use super::plan::{FramePlan, Step};
 use super::{FrameMethod, MethodError, MethodSettings};
 use crate::cache::{CacheStats, RadianceCache};
 use crate::gpu::{FrameEncoder, GpuContext};
@@ -12,19 +13,12 @@ use crate::scene::{Camera, Scene};
 use crate::world_restir::{WorldRestir, WorldRestirConfig};
 
 /// The renderer (primary and GI passes, the baselines' shading, accumulation) and the stages
-/// a method adds. Per frame:
-///
-/// 1. the renderer's `primary` and `gi` passes;
-/// 2. the light tiles, when a stage draws from them (`light-tiles`); the radiance cache's
-///    update and resolve, when the method has one;
-/// 3. the path samples and the indirect image: world-restir, or the renderer's NEE at the
-///    secondary vertex, then the path beyond it (ending in the radiance cache, with one); with
-///    ReSTIR GI the path samples are resampled and the indirect image rewritten from them;
-/// 4. the direct image: world-restir's unified cache, ReSTIR DI, or the renderer's NEE;
-/// 5. accumulation.
+/// a method adds, run in the order of the method's [`FramePlan`]
+/// ([`MethodSettings::plan`]): each step enters the renderer or one stage once.
 #[derive(Debug)]
 pub struct Composed {
     renderer: Renderer,
+    plan: FramePlan,
     tiles: Option<LightTiles>,
     world: Option<WorldRestir>,
     gi: Option<RestirGi>,
@@ -54,6 +48,7 @@ impl Composed {
     ) -> Result<Self, MethodError> {
         settings.validate()?;
         settings.check_paths(&options.paths)?;
+        let plan = settings.plan(&options.paths)?;
         let renderer = Renderer::with_options(ctx, scene, camera, settings.estimator, options)?;
         let tiles = match settings.di {
             Some(d) => Some(LightTiles::new(
@@ -85,6 +80,7 @@ impl Composed {
         };
         Ok(Self {
             renderer,
+            plan,
             tiles,
             world,
             gi,
@@ -153,6 +149,11 @@ impl Composed {
         self.cache.as_mut()
     }
 
+    /// The frame's steps.
+    pub fn plan(&self) -> &FramePlan {
+        &self.plan
+    }
+
     /// The light tiles, when a stage draws from them.
     pub fn tiles(&self) -> Option<&LightTiles> {
         self.tiles.as_ref()
@@ -166,31 +167,33 @@ impl FrameMethod for Composed {
 
     fn encode_frame(&mut self, f: &mut FrameEncoder) -> Result<(), MethodError> {
         let r = &mut self.renderer;
-        r.encode_primary_and_gi(f);
-        if let Some(t) = &self.tiles {
-            t.encode(f);
+        for &step in self.plan.steps() {
+            let missing = || MethodError::Variant {
+                method: "composed".into(),
+                msg: format!("the plan's step {} has no stage", step.name()),
+            };
+            match step {
+                Step::PrimaryAndGi => r.encode_primary_and_gi(f),
+                Step::LightTiles => self.tiles.as_ref().ok_or_else(missing)?.encode(f),
+                Step::CacheUpdate => self
+                    .cache
+                    .as_mut()
+                    .ok_or_else(missing)?
+                    .encode_update(f, r)?,
+                Step::WorldRestir { .. } => {
+                    self.world.as_mut().ok_or_else(missing)?.encode(f, r)?
+                }
+                Step::ShadeIndirect => r.encode_shade_indirect(f),
+                Step::Path { cache: true } => {
+                    self.cache.as_ref().ok_or_else(missing)?.encode_path(f)
+                }
+                Step::Path { cache: false } => r.encode_path(f),
+                Step::RestirGi => self.gi.as_mut().ok_or_else(missing)?.encode(f, r),
+                Step::RestirDi => self.di.as_mut().ok_or_else(missing)?.encode(f, r),
+                Step::ShadeDirect => r.encode_shade_direct(f),
+                Step::Accumulate => r.encode_accumulate(f),
+            }
         }
-        if let Some(c) = self.cache.as_mut() {
-            c.encode_update(f, r)?;
-        }
-        match self.world.as_mut() {
-            Some(w) => w.encode(f, r)?,
-            None => r.encode_shade_indirect(f),
-        }
-        match &self.cache {
-            Some(c) => c.encode_path(f),
-            None => r.encode_path(f),
-        }
-        if let Some(gi) = self.gi.as_mut() {
-            gi.encode(f, r);
-        }
-        let unified = self.world.as_ref().is_some_and(WorldRestir::lights_direct);
-        match self.di.as_mut() {
-            _ if unified => {}
-            Some(di) => di.encode(f, r),
-            None => r.encode_shade_direct(f),
-        }
-        r.encode_accumulate(f);
         Ok(())
     }
 

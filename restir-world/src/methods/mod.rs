@@ -17,10 +17,12 @@ use crate::screen_reuse::ScreenReuseError;
 use crate::world_restir::WorldRestirError;
 
 mod composed;
+pub mod plan;
 mod registry;
 
 pub use crate::render::{FrameImages, Readback};
 pub use composed::Composed;
+pub use plan::{FrameBuffer, FramePlan, Step};
 pub use registry::{
     MethodEntry, MethodSettings, build_method, check_camera, check_paths, check_spec, entry,
     parse_spec, registry,

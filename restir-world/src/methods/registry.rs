@@ -4,6 +4,7 @@
 
 use std::fmt;
 
+use super::plan::{FramePlan, Step};
 use super::{Composed, FrameMethod, MethodError};
 use crate::cache::{self, CacheConfig, CacheError};
 use crate::gpu::GpuContext;
@@ -244,6 +245,40 @@ impl MethodSettings {
             )));
         }
         Ok(())
+    }
+
+    /// The frame's steps for paths `paths`, in the one order every method shares, checked
+    /// ([`FramePlan::new`]): the renderer's camera and GI rays; the light tiles and the
+    /// radiance cache's update when a stage needs them; the path samples and the indirect image
+    /// (world-restir or the renderer's light estimate at the secondary vertex, then the path
+    /// beyond it unless there is none: one bounce without MIS); ReSTIR GI rewriting the
+    /// indirect image from the path samples; the direct image (world-restir's unified cache,
+    /// ReSTIR DI or the renderer's); accumulation.
+    pub fn plan(&self, paths: &render::Paths) -> Result<FramePlan, MethodError> {
+        let mut steps = vec![Step::PrimaryAndGi];
+        steps.extend(self.di.map(|_| Step::LightTiles));
+        steps.extend(self.cache.map(|_| Step::CacheUpdate));
+        let unified = self.world.is_some_and(|w| w.unified);
+        steps.push(match self.world {
+            Some(_) => Step::WorldRestir {
+                tiles: self.di.is_some_and(|d| d.gi_tiles),
+                direct: unified,
+            },
+            None => Step::ShadeIndirect,
+        });
+        if self.cache.is_some() || paths.bounces > 1 || paths.mis {
+            steps.push(Step::Path {
+                cache: self.cache.is_some(),
+            });
+        }
+        steps.extend(self.gi.map(|_| Step::RestirGi));
+        match self.di {
+            _ if unified => {}
+            Some(_) => steps.push(Step::RestirDi),
+            None => steps.push(Step::ShadeDirect),
+        }
+        steps.push(Step::Accumulate);
+        FramePlan::new(steps).map_err(|e| self.entry.bad(e))
     }
 
     /// The spec that rebuilds these settings (`name` or `name:knobs`).
@@ -624,6 +659,46 @@ mod tests {
         let b = parse_spec("world-restir:biased+spatial-passes=3").unwrap();
         assert_eq!(b.spec(), "world-restir:spatial-passes=3+combine=biased");
         assert_eq!(parse_spec("ris:16").unwrap().spec(), "ris");
+    }
+
+    #[test]
+    fn every_method_has_a_checked_frame_plan() {
+        let unbounded = render::Paths {
+            bounces: render::MAX_BOUNCES,
+            ..render::Paths::default()
+        };
+        for e in registry() {
+            let s = e.settings(None).unwrap();
+            let paths = if e.cache {
+                unbounded
+            } else {
+                render::Paths::default()
+            };
+            s.plan(&paths)
+                .unwrap_or_else(|err| panic!("{}: {err}", e.name));
+        }
+    }
+
+    #[test]
+    fn restir_gi_over_world_restir_enters_each_stage_once() {
+        let s = parse_spec("restir-gi+world-restir").unwrap();
+        let plan = s.plan(&render::Paths::default()).unwrap();
+        assert_eq!(
+            plan.to_string(),
+            "1. renderer primary+gi: writes primary, secondary;\n\
+             2. world-restir: reads primary, secondary; writes path-radiance, indirect;\n\
+             3. renderer path: reads primary, secondary; adds to path-radiance, indirect;\n\
+             4. restir-gi: reads primary, secondary, path-radiance; rewrites indirect;\n\
+             5. renderer shade_direct: reads primary, secondary; writes direct;\n\
+             6. renderer accumulate: reads direct, indirect; writes accumulation;\n"
+        );
+        let one_bounce = render::Paths {
+            bounces: 1,
+            mis: false,
+            ..render::Paths::default()
+        };
+        let steps = parse_spec("ris").unwrap().plan(&one_bounce).unwrap();
+        assert!(!steps.steps().iter().any(|s| matches!(s, Step::Path { .. })));
     }
 
     #[test]
