@@ -6,8 +6,11 @@ use std::path::Path;
 
 use anyhow::Result;
 use clap::Args;
+use restir_world::GpuContext;
 use restir_world::image_io::{Image, write_png};
-use restir_world::methods::{FrameLoop, MethodError, MethodSettings, Readback, run_frames};
+use restir_world::methods::{
+    FrameLoop, FrameMethod, MethodError, MethodSettings, Readback, run_frames,
+};
 use restir_world::reference::Rendered;
 use restir_world::render::{DebugView, RenderOptions};
 use restir_world::scene::{Camera, Scene};
@@ -102,13 +105,22 @@ pub fn render_method(
         ),
         None => println!("{spec}: {frames} frames (adapter has no timestamps)"),
     }
-    if let Some(overflows) = m.grid_overflows(&ctx)? {
+    print_stage_stats(&ctx, m.as_ref())?;
+    if args.debug_views {
+        write_debug_views(&ctx, m.as_ref(), spec, camera, out, tag)?;
+    }
+    Ok(m.read(&ctx, Readback::Accumulated)?.into_rendered()?)
+}
+
+/// The hash grid's and the radiance cache's use in the last frame, for methods with them.
+fn print_stage_stats(ctx: &GpuContext, m: &dyn FrameMethod) -> Result<()> {
+    if let Some(overflows) = m.grid_overflows(ctx)? {
         println!(
             "grid (last frame): {overflows} vertices found their bucket full and kept their own \
              reservoir"
         );
     }
-    if let Some(s) = m.cache_stats(&ctx)? {
+    if let Some(s) = m.cache_stats(ctx)? {
         println!(
             "radiance cache (last frame): {} of {} cells in use, {} bytes per cell ({:.1} MiB), \
              {} inserts found their bucket full, {} non-finite or out-of-range left out",
@@ -120,31 +132,41 @@ pub fn render_method(
             s.rejected
         );
     }
-    if args.debug_views {
-        let mut written = 0;
-        for (view, name) in [
-            (DebugView::Cells, "debug-cells"),
-            (DebugView::M, "debug-m"),
-            (DebugView::Overflow, "debug-overflow"),
-            (DebugView::Rejected, "debug-rejected"),
-            (DebugView::CacheRadiance, "debug-cache-radiance"),
-            (DebugView::CacheAge, "debug-cache-age"),
-            (DebugView::CacheSamples, "debug-cache-samples"),
-        ] {
-            // Each method draws the views it has.
-            let Some(px) = m.debug_image(&ctx, view)? else {
-                continue;
-            };
-            written += 1;
-            let img = Image::from_pixels(camera.width, camera.height, px)
-                .map_err(|e| anyhow::anyhow!("{e}"))?;
-            let file = out.join(format!("{tag}-{name}.png"));
-            write_png(&file, &img, 1.0)?;
-            println!("wrote {}", file.display());
-        }
-        if written == 0 {
-            eprintln!("warning: {spec} has no debug views");
-        }
+    Ok(())
+}
+
+/// Writes the debug views `m` draws as `{tag}-debug-*.png` into `out`.
+fn write_debug_views(
+    ctx: &GpuContext,
+    m: &dyn FrameMethod,
+    spec: &str,
+    camera: &Camera,
+    out: &Path,
+    tag: &str,
+) -> Result<()> {
+    let mut written = 0;
+    for (view, name) in [
+        (DebugView::Cells, "debug-cells"),
+        (DebugView::M, "debug-m"),
+        (DebugView::Overflow, "debug-overflow"),
+        (DebugView::Rejected, "debug-rejected"),
+        (DebugView::CacheRadiance, "debug-cache-radiance"),
+        (DebugView::CacheAge, "debug-cache-age"),
+        (DebugView::CacheSamples, "debug-cache-samples"),
+    ] {
+        // Each method draws the views it has.
+        let Some(px) = m.debug_image(ctx, view)? else {
+            continue;
+        };
+        written += 1;
+        let img = Image::from_pixels(camera.width, camera.height, px)
+            .map_err(|e| anyhow::anyhow!("{e}"))?;
+        let file = out.join(format!("{tag}-{name}.png"));
+        write_png(&file, &img, 1.0)?;
+        println!("wrote {}", file.display());
     }
-    Ok(m.read(&ctx, Readback::Accumulated)?.into_rendered()?)
+    if written == 0 {
+        eprintln!("warning: {spec} has no debug views");
+    }
+    Ok(())
 }

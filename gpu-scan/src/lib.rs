@@ -274,119 +274,151 @@ fn split_groups(groups: u32, max_x: u32) -> (u32, u32) {
     (x, groups.div_ceil(x).max(1))
 }
 
+/// The kernel's configuration for `desc` on `device`, after every check of the descriptor
+/// against the device: the configuration, the tiles of a scan of `max_len` and the binding
+/// limit in elements.
+fn checked_config(
+    device: &wgpu::Device,
+    desc: &ScanDescriptor,
+) -> Result<(KernelConfig, u32, u64), ScanError> {
+    let limits = device.limits();
+    let binding_limit = limits
+        .max_storage_buffer_binding_size
+        .min(limits.max_buffer_size)
+        / 4;
+    if u64::from(desc.max_len) > binding_limit {
+        return Err(ScanError::MaxLenAboveBindingLimit {
+            max_len: desc.max_len,
+            limit: binding_limit,
+        });
+    }
+    if desc.use_subgroups && !device.features().contains(wgpu::Features::SUBGROUP) {
+        return Err(ScanError::SubgroupsUnavailable);
+    }
+    check_device_limits(&limits)?;
+    if let Some(items) = desc.items_per_thread {
+        if items == 0 || items % 4 != 0 {
+            return Err(ScanError::InvalidItemsPerThread(items));
+        }
+    }
+    let (default_wg, default_items) = default_shape(&device.adapter_info());
+    let config = KernelConfig {
+        workgroup_size: workgroup_size(desc, &limits, default_wg)?,
+        items_per_thread: desc.items_per_thread.unwrap_or(default_items),
+        spin_limit: desc.spin_limit,
+        counters: desc.debug_counters,
+        max_len: desc.max_len,
+        max_groups_x: limits.max_compute_workgroups_per_dimension,
+        subgroups: desc.use_subgroups,
+    };
+    if config.workgroup_bytes() > limits.max_compute_workgroup_storage_size {
+        return Err(ScanError::DeviceLimit {
+            limit: "max_compute_workgroup_storage_size",
+            needed: u64::from(config.workgroup_bytes()),
+            available: u64::from(limits.max_compute_workgroup_storage_size),
+        });
+    }
+    if u64::from(config.tile_len()) > u64::from(u32::MAX / 2) {
+        return Err(ScanError::InvalidItemsPerThread(config.items_per_thread));
+    }
+    let tiles = desc.max_len.div_ceil(config.tile_len()).max(1);
+    let groups = split_groups(tiles, config.max_groups_x);
+    if groups.1 > limits.max_compute_workgroups_per_dimension {
+        return Err(ScanError::UnsupportedLimits(format!(
+            "{tiles} tiles exceed the dispatch limits"
+        )));
+    }
+    Ok((config, tiles, binding_limit))
+}
+
+/// The workgroup size: the descriptor's (a power of two from 32 to the device's limit, at most
+/// 256) or the adapter's default shape's.
+fn workgroup_size(
+    desc: &ScanDescriptor,
+    limits: &wgpu::Limits,
+    default_wg: u32,
+) -> Result<u32, ScanError> {
+    let max_threads = limits
+        .max_compute_invocations_per_workgroup
+        .min(limits.max_compute_workgroup_size_x)
+        .min(256);
+    if max_threads < 32 {
+        return Err(ScanError::UnsupportedLimits(format!(
+            "{max_threads} invocations per workgroup (need 32)"
+        )));
+    }
+    match desc.workgroup_size {
+        None => Ok(1 << max_threads.min(default_wg).ilog2()),
+        Some(w) if w.is_power_of_two() && w >= 32 && w <= max_threads => Ok(w),
+        Some(w) => Err(ScanError::InvalidWorkgroupSize {
+            size: w,
+            max: 1 << max_threads.ilog2(),
+        }),
+    }
+}
+
+/// A layout of storage buffers at bindings 0.. (`read_only[i]`: binding i is read-only).
+fn bind_group_layout(
+    device: &wgpu::Device,
+    label: &str,
+    read_only: &[bool],
+) -> wgpu::BindGroupLayout {
+    let entries: Vec<_> = (0u32..)
+        .zip(read_only)
+        .map(|(i, &ro)| storage_entry(i, ro))
+        .collect();
+    device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+        label: Some(label),
+        entries: &entries,
+    })
+}
+
+/// The compute pipeline of `entry` in `source` over the one group `layout`.
+fn compute_pipeline(
+    device: &wgpu::Device,
+    label: &str,
+    source: String,
+    layout: &wgpu::BindGroupLayout,
+    entry: &str,
+) -> wgpu::ComputePipeline {
+    let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+        label: Some(label),
+        source: wgpu::ShaderSource::Wgsl(source.into()),
+    });
+    let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+        label: Some(label),
+        bind_group_layouts: &[Some(layout)],
+        immediate_size: 0,
+    });
+    device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+        label: Some(label),
+        layout: Some(&pipeline_layout),
+        module: &module,
+        entry_point: Some(entry),
+        compilation_options: Default::default(),
+        cache: None,
+    })
+}
+
 impl Scan {
     /// Builds the pipelines and scratch for scans of up to `desc.max_len` elements.
     pub fn new(device: &wgpu::Device, desc: &ScanDescriptor) -> Result<Self, ScanError> {
-        let limits = device.limits();
-        let binding_limit = limits
-            .max_storage_buffer_binding_size
-            .min(limits.max_buffer_size)
-            / 4;
-        if u64::from(desc.max_len) > binding_limit {
-            return Err(ScanError::MaxLenAboveBindingLimit {
-                max_len: desc.max_len,
-                limit: binding_limit,
-            });
-        }
-        if desc.use_subgroups && !device.features().contains(wgpu::Features::SUBGROUP) {
-            return Err(ScanError::SubgroupsUnavailable);
-        }
-        check_device_limits(&limits)?;
-        if let Some(items) = desc.items_per_thread {
-            if items == 0 || items % 4 != 0 {
-                return Err(ScanError::InvalidItemsPerThread(items));
-            }
-        }
-        let max_threads = limits
-            .max_compute_invocations_per_workgroup
-            .min(limits.max_compute_workgroup_size_x)
-            .min(256);
-        if max_threads < 32 {
-            return Err(ScanError::UnsupportedLimits(format!(
-                "{max_threads} invocations per workgroup (need 32)"
-            )));
-        }
-        let (default_wg, default_items) = default_shape(&device.adapter_info());
-        let workgroup_size = match desc.workgroup_size {
-            None => 1 << max_threads.min(default_wg).ilog2(),
-            Some(w) if w.is_power_of_two() && w >= 32 && w <= max_threads => w,
-            Some(w) => {
-                return Err(ScanError::InvalidWorkgroupSize {
-                    size: w,
-                    max: 1 << max_threads.ilog2(),
-                });
-            }
-        };
-        let mut config = KernelConfig {
-            workgroup_size,
-            items_per_thread: 1,
-            spin_limit: desc.spin_limit,
-            counters: desc.debug_counters,
-            max_len: desc.max_len,
-            max_groups_x: limits.max_compute_workgroups_per_dimension,
-            subgroups: desc.use_subgroups,
-        };
-        config.items_per_thread = desc.items_per_thread.unwrap_or(default_items);
-        if config.workgroup_bytes() > limits.max_compute_workgroup_storage_size {
-            return Err(ScanError::DeviceLimit {
-                limit: "max_compute_workgroup_storage_size",
-                needed: u64::from(config.workgroup_bytes()),
-                available: u64::from(limits.max_compute_workgroup_storage_size),
-            });
-        }
-        if u64::from(config.tile_len()) > u64::from(u32::MAX / 2) {
-            return Err(ScanError::InvalidItemsPerThread(config.items_per_thread));
-        }
-        let tiles = desc.max_len.div_ceil(config.tile_len()).max(1);
-        let groups = split_groups(tiles, config.max_groups_x);
-        if groups.1 > limits.max_compute_workgroups_per_dimension {
-            return Err(ScanError::UnsupportedLimits(format!(
-                "{tiles} tiles exceed the dispatch limits"
-            )));
-        }
-
-        let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("gpu-scan"),
-            entries: &[
-                storage_entry(0, true),
-                storage_entry(1, false),
-                storage_entry(2, false),
-                storage_entry(3, false),
-                storage_entry(4, true),
-                storage_entry(5, false),
-                storage_entry(6, true),
-                storage_entry(7, false),
-            ],
-        });
-        let prepare_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("gpu-scan prepare"),
-            entries: &[
-                storage_entry(0, true),
-                storage_entry(1, false),
-                storage_entry(2, false),
-            ],
-        });
-        let make = |label: &str, source: String, layout: &wgpu::BindGroupLayout, entry: &str| {
-            let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
-                label: Some(label),
-                source: wgpu::ShaderSource::Wgsl(source.into()),
-            });
-            let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-                label: Some(label),
-                bind_group_layouts: &[Some(layout)],
-                immediate_size: 0,
-            });
-            device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-                label: Some(label),
-                layout: Some(&pipeline_layout),
-                module: &module,
-                entry_point: Some(entry),
-                compilation_options: Default::default(),
-                cache: None,
-            })
-        };
-        let pipeline = make("gpu-scan", config.scan_source(), &layout, "scan_main");
-        let prepare_pipeline = make(
+        let (config, tiles, binding_limit) = checked_config(device, desc)?;
+        let layout = bind_group_layout(
+            device,
+            "gpu-scan",
+            &[true, false, false, false, true, false, true, false],
+        );
+        let prepare_layout = bind_group_layout(device, "gpu-scan prepare", &[true, false, false]);
+        let pipeline = compute_pipeline(
+            device,
+            "gpu-scan",
+            config.scan_source(),
+            &layout,
+            "scan_main",
+        );
+        let prepare_pipeline = compute_pipeline(
+            device,
             "gpu-scan prepare",
             config.prepare_source(),
             &prepare_layout,
@@ -401,21 +433,6 @@ impl Scan {
             })
         };
         use wgpu::BufferUsages as U;
-        let scratch = buffer(
-            "gpu-scan scratch",
-            (1 + 2 * u64::from(tiles)) * 4,
-            U::STORAGE | U::COPY_DST,
-        );
-        let dispatch = buffer("gpu-scan dispatch", 16, U::STORAGE | U::INDIRECT);
-        let counters = buffer(
-            "gpu-scan counters",
-            16,
-            U::STORAGE | U::COPY_SRC | U::COPY_DST,
-        );
-        let dummy_in = buffer("gpu-scan empty input", 16, U::STORAGE);
-        let dummy_out = buffer("gpu-scan empty output", 16, U::STORAGE);
-        let dummy_in4 = buffer("gpu-scan empty vec4 input", 16, U::STORAGE);
-        let dummy_out4 = buffer("gpu-scan empty vec4 output", 16, U::STORAGE);
         static NEXT_ID: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
         Ok(Self {
             id: NEXT_ID.fetch_add(1, std::sync::atomic::Ordering::Relaxed),
@@ -424,13 +441,21 @@ impl Scan {
             pipeline,
             prepare_layout,
             prepare_pipeline,
-            scratch,
-            dispatch,
-            counters,
-            dummy_in,
-            dummy_out,
-            dummy_in4,
-            dummy_out4,
+            scratch: buffer(
+                "gpu-scan scratch",
+                (1 + 2 * u64::from(tiles)) * 4,
+                U::STORAGE | U::COPY_DST,
+            ),
+            dispatch: buffer("gpu-scan dispatch", 16, U::STORAGE | U::INDIRECT),
+            counters: buffer(
+                "gpu-scan counters",
+                16,
+                U::STORAGE | U::COPY_SRC | U::COPY_DST,
+            ),
+            dummy_in: buffer("gpu-scan empty input", 16, U::STORAGE),
+            dummy_out: buffer("gpu-scan empty output", 16, U::STORAGE),
+            dummy_in4: buffer("gpu-scan empty vec4 input", 16, U::STORAGE),
+            dummy_out4: buffer("gpu-scan empty vec4 output", 16, U::STORAGE),
             binding_limit,
         })
     }
@@ -563,22 +588,15 @@ impl Scan {
         })
     }
 
-    /// Like [`Scan::bind`], but `n` is the `u32` at byte `len_offset` of `len`, read on the GPU
-    /// each time the scan runs. A one-thread pre-pass clamps it to `max_len` and writes the
-    /// scan's own indirect dispatch arguments; the kernel further clamps `n` to the `input` and
-    /// `output` bindings (each bound whole, up to the device's binding limit). `n = 0` writes
-    /// only the total (0), if requested.
-    #[allow(clippy::too_many_arguments)]
-    pub fn bind_indirect(
+    /// Every check of [`Scan::bind_indirect`]'s buffers: returns the length's word index.
+    fn check_indirect(
         &self,
-        device: &wgpu::Device,
         input: &wgpu::Buffer,
         output: &wgpu::Buffer,
         len: &wgpu::Buffer,
         len_offset: u64,
-        kind: ScanKind,
         total: Option<&wgpu::Buffer>,
-    ) -> Result<ScanBinding, ScanError> {
+    ) -> Result<u32, ScanError> {
         if input == output {
             return Err(ScanError::Aliasing("input", "output"));
         }
@@ -613,11 +631,30 @@ impl Scan {
                 return Err(ScanError::Aliasing("length", "total"));
             }
         }
-        let len_index = u32::try_from(len_offset / 4).map_err(|_| ScanError::BufferTooSmall {
+        u32::try_from(len_offset / 4).map_err(|_| ScanError::BufferTooSmall {
             which: "length (offset beyond u32 words)",
             size: len.size(),
             needed: len_offset + 4,
-        })?;
+        })
+    }
+
+    /// Like [`Scan::bind`], but `n` is the `u32` at byte `len_offset` of `len`, read on the GPU
+    /// each time the scan runs. A one-thread pre-pass clamps it to `max_len` and writes the
+    /// scan's own indirect dispatch arguments; the kernel further clamps `n` to the `input` and
+    /// `output` bindings (each bound whole, up to the device's binding limit). `n = 0` writes
+    /// only the total (0), if requested.
+    #[allow(clippy::too_many_arguments)]
+    pub fn bind_indirect(
+        &self,
+        device: &wgpu::Device,
+        input: &wgpu::Buffer,
+        output: &wgpu::Buffer,
+        len: &wgpu::Buffer,
+        len_offset: u64,
+        kind: ScanKind,
+        total: Option<&wgpu::Buffer>,
+    ) -> Result<ScanBinding, ScanError> {
+        let len_index = self.check_indirect(input, output, len, len_offset, total)?;
         let params = self.params(device, 0, kind, total.is_some(), len_index);
         let prepare_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("gpu-scan prepare"),

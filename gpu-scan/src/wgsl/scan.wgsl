@@ -138,7 +138,7 @@ fn scan_run_is_vec4(run: u32, n: u32, len4: u32) -> bool {
 // Thread-coarsened tile: each invocation owns a run of SCAN_ITEMS consecutive elements. Pass 1
 // sums its run in registers (no workgroup memory, no private array); one workgroup scan of the
 // run sums and the look-back give the run's exclusive prefix; pass 2 re-reads the run (from
-// cache: a tile is SCAN_TILE * 4 bytes) and writes its scan. Runs that reach past n (the last
+// cache: a tile is SCAN_TILE * 4 bytes) and writes its scan (scan_run_sum, scan_run_write). Runs that reach past n (the last
 // tile only) or past the vec4 views (indirect scans) take scalar accesses.
 fn scan_tile(li: u32) {
     if li == 0u {
@@ -156,22 +156,8 @@ fn scan_tile(li: u32) {
     let vec4_ok = tile * (SCAN_TILE / 4u) + SCAN_TILE / 4u <= len4;
 
     let run = tile * SCAN_TILE + scan_t * SCAN_ITEMS;
-    let at = run / 4u;
     let fast = scan_run_is_vec4(run, n, len4);
-    var x = 0u;
-    if fast {
-        for (var q = 0u; q < SCAN_ITEMS / 4u; q++) {
-            let v = scan_in4[at + q];
-            x += (v.x + v.y) + (v.z + v.w);
-        }
-    } else {
-        for (var j = 0u; j < SCAN_ITEMS; j++) {
-            if run + j < n {
-                x += scan_in[run + j];
-            }
-        }
-    }
-    let local = wg_scan(x);
+    let local = wg_scan(scan_run_sum(run, n, fast));
     let aggregate = local.y;
 
     var prefix = 0u;
@@ -198,9 +184,33 @@ fn scan_tile(li: u32) {
     }
 
     // Pass 2: the run again, now with its exclusive prefix.
-    var s = prefix + local.x;
+    scan_run_write(run, n, fast, prefix + local.x);
+}
+
+// Pass 1 of a run: the sum of its elements inside n (SCAN_ITEMS / 4 vec4 loads when `fast`).
+fn scan_run_sum(run: u32, n: u32, fast: bool) -> u32 {
+    var x = 0u;
+    if fast {
+        for (var q = 0u; q < SCAN_ITEMS / 4u; q++) {
+            let v = scan_in4[run / 4u + q];
+            x += (v.x + v.y) + (v.z + v.w);
+        }
+    } else {
+        for (var j = 0u; j < SCAN_ITEMS; j++) {
+            if run + j < n {
+                x += scan_in[run + j];
+            }
+        }
+    }
+    return x;
+}
+
+// Pass 2 of a run: its scan from the exclusive prefix `s` (inclusive or exclusive as asked).
+fn scan_run_write(run: u32, n: u32, fast: bool, prefix: u32) {
+    var s = prefix;
     let inclusive = scan_params.inclusive != 0u;
     if fast {
+        let at = run / 4u;
         for (var q = 0u; q < SCAN_ITEMS / 4u; q++) {
             let v = scan_in4[at + q];
             let a = s + v.x;
