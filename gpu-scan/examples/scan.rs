@@ -9,7 +9,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     pollster::block_on(run())
 }
 
-async fn run() -> Result<(), Box<dyn std::error::Error>> {
+/// The default adapter and a device with subgroups when the adapter has them (the scan uses
+/// them if present).
+async fn device() -> Result<(wgpu::Adapter, wgpu::Device, wgpu::Queue), Box<dyn std::error::Error>>
+{
     let instance =
         wgpu::Instance::new(wgpu::InstanceDescriptor::new_without_display_handle_from_env());
     let adapter = instance
@@ -27,7 +30,11 @@ async fn run() -> Result<(), Box<dyn std::error::Error>> {
             ..Default::default()
         })
         .await?;
+    Ok((adapter, device, queue))
+}
 
+async fn run() -> Result<(), Box<dyn std::error::Error>> {
+    let (adapter, device, queue) = device().await?;
     let input: Vec<u32> = (1..=10_000).collect();
     let n = input.len() as u32;
     let usage = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC;

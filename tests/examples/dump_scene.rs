@@ -14,7 +14,7 @@
 
 use std::process::ExitCode;
 
-use restir_world::scene::{BuiltinOptions, builtin};
+use restir_world::scene::{BuiltinOptions, Scene, builtin};
 use serde_json::json;
 
 fn main() -> ExitCode {
@@ -47,23 +47,7 @@ fn run() -> Result<(), String> {
     )
     .map_err(|e| e.to_string())?;
 
-    let unsupported = [
-        (
-            scene.triangles.iter().any(|t| t.n.is_some()),
-            "vertex normals",
-        ),
-        (
-            scene.triangles.iter().any(|t| t.uv.is_some()) || !scene.textures.is_empty(),
-            "textures",
-        ),
-        (!scene.lights.is_empty(), "punctual lights"),
-        (scene.environment.is_some(), "an environment"),
-    ];
-    if let Some((_, what)) = unsupported.iter().find(|(has, _)| *has) {
-        return Err(format!(
-            "scene {name:?} has {what}, which the JSON cannot hold"
-        ));
-    }
+    check_supported(name, &scene)?;
 
     let cam = scene.camera_or_default(width, height);
     // f32 values as their shortest decimal (0.278, not 0.27800002694129944): read back as f32
@@ -107,5 +91,27 @@ fn run() -> Result<(), String> {
         scene.triangles.len(),
         scene.materials.len()
     );
+    Ok(())
+}
+
+/// Refuses what the JSON cannot hold.
+fn check_supported(name: &str, scene: &Scene) -> Result<(), String> {
+    let unsupported = [
+        (
+            scene.triangles.iter().any(|t| t.n.is_some()),
+            "vertex normals",
+        ),
+        (
+            scene.triangles.iter().any(|t| t.uv.is_some()) || !scene.textures.is_empty(),
+            "textures",
+        ),
+        (!scene.lights.is_empty(), "punctual lights"),
+        (scene.environment.is_some(), "an environment"),
+    ];
+    if let Some((_, what)) = unsupported.iter().find(|(has, _)| *has) {
+        return Err(format!(
+            "scene {name:?} has {what}, which the JSON cannot hold"
+        ));
+    }
     Ok(())
 }
