@@ -5,7 +5,8 @@
 //! Inserts are timed as a GPU timestamp span around the insert pass alone (the table is
 //! cleared in a separate span before each one); finds run against the filled table.
 
-use criterion::{Criterion, Throughput, criterion_group, criterion_main};
+use criterion::measurement::WallTime;
+use criterion::{BenchmarkGroup, Criterion, Throughput, criterion_group, criterion_main};
 use glam::Vec3;
 use gpu_hash::{CellSizing, HASH_FULL, HashBatch, HashGridParams, HashKey, HashTable, TableConfig};
 use rand::{Rng, SeedableRng, rngs::StdRng, seq::SliceRandom};
@@ -20,6 +21,8 @@ const REPS: u32 = 3;
 
 struct Case {
     n: u32,
+    /// Each key 32 times (else all distinct).
+    dup: bool,
     table: HashTable,
     keys: wgpu::Buffer,
     slots: wgpu::Buffer,
@@ -58,6 +61,7 @@ fn case(ctx: &GpuContext, n: u32, dup: bool, probe_buckets: u32) -> Case {
     let slots = buffers::storage_zeroed(&ctx.device, "slots", u64::from(n) * 4);
     Case {
         n,
+        dup,
         table,
         keys,
         slots,
@@ -131,82 +135,94 @@ fn hash(c: &mut Criterion) {
         // with spilling into up to 7 following buckets.
         for (dup, probe_buckets) in [(false, 1), (true, 1), (false, 8)] {
             let c = case(ctx, n, dup, probe_buckets);
-            let label = if dup { "dup" } else { "uniform" };
-            // Floors measured next to each case (before and after), so load from other
-            // processes on a shared CPU device shifts both sides of the ratio alike.
-            let floors_ms = || {
-                (
-                    bench::gpu_ms(ctx, REPS, |enc| floor(enc, RandomAccess::Read128)),
-                    bench::gpu_ms(ctx, REPS, |enc| floor(enc, RandomAccess::Atomic)),
-                )
-            };
-            let (read_before, atomic_before) = floors_ms();
-            let ins_ms = insert_ms(ctx, &batch, &c);
-            let slots: Vec<u32> = buffers::read(ctx, &c.slots).expect("readback");
-            let lost = slots[..n as usize]
-                .iter()
-                .filter(|&&s| s == HASH_FULL)
-                .count();
-            let stats = batch
-                .read_stats(&ctx.device, &ctx.queue, &c.table)
-                .expect("stats");
-            let bind = |kernel| {
-                batch
-                    .bind(&ctx.device, kernel, &c.table, &c.keys, &c.slots, c.n)
-                    .expect("bind batch")
-            };
-            let find_bound = bind(gpu_hash::BatchKernel::FindKeys);
-            let insert_bound = bind(gpu_hash::BatchKernel::InsertKeys);
-            let find = |enc: &mut wgpu::CommandEncoder| {
-                batch.encode(enc, &find_bound).expect("find batch")
-            };
-            if sampled {
-                group.bench_function(format!("find/{label}/p{probe_buckets}/{n}"), |b| {
-                    b.iter_custom(|iters| bench::gpu_time(ctx, iters, find))
-                });
-                group.bench_function(
-                    format!("clear_and_insert/{label}/p{probe_buckets}/{n}"),
-                    |b| {
-                        b.iter_custom(|iters| {
-                            bench::gpu_time(ctx, iters, |enc| {
-                                c.table.encode_clear(enc);
-                                batch.encode(enc, &insert_bound).expect("insert batch")
-                            })
-                        })
-                    },
-                );
-            }
-            let find_ms = bench::gpu_ms(ctx, REPS, find);
-            let (read_after, atomic_after) = floors_ms();
-            let read_floor_ms = 0.5 * (read_before + read_after);
-            let atomic_floor_ms = 0.5 * (atomic_before + atomic_after);
-            let per_s = |ms: f64| f64::from(n) / ms * 1e3;
-            lines.push(vec![
-                ("n", n.to_string()),
-                ("keys", label.to_string()),
-                ("probe_buckets", probe_buckets.to_string()),
-                ("find_vs_floor", format!("{:.3}", read_floor_ms / find_ms)),
-                (
-                    "insert_vs_floor",
-                    format!("{:.3}", atomic_floor_ms / ins_ms),
-                ),
-                ("finds_per_s", bench::sci(per_s(find_ms))),
-                ("inserts_per_s", bench::sci(per_s(ins_ms))),
-                ("read_floor_per_s", bench::sci(per_s(read_floor_ms))),
-                ("atomic_floor_per_s", bench::sci(per_s(atomic_floor_ms))),
-                (
-                    "load",
-                    format!("{:.3}", f64::from(stats.used_slots) / f64::from(n * 2)),
-                ),
-                ("lost", lost.to_string()),
-                ("max_probe", stats.max_probe().to_string()),
-            ]);
+            let group = sampled.then_some(&mut group);
+            lines.push(measure_case(ctx, &batch, group, &floor, &c, probe_buckets));
         }
     }
     group.finish();
     for pairs in &lines {
         bench::print_result(ctx, "gpu-hash", pairs);
     }
+}
+
+/// The RESULT pairs of one case (its finds and inserts against the floors measured around
+/// it), and its criterion samples when `group` is given.
+fn measure_case(
+    ctx: &GpuContext,
+    batch: &HashBatch,
+    group: Option<&mut BenchmarkGroup<WallTime>>,
+    floor: &dyn Fn(&mut wgpu::CommandEncoder, RandomAccess),
+    c: &Case,
+    probe_buckets: u32,
+) -> Vec<(&'static str, String)> {
+    let (n, label) = (c.n, if c.dup { "dup" } else { "uniform" });
+    // Floors measured next to each case (before and after), so load from other
+    // processes on a shared CPU device shifts both sides of the ratio alike.
+    let floors_ms = || {
+        (
+            bench::gpu_ms(ctx, REPS, |enc| floor(enc, RandomAccess::Read128)),
+            bench::gpu_ms(ctx, REPS, |enc| floor(enc, RandomAccess::Atomic)),
+        )
+    };
+    let (read_before, atomic_before) = floors_ms();
+    let ins_ms = insert_ms(ctx, batch, c);
+    let slots: Vec<u32> = buffers::read(ctx, &c.slots).expect("readback");
+    let lost = slots[..n as usize]
+        .iter()
+        .filter(|&&s| s == HASH_FULL)
+        .count();
+    let stats = batch
+        .read_stats(&ctx.device, &ctx.queue, &c.table)
+        .expect("stats");
+    let bind = |kernel| {
+        batch
+            .bind(&ctx.device, kernel, &c.table, &c.keys, &c.slots, c.n)
+            .expect("bind batch")
+    };
+    let find_bound = bind(gpu_hash::BatchKernel::FindKeys);
+    let insert_bound = bind(gpu_hash::BatchKernel::InsertKeys);
+    let find = |enc: &mut wgpu::CommandEncoder| batch.encode(enc, &find_bound).expect("find batch");
+    if let Some(group) = group {
+        group.bench_function(format!("find/{label}/p{probe_buckets}/{n}"), |b| {
+            b.iter_custom(|iters| bench::gpu_time(ctx, iters, find))
+        });
+        group.bench_function(
+            format!("clear_and_insert/{label}/p{probe_buckets}/{n}"),
+            |b| {
+                b.iter_custom(|iters| {
+                    bench::gpu_time(ctx, iters, |enc| {
+                        c.table.encode_clear(enc);
+                        batch.encode(enc, &insert_bound).expect("insert batch")
+                    })
+                })
+            },
+        );
+    }
+    let find_ms = bench::gpu_ms(ctx, REPS, find);
+    let (read_after, atomic_after) = floors_ms();
+    let read_floor_ms = 0.5 * (read_before + read_after);
+    let atomic_floor_ms = 0.5 * (atomic_before + atomic_after);
+    let per_s = |ms: f64| f64::from(n) / ms * 1e3;
+    vec![
+        ("n", n.to_string()),
+        ("keys", label.to_string()),
+        ("probe_buckets", probe_buckets.to_string()),
+        ("find_vs_floor", format!("{:.3}", read_floor_ms / find_ms)),
+        (
+            "insert_vs_floor",
+            format!("{:.3}", atomic_floor_ms / ins_ms),
+        ),
+        ("finds_per_s", bench::sci(per_s(find_ms))),
+        ("inserts_per_s", bench::sci(per_s(ins_ms))),
+        ("read_floor_per_s", bench::sci(per_s(read_floor_ms))),
+        ("atomic_floor_per_s", bench::sci(per_s(atomic_floor_ms))),
+        (
+            "load",
+            format!("{:.3}", f64::from(stats.used_slots) / f64::from(n * 2)),
+        ),
+        ("lost", lost.to_string()),
+        ("max_probe", stats.max_probe().to_string()),
+    ]
 }
 
 criterion_group!(benches, hash);

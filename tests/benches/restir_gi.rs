@@ -14,11 +14,37 @@ use restir_world::scene::{BuiltinOptions, Camera, Scene, builtin};
 use tests::{bench, gpu};
 
 const WARM_UP: u32 = 4;
+/// Every pass of the stage.
+const GI_SPANS: [&str; 5] = [
+    "gi-initial",
+    "gi-temporal",
+    "gi-spatial",
+    "gi-shade",
+    "gi-persist",
+];
 const FRAMES: u32 = 6;
 
 fn build(ctx: &GpuContext, scene: &Scene, cam: &Camera, spec: &str) -> Composed {
     let settings = methods::parse_spec(spec).expect(spec);
     Composed::new(ctx, scene, cam, &settings, 1).expect(spec)
+}
+
+/// (method, variant) of every line: restir-gi's default and each variant but `both`, then the
+/// compositions.
+fn specs() -> Vec<(&'static str, String)> {
+    let variants = restir_gi::variants();
+    std::iter::once(("restir-gi", "default".to_string()))
+        .chain(
+            variants
+                .iter()
+                .filter(|v| v.name != "both")
+                .map(|v| ("restir-gi", v.name.to_string())),
+        )
+        .chain(
+            ["restir-gi+world-restir", "restir-di+restir-gi+world-restir"]
+                .map(|m| (m, "default".to_string())),
+        )
+        .collect()
 }
 
 fn main() {
@@ -36,20 +62,8 @@ fn main() {
     let cam = scene.camera_or_default(side, side);
     let ris_ms = bench::frame_times(ctx, &mut build(ctx, &scene, &cam, "ris"), WARM_UP, FRAMES)
         .ms_per_frame();
-    let variants = restir_gi::variants();
-    let specs = std::iter::once(("restir-gi", "default".to_string()))
-        .chain(
-            variants
-                .iter()
-                .filter(|v| v.name != "both")
-                .map(|v| ("restir-gi", v.name.to_string())),
-        )
-        .chain(
-            ["restir-gi+world-restir", "restir-di+restir-gi+world-restir"]
-                .map(|m| (m, "default".to_string())),
-        );
     let f = |x: f64| format!("{x:.3}");
-    for (method, variant) in specs {
+    for (method, variant) in specs() {
         let spec = match variant.as_str() {
             "default" => method.to_string(),
             v => format!("{method}:{v}"),
@@ -74,22 +88,7 @@ fn main() {
                 ("temporal_ms", f(bench::span_ms(&t, &["gi-temporal"]))),
                 ("spatial_ms", f(bench::span_ms(&t, &["gi-spatial"]))),
                 ("shade_ms", f(bench::span_ms(&t, &["gi-shade"]))),
-                (
-                    "reuse_share",
-                    format!(
-                        "{:.3}",
-                        bench::span_ms(
-                            &t,
-                            &[
-                                "gi-initial",
-                                "gi-temporal",
-                                "gi-spatial",
-                                "gi-shade",
-                                "gi-persist"
-                            ]
-                        ) / frame_ms
-                    ),
-                ),
+                ("reuse_share", f(bench::span_ms(&t, &GI_SPANS) / frame_ms)),
                 ("frame_ms", f(frame_ms)),
                 ("ris_frame_ms", f(ris_ms)),
                 ("vs_ris_frame", format!("{:.3}", frame_ms / ris_ms)),

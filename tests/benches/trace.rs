@@ -149,6 +149,57 @@ fn gpu_ms(ctx: &GpuContext, t: &Traced) -> f64 {
     bench::gpu_ms(ctx, 5, |enc| t.kernel.encode_with(enc, &t.binding))
 }
 
+/// Rays per second of each tracer on one kind of ray, and their BVHs' build times.
+struct Rates {
+    bvh: f64,
+    ray_query: Option<f64>,
+    cpu: f64,
+    bvh_build_ms: f64,
+    rq_build_ms: Option<f64>,
+}
+
+/// The RESULT pairs of one scene's kind of ray (`unavailable` where the adapter has no ray
+/// queries).
+fn result_pairs(
+    scene: &str,
+    kind: &str,
+    rays: u32,
+    triangles: usize,
+    r: &Rates,
+) -> Vec<(&'static str, String)> {
+    let unavailable = || "unavailable".to_string();
+    vec![
+        ("scene", scene.to_string()),
+        ("kind", kind.to_string()),
+        ("rays", rays.to_string()),
+        ("triangles", triangles.to_string()),
+        ("bvh_rays_per_s", bench::sci(r.bvh)),
+        (
+            "rq_rays_per_s",
+            r.ray_query.map_or_else(unavailable, bench::sci),
+        ),
+        ("cpu_rays_per_s", bench::sci(r.cpu)),
+        ("bvh_vs_cpu", format!("{:.3}", r.bvh / r.cpu)),
+        (
+            "rq_vs_cpu",
+            r.ray_query
+                .map_or_else(unavailable, |q| format!("{:.3}", q / r.cpu)),
+        ),
+        ("bvh_build_ms", format!("{:.3}", r.bvh_build_ms)),
+        (
+            "rq_build_ms",
+            r.rq_build_ms
+                .map_or_else(unavailable, |ms| format!("{ms:.3}")),
+        ),
+        (
+            "cpu_threads",
+            std::thread::available_parallelism()
+                .map_or(1, |n| n.get())
+                .to_string(),
+        ),
+    ]
+}
+
 fn trace(c: &mut Criterion) {
     let ctx = gpu::context();
     let rq_ctx = gpu::with_tracer(Tracer::RayQuery);
@@ -200,37 +251,15 @@ fn trace(c: &mut Criterion) {
                 f64::from(n) / (gpu_ms(ctx, &hw) * 1e-3)
             });
             let cpu_rps = cpu_rays_per_s(&bvh, rays, any_hit);
-            let unavailable = || "unavailable".to_string();
-            lines.push((
-                name,
-                kind,
-                vec![
-                    ("scene", name.to_string()),
-                    ("kind", kind.to_string()),
-                    ("rays", n.to_string()),
-                    ("triangles", scene.triangles.len().to_string()),
-                    ("bvh_rays_per_s", bench::sci(gpu_rps)),
-                    ("rq_rays_per_s", rq_rps.map_or_else(unavailable, bench::sci)),
-                    ("cpu_rays_per_s", bench::sci(cpu_rps)),
-                    ("bvh_vs_cpu", format!("{:.3}", gpu_rps / cpu_rps)),
-                    (
-                        "rq_vs_cpu",
-                        rq_rps.map_or_else(unavailable, |r| format!("{:.3}", r / cpu_rps)),
-                    ),
-                    ("bvh_build_ms", format!("{build_ms:.3}")),
-                    (
-                        "rq_build_ms",
-                        rq.as_ref()
-                            .map_or_else(unavailable, |(_, ms)| format!("{ms:.3}")),
-                    ),
-                    (
-                        "cpu_threads",
-                        std::thread::available_parallelism()
-                            .map_or(1, |n| n.get())
-                            .to_string(),
-                    ),
-                ],
-            ));
+            let rates = Rates {
+                bvh: gpu_rps,
+                ray_query: rq_rps,
+                cpu: cpu_rps,
+                bvh_build_ms: build_ms,
+                rq_build_ms: rq.as_ref().map(|(_, ms)| *ms),
+            };
+            let pairs = result_pairs(name, kind, n, scene.triangles.len(), &rates);
+            lines.push((name, kind, pairs));
         }
         group.finish();
     }

@@ -127,10 +127,32 @@ fn closed_furnace_converges_to_le_over_one_minus_rho() {
 #[test]
 fn cornell_cells_match_the_cpu_reference_at_their_centres() {
     const SIDE: u32 = 96;
-    const FRAMES: u32 = 128;
     const CELL_BOUND: f64 = 0.35;
-    const MIN_SAMPLES: u32 = 32;
     let (s, cam) = builtin_square("cornell", SIDE, BuiltinOptions::default());
+    let cells = wall_cells(&s, &cam, false);
+    assert!(cells.len() >= 16, "only {} wall cells", cells.len());
+    let want = reference_at(&s, &cells);
+    let (mean, worst) = compare(&want, &cells, "ris+cache");
+    assert!(within(mean, BOUND), "cells off the reference: {mean:+.4?}");
+    assert!(worst < CELL_BOUND, "a cell is off by {worst:.3}");
+    let control = wall_cells(&s, &cam, true);
+    let (control, _) = compare(&want, &control, "update paths without their tail");
+    assert!(
+        !within(control, BOUND),
+        "the control (update paths without their tail) passed: {control:+.4?}"
+    );
+}
+
+/// A wall cell of the cornell test: the centre of the cell projected onto its wall, the wall's
+/// normal and the cell's mean.
+type WallCells = std::collections::HashMap<u32, (Vec3, Vec3, [f32; 3])>;
+
+/// The cells of `ris+cache` (update paths without their tail when `planted`) after 128 frames
+/// at the pixels of the side and back walls that lie wholly on their wall and hold at least 32
+/// samples.
+fn wall_cells(s: &Scene, cam: &Camera, planted: bool) -> WallCells {
+    const FRAMES: u32 = 128;
+    const MIN_SAMPLES: u32 = 32;
     let (lo, hi) = s.bounds().expect("bounds");
     let margin = 0.01 * (hi - lo);
     // The walls: a vertex on the box's bounds along its normal's axis (x: sides, z: back).
@@ -140,38 +162,41 @@ fn cornell_cells_match_the_cpu_reference_at_their_centres() {
                 && ((p[k] - lo[k]).abs() < margin[k] || (p[k] - hi[k]).abs() < margin[k])
         })
     };
-    let run = |planted: bool| {
-        let mut m = build_planted("ris+cache", &s, &cam, 3, no_tail(planted));
-        gpu::render(&mut m, FRAMES);
-        let ctx = gpu::context();
-        let cache = m.cache().expect("cache");
-        let cells = cache.read_cells(ctx).expect("cells");
-        let gbuffer = m.renderer().read_gbuffer(ctx).expect("gbuffer");
-        let mut seen = std::collections::HashMap::new();
-        for v in gbuffer.iter().filter(|v| v.prim != u32::MAX) {
-            let (p, n) = (Vec3::from(v.position), Vec3::from(v.normal));
-            let Some(axis) = on_a_wall(p, n) else {
-                continue;
-            };
-            let c = cache.cell_of(cam.eye, p, n).expect("a cell");
-            let centre = (Vec3::from(c.coords.map(|x| x as f32)) + 0.5) * c.cell_size;
-            let on_wall = centre - n * (centre - p).dot(n);
-            let half = 0.5 * c.cell_size;
-            let inside = (0..3)
-                .filter(|&k| k != axis)
-                .all(|k| on_wall[k] - half > lo[k] && on_wall[k] + half < hi[k]);
-            if inside && !seen.contains_key(&c.checksum) {
-                let got = cache
-                    .find(&cells, cam.eye, v)
-                    .expect("the cell is in the table");
-                if got.samples >= MIN_SAMPLES {
-                    seen.insert(c.checksum, (on_wall, n, got.mean));
-                }
+    let mut m = build_planted("ris+cache", s, cam, 3, no_tail(planted));
+    gpu::render(&mut m, FRAMES);
+    let ctx = gpu::context();
+    let cache = m.cache().expect("cache");
+    let cells = cache.read_cells(ctx).expect("cells");
+    let gbuffer = m.renderer().read_gbuffer(ctx).expect("gbuffer");
+    let mut seen = std::collections::HashMap::new();
+    for v in gbuffer.iter().filter(|v| v.prim != u32::MAX) {
+        let (p, n) = (Vec3::from(v.position), Vec3::from(v.normal));
+        let Some(axis) = on_a_wall(p, n) else {
+            continue;
+        };
+        let c = cache.cell_of(cam.eye, p, n).expect("a cell");
+        let centre = (Vec3::from(c.coords.map(|x| x as f32)) + 0.5) * c.cell_size;
+        let on_wall = centre - n * (centre - p).dot(n);
+        let half = 0.5 * c.cell_size;
+        let inside = (0..3)
+            .filter(|&k| k != axis)
+            .all(|k| on_wall[k] - half > lo[k] && on_wall[k] + half < hi[k]);
+        if inside && !seen.contains_key(&c.checksum) {
+            let got = cache
+                .find(&cells, cam.eye, v)
+                .expect("the cell is in the table");
+            if got.samples >= MIN_SAMPLES {
+                seen.insert(c.checksum, (on_wall, n, got.mean));
             }
         }
-        seen
-    };
-    let reference = ReferenceRenderer::new(&s).expect("reference");
+    }
+    seen
+}
+
+/// The CPU reference's white-surface radiance at each cell's point (1024 samples of unbounded
+/// paths, two threads).
+fn reference_at(s: &Scene, cells: &WallCells) -> std::collections::HashMap<u32, Vec3> {
+    let reference = ReferenceRenderer::new(s).expect("reference");
     let opts = ReferenceOptions {
         method: Estimator::Nee,
         spp: 1024,
@@ -179,10 +204,8 @@ fn cornell_cells_match_the_cpu_reference_at_their_centres() {
         threads: 1,
         paths: unbounded(0).paths,
     };
-    let cells = run(false);
-    assert!(cells.len() >= 16, "only {} wall cells", cells.len());
     let all: Vec<_> = cells.iter().map(|(k, (p, n, _))| (*k, *p, *n)).collect();
-    let want: std::collections::HashMap<u32, Vec3> = std::thread::scope(|scope| {
+    std::thread::scope(|scope| {
         let jobs: Vec<_> = all
             .chunks(all.len().div_ceil(2))
             .map(|chunk| {
@@ -198,35 +221,34 @@ fn cornell_cells_match_the_cpu_reference_at_their_centres() {
         jobs.into_iter()
             .flat_map(|j| j.join().expect("reference"))
             .collect()
-    });
-    let compare = |cells: &std::collections::HashMap<u32, (Vec3, Vec3, [f32; 3])>, what: &str| {
-        let ratios: Vec<[f64; 3]> = cells
-            .iter()
-            .filter_map(|(k, (_, _, got))| {
-                let w = want.get(k)?;
-                Some([0, 1, 2].map(|c| f64::from(got[c]) / f64::from(w[c])))
-            })
-            .collect();
-        let n = ratios.len() as f64;
-        let mean = [0, 1, 2].map(|c| ratios.iter().map(|r| r[c]).sum::<f64>() / n - 1.0);
-        let worst = ratios
-            .iter()
-            .flatten()
-            .fold(0.0f64, |w, x| w.max((x - 1.0).abs()));
-        eprintln!(
-            "cornell walls, {what} ({} cells): mean ratio - 1 {mean:+.4?}, worst {worst:.3}",
-            ratios.len()
-        );
-        (mean, worst)
-    };
-    let (mean, worst) = compare(&cells, "ris+cache");
-    assert!(within(mean, BOUND), "cells off the reference: {mean:+.4?}");
-    assert!(worst < CELL_BOUND, "a cell is off by {worst:.3}");
-    let (control, _) = compare(&run(true), "update paths without their tail");
-    assert!(
-        !within(control, BOUND),
-        "the control (update paths without their tail) passed: {control:+.4?}"
+    })
+}
+
+/// Per channel the mean of the cells' ratios to the reference, minus 1, and the worst ratio's
+/// distance from 1.
+fn compare(
+    want: &std::collections::HashMap<u32, Vec3>,
+    cells: &WallCells,
+    what: &str,
+) -> ([f64; 3], f64) {
+    let ratios: Vec<[f64; 3]> = cells
+        .iter()
+        .filter_map(|(k, (_, _, got))| {
+            let w = want.get(k)?;
+            Some([0, 1, 2].map(|c| f64::from(got[c]) / f64::from(w[c])))
+        })
+        .collect();
+    let n = ratios.len() as f64;
+    let mean = [0, 1, 2].map(|c| ratios.iter().map(|r| r[c]).sum::<f64>() / n - 1.0);
+    let worst = ratios
+        .iter()
+        .flatten()
+        .fold(0.0f64, |w, x| w.max((x - 1.0).abs()));
+    eprintln!(
+        "cornell walls, {what} ({} cells): mean ratio - 1 {mean:+.4?}, worst {worst:.3}",
+        ratios.len()
     );
+    (mean, worst)
 }
 
 /// 500 frames of orbit, stillness and a cut that turns the camera away (colonnade, 32x32)
@@ -299,8 +321,13 @@ fn a_moving_camera_and_a_cut_stay_finite_and_bounded() {
         kept < checksums_at_cut.len(),
         "no cell of the old view was evicted"
     );
-    // The cache's debug views draw the cells at the pixels (some lit, all finite); the views
-    // of other stages are not the cache's.
+    check_cache_debug_views(&m);
+}
+
+/// The cache's debug views draw the cells at the pixels (some lit, all finite); the views of
+/// other stages are not the cache's.
+fn check_cache_debug_views(m: &Composed) {
+    let ctx = gpu::context();
     for view in [
         DebugView::CacheRadiance,
         DebugView::CacheAge,

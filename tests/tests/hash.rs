@@ -496,6 +496,38 @@ fn spill_config_moves_the_33rd_key_to_the_next_bucket() {
     assert_eq!(f.find_keys(&t, &keys), slots);
 }
 
+/// False matches: the GPU's finds of the absent keys `queries` against the twin's walk of the
+/// GPU table: (keys found, the expected number of checksum collisions over the comparisons).
+fn false_matches(
+    f: &Fixture,
+    t: &HashTable,
+    config: TableConfig,
+    queries: &[HashKey],
+) -> (usize, f64) {
+    let (nb, spb) = (config.num_buckets, config.slots_per_bucket);
+    let table = f.checksums(t);
+    let view = CpuHashTable {
+        config,
+        checksums: table,
+        overflows: 0,
+    };
+    let gpu_found = f.find_keys(t, queries);
+    let mut comparisons = 0u64;
+    let mut false_matches = 0;
+    for (q, &g) in queries.iter().zip(&gpu_found) {
+        let probe = view.find(q.bucket(nb), q.checksum());
+        assert_eq!(probe.slot.unwrap_or(HASH_NOT_FOUND), g, "{q:?}");
+        // Slots compared against an occupied checksum (the last may be empty).
+        let last_empty = probe.slot.is_none()
+            && view.checksums[((q.bucket(nb) + (probe.probes - 1) / spb) % nb * spb
+                + (probe.probes - 1) % spb) as usize]
+                == 0;
+        comparisons += u64::from(probe.probes - u32::from(last_empty));
+        false_matches += usize::from(g != HASH_NOT_FOUND);
+    }
+    (false_matches, comparisons as f64 / f64::from(u32::MAX))
+}
+
 #[test]
 fn load_sweep_failed_inserts_probe_lengths_and_false_matches() {
     let f = fixture();
@@ -557,28 +589,7 @@ fn load_sweep_failed_inserts_probe_lengths_and_false_matches() {
                     assert_eq!(g, s, "{k:?}");
                 }
             }
-            // False matches: GPU find of absent keys against the twin's walk of the GPU table.
-            let table = f.checksums(&t);
-            let view = CpuHashTable {
-                config,
-                checksums: table,
-                overflows: 0,
-            };
-            let gpu_found = f.find_keys(&t, &queries);
-            let mut comparisons = 0u64;
-            let mut false_matches = 0;
-            for (q, &g) in queries.iter().zip(&gpu_found) {
-                let probe = view.find(q.bucket(nb), q.checksum());
-                assert_eq!(probe.slot.unwrap_or(HASH_NOT_FOUND), g, "{q:?}");
-                // Slots compared against an occupied checksum (the last may be empty).
-                let last_empty = probe.slot.is_none()
-                    && view.checksums[((q.bucket(nb) + (probe.probes - 1) / spb) % nb * spb
-                        + (probe.probes - 1) % spb) as usize]
-                        == 0;
-                comparisons += u64::from(probe.probes - u32::from(last_empty));
-                false_matches += usize::from(g != HASH_NOT_FOUND);
-            }
-            let expected = comparisons as f64 / f64::from(u32::MAX);
+            let (false_matches, expected) = false_matches(&f, &t, config, &queries);
             eprintln!(
                 "{probe_buckets:>13} {load:<5} {n:>7} {failed:>6} {:>12} {:>10.3} {max:>9} {false_matches:>6} {expected:>14.2e}",
                 twin.overflows,
@@ -696,39 +707,10 @@ fn build_and_reuse(@builtin(global_invocation_id) gid: vec3<u32>) {
 }
 ";
 
-#[test]
-fn previous_frame_lookup_while_building_the_current_frame() {
+/// The consumer kernel's pipeline and its three group layouts (the table being built, last
+/// frame's in the lookup role, the points and results).
+fn consumer_pipeline(d: &wgpu::Device) -> (wgpu::ComputePipeline, [wgpu::BindGroupLayout; 3]) {
     use gpu_hash::wgsl::{BindAt, compose};
-    let f = fixture();
-    let d = &f.ctx.device;
-    let config = TableConfig::default();
-    let eye_a = Vec3::new(0.0, 0.0, 0.0);
-    let eye_b = Vec3::new(0.7, 0.0, -0.4);
-    let (pa, pb) = (params(config, eye_a), params(config, eye_b));
-    let prev = f.table(&pa);
-    let cur = f.table(&pb);
-    let mut rng = StdRng::seed_from_u64(7);
-    let frame = |rng: &mut StdRng| -> Vec<Vec3> {
-        (0..20_000)
-            .map(|_| {
-                Vec3::new(
-                    rng.random_range(-8.0..8.0),
-                    rng.random_range(-8.0..8.0),
-                    rng.random_range(-8.0..8.0),
-                )
-            })
-            .collect()
-    };
-    let frame_a = frame(&mut rng);
-    // Half the vertices revisit last frame's positions, half are new.
-    let frame_b: Vec<Vec3> = frame(&mut rng)
-        .into_iter()
-        .enumerate()
-        .map(|(i, q)| if i % 2 == 0 { frame_a[i] } else { q })
-        .collect();
-    // Last frame's grid, built by the batch kernel.
-    let built_a = f.points_kernel(&prev, &frame_a, true);
-
     let source = format!(
         "{}\n{CONSUMER_KERNEL}",
         compose(
@@ -773,9 +755,17 @@ fn previous_frame_lookup_while_building_the_current_frame() {
         compilation_options: Default::default(),
         cache: None,
     });
-    let p4: Vec<[f32; 4]> = frame_b.iter().map(|q| q.extend(1.0).to_array()).collect();
+    (pipeline, [l0, l1, l2])
+}
+
+/// Runs the consumer kernel over `points`: per point (slot in `cur`, index in slot, slot in
+/// `prev`, its count there).
+fn run_consumer(f: &Fixture, cur: &HashTable, prev: &HashTable, points: &[Vec3]) -> Vec<[u32; 4]> {
+    let d = &f.ctx.device;
+    let (pipeline, [l0, l1, l2]) = consumer_pipeline(d);
+    let p4: Vec<[f32; 4]> = points.iter().map(|q| q.extend(1.0).to_array()).collect();
     let pts = buffers::storage_from(d, "points", &p4);
-    let out = buffers::storage_zeroed(d, "out", frame_b.len() as u64 * 16);
+    let out = buffers::storage_zeroed(d, "out", points.len() as u64 * 16);
     let g0 = d.create_bind_group(&wgpu::BindGroupDescriptor {
         label: None,
         layout: &l0,
@@ -806,9 +796,43 @@ fn previous_frame_lookup_while_building_the_current_frame() {
         pass.set_bind_group(0, &g0, &[]);
         pass.set_bind_group(1, &g1, &[]);
         pass.set_bind_group(2, &g2, &[]);
-        pass.dispatch_workgroups((frame_b.len() as u32).div_ceil(64), 1, 1);
+        pass.dispatch_workgroups((points.len() as u32).div_ceil(64), 1, 1);
     });
-    let got: Vec<[u32; 4]> = buffers::read(f.ctx, &out).unwrap();
+    buffers::read(f.ctx, &out).unwrap()
+}
+
+#[test]
+fn previous_frame_lookup_while_building_the_current_frame() {
+    let f = fixture();
+    let config = TableConfig::default();
+    let eye_a = Vec3::new(0.0, 0.0, 0.0);
+    let eye_b = Vec3::new(0.7, 0.0, -0.4);
+    let (pa, pb) = (params(config, eye_a), params(config, eye_b));
+    let prev = f.table(&pa);
+    let cur = f.table(&pb);
+    let mut rng = StdRng::seed_from_u64(7);
+    let frame = |rng: &mut StdRng| -> Vec<Vec3> {
+        (0..20_000)
+            .map(|_| {
+                Vec3::new(
+                    rng.random_range(-8.0..8.0),
+                    rng.random_range(-8.0..8.0),
+                    rng.random_range(-8.0..8.0),
+                )
+            })
+            .collect()
+    };
+    let frame_a = frame(&mut rng);
+    // Half the vertices revisit last frame's positions, half are new.
+    let frame_b: Vec<Vec3> = frame(&mut rng)
+        .into_iter()
+        .enumerate()
+        .map(|(i, q)| if i % 2 == 0 { frame_a[i] } else { q })
+        .collect();
+    // Last frame's grid, built by the batch kernel.
+    let built_a = f.points_kernel(&prev, &frame_a, true);
+
+    let got = run_consumer(&f, &cur, &prev, &frame_b);
 
     // Twin of last frame: its own eye decides the cells, its table decides the slots.
     let prev_table = CpuHashTable {

@@ -82,6 +82,43 @@ fn storage_group(
     (layout, group)
 }
 
+/// The README shader's output against the twins: each point's jitter, the bucket of its slot,
+/// and every slot's indices 0..count. Returns the cells used.
+fn check_inserts(
+    params: &HashGridParams,
+    points: &[[f32; 4]],
+    jittered: &[[f32; 4]],
+    out: &[[u32; 2]],
+    counters: &[u32],
+) -> usize {
+    let mut members: std::collections::HashMap<u32, Vec<u32>> = Default::default();
+    for i in 0..points.len() {
+        let p = Vec3::from_slice(&points[i][..3]);
+        let q = Vec3::from_slice(&jittered[i][..3]);
+        // The jitter against its twin (same u as the shader: the library hashes of i).
+        let u = [
+            (gpu_hash::hash::pcg(i as u32) >> 8) as f32 / 16_777_216.0,
+            (gpu_hash::hash::xxhash32(i as u32) >> 8) as f32 / 16_777_216.0,
+        ];
+        let twin = gpu_hash::jitter(p, Vec3::Y, u, params.cell_size(p));
+        assert!(
+            (q - twin).length() <= 1e-5 * (1.0 + p.length()),
+            "point {i}: jitter {q} vs twin {twin}"
+        );
+        // The slot is in the twin's bucket of the jittered position.
+        let [slot, index] = out[i];
+        assert_ne!(index, HASH_NOT_FOUND, "point {i}: not inserted");
+        assert_eq!(slot / params.slots_per_bucket, params.cell(q).bucket);
+        members.entry(slot).or_default().push(index);
+    }
+    for (slot, idx) in &mut members {
+        idx.sort_unstable();
+        assert!(idx.iter().enumerate().all(|(k, &v)| v == k as u32));
+        assert_eq!(counters[*slot as usize] as usize, idx.len());
+    }
+    members.len()
+}
+
 #[test]
 fn gpu_hash_readme_user_shader_runs_and_matches_the_twins() {
     let user = example_block(include_str!("../../gpu-hash/README.md"), "gpu-hash");
@@ -142,35 +179,8 @@ fn gpu_hash_readme_user_shader_runs_and_matches_the_twins() {
     let out: Vec<[u32; 2]> = buffers::read(ctx, &out_buf).unwrap();
     let counters: Vec<u32> = buffers::read(ctx, table.counters()).unwrap();
 
-    let mut members: std::collections::HashMap<u32, Vec<u32>> = Default::default();
-    for i in 0..n {
-        let p = Vec3::from_slice(&points[i][..3]);
-        let q = Vec3::from_slice(&jittered[i][..3]);
-        // The jitter against its twin (same u as the shader: the library hashes of i).
-        let u = [
-            (gpu_hash::hash::pcg(i as u32) >> 8) as f32 / 16_777_216.0,
-            (gpu_hash::hash::xxhash32(i as u32) >> 8) as f32 / 16_777_216.0,
-        ];
-        let twin = gpu_hash::jitter(p, Vec3::Y, u, params.cell_size(p));
-        assert!(
-            (q - twin).length() <= 1e-5 * (1.0 + p.length()),
-            "point {i}: jitter {q} vs twin {twin}"
-        );
-        // The slot is in the twin's bucket of the jittered position.
-        let [slot, index] = out[i];
-        assert_ne!(index, HASH_NOT_FOUND, "point {i}: not inserted");
-        assert_eq!(slot / config.slots_per_bucket, params.cell(q).bucket);
-        members.entry(slot).or_default().push(index);
-    }
-    for (slot, idx) in &mut members {
-        idx.sort_unstable();
-        assert!(idx.iter().enumerate().all(|(k, &v)| v == k as u32));
-        assert_eq!(counters[*slot as usize] as usize, idx.len());
-    }
-    eprintln!(
-        "gpu-hash README example: {n} points in {} cells",
-        members.len()
-    );
+    let cells = check_inserts(&params, &points, &jittered, &out, &counters);
+    eprintln!("gpu-hash README example: {n} points in {cells} cells");
 }
 
 /// The twin's `Stored` (x, W, M).
@@ -277,6 +287,38 @@ fn twin_spatial(i: u32, frame: u32, current: &[Stored]) -> Stored {
     }
 }
 
+/// One frame of the README shader against the twin, pass by pass from the GPU's own inputs
+/// (`previous`: last frame's final reservoirs; `current`, `fin`: this frame's temporal and
+/// final ones).
+fn check_frame(frame: u32, previous: &[Stored], current: &[Stored], fin: &[Stored]) {
+    let mut mismatches = 0;
+    for i in 0..current.len() {
+        for (got, want) in [
+            (current[i], twin_temporal(i as u32, frame, previous)),
+            (fin[i], twin_spatial(i as u32, frame, current)),
+        ] {
+            assert_eq!(got.m, want.m, "frame {frame} pixel {i}: M");
+            // A WGSL division may differ by a few ulp (2.5 allowed), which can flip a
+            // selection only at a near tie.
+            if got.x != want.x {
+                mismatches += 1;
+                continue;
+            }
+            let ulps = got.ucw.to_bits().abs_diff(want.ucw.to_bits());
+            assert!(
+                ulps <= 16,
+                "frame {frame} pixel {i}: W {} vs {}",
+                got.ucw,
+                want.ucw
+            );
+        }
+    }
+    assert!(
+        mismatches <= current.len() / 1000,
+        "frame {frame}: {mismatches} selections differ"
+    );
+}
+
 #[test]
 fn reservoir_readme_user_shader_runs_and_matches_the_twin() {
     let user = example_block(include_str!("../../reservoir/README.md"), "reservoir");
@@ -326,32 +368,7 @@ fn reservoir_readme_user_shader_runs_and_matches_the_twin() {
         // The twin from the GPU's own inputs of this frame, pass by pass.
         let current: Vec<Stored> = buffers::read(ctx, &bufs[1]).unwrap();
         fin = buffers::read(ctx, &bufs[2]).unwrap();
-        let mut mismatches = 0;
-        for i in 0..n {
-            for (got, want) in [
-                (current[i], twin_temporal(i as u32, frame, &previous)),
-                (fin[i], twin_spatial(i as u32, frame, &current)),
-            ] {
-                assert_eq!(got.m, want.m, "frame {frame} pixel {i}: M");
-                // A WGSL division may differ by a few ulp (2.5 allowed), which can flip a
-                // selection only at a near tie.
-                if got.x != want.x {
-                    mismatches += 1;
-                    continue;
-                }
-                let ulps = got.ucw.to_bits().abs_diff(want.ucw.to_bits());
-                assert!(
-                    ulps <= 16,
-                    "frame {frame} pixel {i}: W {} vs {}",
-                    got.ucw,
-                    want.ucw
-                );
-            }
-        }
-        assert!(
-            mismatches <= n / 1000,
-            "frame {frame}: {mismatches} selections differ"
-        );
+        check_frame(frame, &previous, &current, &fin);
         previous = fin.clone();
     }
     // f(x) = x over [0, 1): integral 1/2; the mean of 16384 estimates is within 0.01 with

@@ -138,6 +138,29 @@ fn light_sum(img: &Image, light: &[bool]) -> f64 {
         .sum()
 }
 
+/// Pixels that see the light (red > 1 in any of `images`' direct image), dilated by one pixel
+/// so that edge pixels hit by only a few light samples are included.
+fn light_pixels(images: &[&Rendered], w: u32, h: u32) -> Vec<bool> {
+    let bright: Vec<bool> = (0..(w * h) as usize)
+        .map(|i| images.iter().any(|r| r.direct.pixels[i][0] > 1.0))
+        .collect();
+    (0..bright.len())
+        .map(|i| {
+            let (x, y) = ((i as u32 % w) as i64, (i as u32 / w) as i64);
+            (-1..=1).any(|dy| {
+                (-1..=1).any(|dx| {
+                    let (nx, ny) = (x + dx, y + dy);
+                    nx >= 0
+                        && ny >= 0
+                        && nx < i64::from(w)
+                        && ny < i64::from(h)
+                        && bright[(ny * i64::from(w) + nx) as usize]
+                })
+            })
+        })
+        .collect()
+}
+
 /// GPU vs CPU reference, same estimator, same sample count N = 256 per pixel, different random
 /// streams. Two independent unbiased estimates differ per pixel by noise of variance
 /// 2 var / N, so relMSE(GPU, CPU) should equal relMSE(GPU seed a, GPU seed b) up to the noise of
@@ -163,30 +186,7 @@ fn gpu_matches_cpu_reference_on_cornell() {
         };
         let gpu_p = render_planted(&scene, (w, h), method, 24, n, brighter);
         let cpu = cpu_reference(&scene, &camera, method, n, 23);
-        // Pixels that see the light (red > 1 in any image), dilated by one pixel so that
-        // edge pixels hit by only a few light samples are included.
-        let bright: Vec<bool> = (0..cpu.direct.pixels.len())
-            .map(|i| {
-                [&gpu_a, &gpu_b, &cpu]
-                    .iter()
-                    .any(|r| r.direct.pixels[i][0] > 1.0)
-            })
-            .collect();
-        let light: Vec<bool> = (0..bright.len())
-            .map(|i| {
-                let (x, y) = ((i as u32 % w) as i64, (i as u32 / w) as i64);
-                (-1..=1).any(|dy| {
-                    (-1..=1).any(|dx| {
-                        let (nx, ny) = (x + dx, y + dy);
-                        nx >= 0
-                            && ny >= 0
-                            && nx < i64::from(w)
-                            && ny < i64::from(h)
-                            && bright[(ny * i64::from(w) + nx) as usize]
-                    })
-                })
-            })
-            .collect();
+        let light = light_pixels(&[&gpu_a, &gpu_b, &cpu], w, h);
         let rest: Vec<bool> = light.iter().map(|l| !l).collect();
         let all = vec![true; light.len()];
         let (la, lc) = (
