@@ -355,11 +355,23 @@ mod statistics {
         (r.pack(), y)
     }
 
+    /// (mean, standard error of the mean) of `trials` draws of `one`.
+    pub(super) fn mean_and_error(trials: u32, mut one: impl FnMut() -> f64) -> (f64, f64) {
+        let (mut sum, mut sum2) = (0.0f64, 0.0f64);
+        for _ in 0..trials {
+            let e = one();
+            sum += e;
+            sum2 += e * e;
+        }
+        let n = f64::from(trials);
+        let mean = sum / n;
+        (mean, ((sum2 / n - mean * mean) / n).sqrt())
+    }
+
     /// (mean, standard error) of f(Y) W over `trials` combinations.
     fn estimate(mode: Combination, trials: u32) -> (f64, f64) {
         let mut rng = Rng::seed(7, 0, mode as u32);
-        let (mut sum, mut sum2) = (0.0f64, 0.0f64);
-        for _ in 0..trials {
+        mean_and_error(trials, || {
             let (own, y_own) = ris(f, CANDIDATES, &mut rng);
             let neighbours: Vec<_> = (0..NEIGHBOURS)
                 .map(|_| ris(p_neighbour, CANDIDATES, &mut rng))
@@ -380,13 +392,8 @@ mod statistics {
             if c.selected() == CANONICAL {
                 y = y_own;
             }
-            let e = f64::from(f(y) * out.ucw);
-            sum += e;
-            sum2 += e * e;
-        }
-        let n = f64::from(trials);
-        let mean = sum / n;
-        (mean, ((sum2 / n - mean * mean) / n).sqrt())
+            f64::from(f(y) * out.ucw)
+        })
     }
 
     #[test]
@@ -418,7 +425,7 @@ mod statistics {
 /// by it too), must be caught by the same check.
 #[cfg(test)]
 mod shifted {
-    use super::statistics::ris;
+    use super::statistics::{mean_and_error, ris};
     use super::*;
     use crate::rng::Rng;
 
@@ -436,8 +443,7 @@ mod shifted {
     /// (mean, standard error) of f(Y) W; `folded`: the planted defect.
     fn estimate(folded: bool, trials: u32) -> (f64, f64) {
         let mut rng = Rng::seed(11, 0, u32::from(folded));
-        let (mut sum, mut sum2) = (0.0f64, 0.0f64);
-        for _ in 0..trials {
+        mean_and_error(trials, || {
             let (own, x_own) = ris(f, CANDIDATES, &mut rng);
             let neighbours: Vec<_> = (0..NEIGHBOURS)
                 .map(|_| ris(p_neighbour, CANDIDATES, &mut rng))
@@ -482,13 +488,8 @@ mod shifted {
             if c.selected() == CANONICAL {
                 x = x_own;
             }
-            let e = f64::from(f(x) * out.ucw);
-            sum += e;
-            sum2 += e * e;
-        }
-        let n = f64::from(trials);
-        let mean = sum / n;
-        (mean, ((sum2 / n - mean * mean) / n).sqrt())
+            f64::from(f(x) * out.ucw)
+        })
     }
 
     #[test]

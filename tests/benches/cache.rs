@@ -10,7 +10,7 @@
 use restir_world::GpuContext;
 use restir_world::methods::{self, Composed, FrameMethod};
 use restir_world::render::{MAX_BOUNCES, Paths, RenderOptions};
-use restir_world::scene::{BuiltinOptions, Camera, Scene, builtin};
+use restir_world::scene::{Camera, Scene};
 use tests::{bench, gpu};
 
 const WARM_UP: u32 = 4;
@@ -33,19 +33,10 @@ fn build(ctx: &GpuContext, scene: &Scene, cam: &Camera, spec: &str) -> Composed 
 
 fn main() {
     let ctx = gpu::context();
-    let side: u32 = std::env::var("CACHE_BENCH_SIZE")
-        .ok()
-        .and_then(|v| v.parse().ok())
-        .unwrap_or(128);
+    let side = bench::side_from_env("CACHE_BENCH_SIZE");
     let f = |x: f64| format!("{x:.3}");
     for name in ["cornell", "many-lights"] {
-        let opts = BuiltinOptions {
-            width: side,
-            height: side,
-            ..Default::default()
-        };
-        let scene = builtin(name, &opts).expect(name);
-        let cam = scene.camera_or_default(side, side);
+        let (scene, cam) = bench::builtin_square(name, side);
         for spec in METHODS {
             let base = spec.trim_end_matches("+cache");
             let base_ms =

@@ -10,7 +10,7 @@
 use restir_world::GpuContext;
 use restir_world::methods::{self, Composed};
 use restir_world::restir_gi;
-use restir_world::scene::{BuiltinOptions, Camera, Scene, builtin};
+use restir_world::scene::{Camera, Scene};
 use tests::{bench, gpu};
 
 const WARM_UP: u32 = 4;
@@ -49,17 +49,8 @@ fn specs() -> Vec<(&'static str, String)> {
 
 fn main() {
     let ctx = gpu::context();
-    let side: u32 = std::env::var("GI_BENCH_SIZE")
-        .ok()
-        .and_then(|v| v.parse().ok())
-        .unwrap_or(128);
-    let opts = BuiltinOptions {
-        width: side,
-        height: side,
-        ..Default::default()
-    };
-    let scene = builtin("many-lights", &opts).expect("many-lights");
-    let cam = scene.camera_or_default(side, side);
+    let side = bench::side_from_env("GI_BENCH_SIZE");
+    let (scene, cam) = bench::builtin_square("many-lights", side);
     let ris_ms = bench::frame_times(ctx, &mut build(ctx, &scene, &cam, "ris"), WARM_UP, FRAMES)
         .ms_per_frame();
     let f = |x: f64| format!("{x:.3}");

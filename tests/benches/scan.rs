@@ -241,6 +241,18 @@ impl Kernel {
     ];
 }
 
+/// Records `scan` bound now as an exclusive scan of `n` elements, input to output.
+fn encode_exclusive(
+    ctx: &tests::GpuContext,
+    scan: &Scan,
+    enc: &mut wgpu::CommandEncoder,
+    [input, output]: [&wgpu::Buffer; 2],
+    n: u32,
+) {
+    let kind = ScanKind::Exclusive;
+    (scan.bind_and_encode(&ctx.device, enc, input, output, n, kind, None)).expect("encode")
+}
+
 /// The host's serial exclusive scan.
 fn host_scan(input: &[u32], output: &mut [u32]) {
     let mut sum = 0u32;
@@ -301,17 +313,7 @@ fn lookback_counters(
     for _ in 0..3 {
         gpu::run(ctx, |enc| {
             counting.clear_counters(enc);
-            counting
-                .bind_and_encode(
-                    &ctx.device,
-                    enc,
-                    input,
-                    output,
-                    n,
-                    ScanKind::Exclusive,
-                    None,
-                )
-                .expect("encode");
+            encode_exclusive(ctx, counting, enc, [input, output], n);
         });
         let words: Vec<u32> =
             buffers::read(ctx, counting.counters_buffer().expect("counters")).unwrap();
@@ -401,16 +403,7 @@ fn check_peer(
     let bytes = u64::from(n.min(1 << 16)) * 4;
     let tail = u64::from(n) * 4 - bytes;
     gpu::run(ctx, |enc| {
-        scan.bind_and_encode(
-            &ctx.device,
-            enc,
-            input,
-            output,
-            n,
-            ScanKind::Exclusive,
-            None,
-        )
-        .expect("encode")
+        encode_exclusive(ctx, scan, enc, [input, output], n)
     });
     let ours: Vec<u32> = buffers::read_range(ctx, output, tail, bytes).unwrap();
     gpu::run(ctx, |enc| enc.clear_buffer(output, 0, None));

@@ -17,7 +17,6 @@ use restir_world::knobs::parse_config;
 use restir_world::methods::{Composed, FrameMethod};
 use restir_world::render::{Paths, RenderOptions, Renderer};
 use restir_world::sampling::Estimator;
-use restir_world::scene::{BuiltinOptions, builtin};
 use restir_world::world_restir::{self, WorldRestirConfig};
 use tests::{bench, buffers, floors::CopyKernel, gpu};
 
@@ -31,17 +30,8 @@ fn frame(ctx: &GpuContext, m: &mut dyn FrameMethod, enc: &mut wgpu::CommandEncod
 
 fn world_restir(c: &mut Criterion) {
     let ctx = gpu::context();
-    let side: u32 = std::env::var("WR_BENCH_SIZE")
-        .ok()
-        .and_then(|v| v.parse().ok())
-        .unwrap_or(128);
-    let opts = BuiltinOptions {
-        width: side,
-        height: side,
-        ..Default::default()
-    };
-    let scene = builtin("many-lights", &opts).expect("many-lights");
-    let cam = scene.camera_or_default(side, side);
+    let side = bench::side_from_env("WR_BENCH_SIZE");
+    let (scene, cam) = bench::builtin_square("many-lights", side);
     let mut wr = Composed::world_restir(ctx, &scene, &cam, WorldRestirConfig::default(), 1)
         .expect("world-restir");
     let ris = Estimator::Ris { candidates: 16 };

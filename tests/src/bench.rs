@@ -97,3 +97,27 @@ pub fn frame_times(
     run(warm_up);
     run(frames)
 }
+
+/// The image side a benchmark runs at: the environment variable `var` (e.g. `GI_BENCH_SIZE`),
+/// else 128.
+pub fn side_from_env(var: &str) -> u32 {
+    std::env::var(var)
+        .ok()
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(128)
+}
+
+/// Built-in scene `name` at `side` x `side` and its camera.
+pub fn builtin_square(
+    name: &str,
+    side: u32,
+) -> (restir_world::scene::Scene, restir_world::scene::Camera) {
+    let opts = restir_world::scene::BuiltinOptions {
+        width: side,
+        height: side,
+        ..Default::default()
+    };
+    let scene = restir_world::scene::builtin(name, &opts).expect(name);
+    let cam = scene.camera_or_default(side, side);
+    (scene, cam)
+}

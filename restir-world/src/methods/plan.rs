@@ -101,60 +101,57 @@ impl Step {
     /// What it reads and writes.
     pub fn access(self) -> Access {
         use FrameBuffer::*;
-        let vertices = vec![Primary, Secondary];
-        match self {
-            Step::PrimaryAndGi => Access {
-                writes: vertices,
-                ..Access::default()
-            },
-            Step::LightTiles => Access {
-                writes: vec![LightTiles],
-                ..Access::default()
-            },
-            Step::CacheUpdate => Access {
-                reads: vertices,
-                writes: vec![Cache],
-                ..Access::default()
-            },
-            Step::WorldRestir { tiles, direct } => Access {
-                reads: [vertices, tiles.then_some(LightTiles).into_iter().collect()].concat(),
-                writes: [
-                    vec![PathRadiance, Indirect],
-                    direct.then_some(Direct).into_iter().collect(),
-                ]
-                .concat(),
-                ..Access::default()
-            },
-            Step::ShadeIndirect => Access {
-                reads: vertices,
-                writes: vec![PathRadiance, Indirect],
-                ..Access::default()
-            },
-            Step::Path { cache } => Access {
-                reads: [vertices, cache.then_some(Cache).into_iter().collect()].concat(),
-                adds: vec![PathRadiance, Indirect],
-                ..Access::default()
-            },
-            Step::RestirGi => Access {
-                reads: [vertices, vec![PathRadiance]].concat(),
-                rewrites: vec![Indirect],
-                ..Access::default()
-            },
-            Step::RestirDi => Access {
-                reads: [vertices, vec![LightTiles]].concat(),
-                writes: vec![Direct],
-                ..Access::default()
-            },
-            Step::ShadeDirect => Access {
-                reads: vertices,
-                writes: vec![Direct],
-                ..Access::default()
-            },
-            Step::Accumulate => Access {
-                reads: vec![Direct, Indirect],
-                writes: vec![Accumulation],
-                ..Access::default()
-            },
+        let vertices = [Primary, Secondary];
+        let when = |on: bool, b: FrameBuffer| on.then_some(b).into_iter();
+        // (reads, writes, adds, rewrites); every step but the first reads the vertices.
+        let (reads, writes, adds, rewrites): (Vec<_>, Vec<_>, Vec<_>, Vec<_>) = match self {
+            Step::PrimaryAndGi => (vec![], vertices.into(), vec![], vec![]),
+            Step::LightTiles => (vec![], vec![LightTiles], vec![], vec![]),
+            Step::CacheUpdate => (vertices.into(), vec![Cache], vec![], vec![]),
+            Step::WorldRestir { tiles, direct } => (
+                vertices
+                    .into_iter()
+                    .chain(when(tiles, LightTiles))
+                    .collect(),
+                [PathRadiance, Indirect]
+                    .into_iter()
+                    .chain(when(direct, Direct))
+                    .collect(),
+                vec![],
+                vec![],
+            ),
+            Step::ShadeIndirect => (
+                vertices.into(),
+                vec![PathRadiance, Indirect],
+                vec![],
+                vec![],
+            ),
+            Step::Path { cache } => (
+                vertices.into_iter().chain(when(cache, Cache)).collect(),
+                vec![],
+                vec![PathRadiance, Indirect],
+                vec![],
+            ),
+            Step::RestirGi => (
+                vec![Primary, Secondary, PathRadiance],
+                vec![],
+                vec![],
+                vec![Indirect],
+            ),
+            Step::RestirDi => (
+                vec![Primary, Secondary, LightTiles],
+                vec![Direct],
+                vec![],
+                vec![],
+            ),
+            Step::ShadeDirect => (vertices.into(), vec![Direct], vec![], vec![]),
+            Step::Accumulate => (vec![Direct, Indirect], vec![Accumulation], vec![], vec![]),
+        };
+        Access {
+            reads,
+            writes,
+            adds,
+            rewrites,
         }
     }
 }

@@ -69,8 +69,7 @@ fn render_shade_indirect(id: Invocation) {
         let nee = render_nee(s, &rng);
         light = PathLight(g.albedo * nee, nee);
     }
-    render_indirect_frame[i] = vec4<f32>(light.reflected, 1.0);
-    render_path_radiance[i] = vec4<f32>(light.leaving, 1.0);
+    render_store_path_light(i, light);
 }
 
 // Bounces 2..=render_params.bounces of the path beyond the secondary vertex (render_path_pixel,

@@ -91,6 +91,13 @@ struct PathLight {
     leaving: vec3<f32>,
 }
 
+// Pixel i's PathLight, as the pass that lights its secondary vertex writes it (the path pass
+// adds to it).
+fn render_store_path_light(i: u32, light: PathLight) {
+    render_indirect_frame[i] = vec4<f32>(light.reflected, 1.0);
+    render_path_radiance[i] = vec4<f32>(light.leaving, 1.0);
+}
+
 // GPU-side frame counter: advanced by render_accumulate, read by every pass for its seeds.
 struct RenderState {
     frame: u32,

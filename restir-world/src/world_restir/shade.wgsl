@@ -14,8 +14,7 @@ fn wr_shade(id: Invocation) {
         light = PathLight(render_shade_stored(f, res, render_gbuffer[i].albedo),
                           render_shade_stored(f, res, vec3<f32>(1.0)));
     }
-    render_indirect_frame[i] = vec4<f32>(light.reflected, 1.0);
-    render_path_radiance[i] = vec4<f32>(light.leaving, 1.0);
+    render_store_path_light(i, light);
 }
 
 // Pass "shade_direct" of the unified cache: direct light at pixel i's primary vertex = its
