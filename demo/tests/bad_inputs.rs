@@ -1311,6 +1311,19 @@ fn cases(tmp: &Path, gen_dir: &Path) -> Vec<Case> {
             1,
             "GiB of memory, above the limit",
         ),
+        // A method's frame (info --method) is checked before the adapter is opened.
+        case(
+            "info-method-unknown",
+            &["info", "--method", "nosuch"],
+            1,
+            "--method: unknown method \"nosuch\"",
+        ),
+        case(
+            "info-method-cache-bounded",
+            &["info", "--method", "ris+cache", "--bounces", "3"],
+            1,
+            "--method: method ris+cache: the radiance cache holds the light of every bounce",
+        ),
     ]
 }
 

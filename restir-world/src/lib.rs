@@ -14,8 +14,9 @@
 //!   [`lights`] (light sampling); [`reference`](mod@reference) (the CPU reference renderer),
 //!   [`images`] (the one image set) and [`metrics`].
 //! - [`render`]: the renderer's shared passes and the `nee`/`ris` baselines.
-//! - [`light_tiles`] and [`screen_reuse`] (screen-space reuse written once: parameters,
-//!   reservoir buffers, neighbours, the pass chain, camera history), then the stages that replace the renderer's shading: [`world_restir`] (light at
+//! - [`light_tiles`], [`screen_reuse`] (screen-space reuse written once: parameters,
+//!   reservoir buffers, neighbours, the pass chain, camera history) and [`grid`] (the
+//!   world-space grid a stage gathers its items in), then the stages that replace the renderer's shading: [`world_restir`] (light at
 //!   the secondary vertex), [`restir_gi`] (the paths, resampled between pixels) and
 //!   [`restir_di`] (direct), independent of each other; [`cache`] (the radiance cache the
 //!   paths end in).
