@@ -9,7 +9,7 @@
 //!
 //! - [`gpu`]: device acquisition, timestamp spans, upload/readback, and the vocabulary every
 //!   pass is written in (`BindingSet`, `WgslModule`, `Kernel`, `Pass`, `FrameEncoder`);
-//!   [`image_io`] and [`knobs`] (a method's settings declared once).
+//!   [`image_io`] and [`knobs`](mod@knobs) (a method's settings declared once).
 //! - [`scene`], then [`sampling`], [`trace`] (the BVH tracer), [`framing`] (a default camera),
 //!   [`lights`] (light sampling); [`reference`](mod@reference) (the CPU reference renderer),
 //!   [`images`] (the one image set) and [`metrics`].

@@ -37,7 +37,7 @@
 //!
 //! A later pass composes [`library`] + its own kernel module and binds [`SharedGroups`]
 //! (render buffers at group 0, the tracer's at 1, lights at 2) before its own groups. Rays are
-//! traced by the context's [`Tracer`]: the software CWBVH or the adapter's ray queries, behind
+//! traced by the context's [`crate::gpu::Tracer`]: the software CWBVH or the adapter's ray queries, behind
 //! the same WGSL functions.
 
 mod debug;

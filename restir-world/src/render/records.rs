@@ -154,10 +154,10 @@ pub struct RenderParams {
     /// 1 when `render_attributes` holds the scene's [`TriangleAttributes`], 0 when it is a
     /// dummy (flat shading, no texture coordinates).
     pub attributes: u32,
-    /// [`Paths::bounces`] and [`Paths::roulette_from`].
+    /// [`crate::sampling::Paths::bounces`] and [`crate::sampling::Paths::roulette_from`].
     pub bounces: u32,
     pub roulette_from: u32,
-    /// [`Paths::mis`] as 0 or 1.
+    /// [`crate::sampling::Paths::mis`] as 0 or 1.
     pub mis: u32,
     pub _pad0: u32,
     pub _pad1: u32,

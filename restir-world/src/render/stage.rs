@@ -17,7 +17,7 @@ pub struct SharedGroups {
     pub groups: [wgpu::BindGroup; 3],
     pub tracer: Tracer,
     pub pixels: u32,
-    /// The defect compiled into every kernel of this build ([`RenderOptions::planted`]).
+    /// The defect compiled into every kernel of this build ([`super::RenderOptions::planted`]).
     pub planted: Planted,
     /// Where its kernels come from: the context's, so that a build again reuses them.
     pub kernels: KernelCache,
@@ -25,7 +25,7 @@ pub struct SharedGroups {
 
 impl SharedGroups {
     /// A kernel over the shared layouts (+ `own`, bound at group 3) composed from the
-    /// [`library`] and `modules`.
+    /// [`super::library()`] and `modules`.
     pub fn kernel(
         &self,
         device: &wgpu::Device,
