@@ -66,6 +66,72 @@ fn layouts_match_wgsl() {
         [knobs, debug_view, items, tiles, tile_size]
     );
     tests::assert_knobs_layout!(WorldRestirConfig, src, "WrKnobs");
+    // The grid's parameters, as its lookup composes them into the reuse pass.
+    let reuse = world_restir::kernels()
+        .into_iter()
+        .find(|k| k.name.ends_with("/reuse"))
+        .expect("the reuse kernel");
+    tests::assert_wgsl_layout!(
+        restir_world::grid::GridParams,
+        &reuse.source,
+        "GridParams",
+        [items, jitter, fold_normal, _pad]
+    );
+}
+
+/// The shared world-space grid's keys against its CPU twin (`grid::cell_of`): without jitter,
+/// every inserted vertex's slot lies in the twin's bucket of its position (and normal, with
+/// `fold-normal`) and holds the twin's checksum, with the normal's axis folded in and without.
+/// Folding must split cells (more cells than without), and the unfolded twin must miss some
+/// folded keys: a grid that ignored `fold_normal` fails.
+#[test]
+fn grid_cells_are_the_twins_keys_with_and_without_the_normal_folded() {
+    let ctx = gpu::context();
+    let (s, cam) = scene("cornell", 40);
+    let mut cells = Vec::new();
+    for fold in [false, true] {
+        let config = WorldRestirConfig {
+            jitter: false,
+            fold_normal: fold,
+            ..small()
+        };
+        let mut wr = Composed::world_restir(ctx, &s, &cam, config, 3).expect("world-restir");
+        gpu::render(&mut wr, 1);
+        let w = wr.world().unwrap();
+        let g = w.grid(ctx).expect("grid");
+        let params = w.world_grid().params().with_eye(cam.eye).expect("params");
+        let spb = params.slots_per_bucket;
+        let secondary = wr.renderer().read_secondary(ctx).expect("secondary");
+        let mut unfolded_misses = 0;
+        let mut inserted = 0;
+        for (i, v) in secondary.iter().enumerate() {
+            let [slot, _] = g.vertex_slot[i];
+            if slot >= gpu_hash::HASH_FIRST_SENTINEL {
+                continue;
+            }
+            inserted += 1;
+            let (p, n) = (v.position.into(), v.normal.into());
+            let twin = restir_world::grid::cell_of(&params, p, n, fold).expect("a cell");
+            assert_eq!(slot / spb, twin.bucket, "fold {fold}: vertex {i}'s bucket");
+            assert_eq!(
+                g.checksums[slot as usize], twin.checksum,
+                "fold {fold}: vertex {i}"
+            );
+            let plain = restir_world::grid::cell_of(&params, p, n, false).expect("a cell");
+            unfolded_misses += usize::from(plain.checksum != twin.checksum);
+        }
+        assert!(inserted > 1000, "fold {fold}: only {inserted} vertices");
+        assert_eq!(
+            unfolded_misses > 0,
+            fold,
+            "fold {fold}: {unfolded_misses} keys differ"
+        );
+        cells.push(g.counters.iter().filter(|&&c| c > 0).count());
+    }
+    assert!(
+        cells[1] > cells[0],
+        "folding the normal split no cell: {cells:?}"
+    );
 }
 
 /// Algorithm 2 by readback: every vertex with a GI hit is in exactly one slot's compact storage,

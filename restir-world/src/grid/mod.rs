@@ -450,7 +450,13 @@ impl WorldGrid {
             counters: buffers::read(ctx, self.tables[p].counters())?,
             offsets: buffers::read(ctx, &self.buffers.offsets[p])?,
             cells,
+            checksums: buffers::read(ctx, self.tables[p].checksums())?,
         })
+    }
+
+    /// The cells' parameters (the eye is each build's: [`HashGridParams::with_eye`]).
+    pub fn params(&self) -> &HashGridParams {
+        &self.grid_params
     }
 
     /// Items per frame.
@@ -521,14 +527,15 @@ impl BuildPasses {
     }
 }
 
-/// A grid read back (see [`WorldGrid::read`]): per item (slot, index in slot), per slot counts
-/// and exclusive offsets, and the compact cell storage.
+/// A grid read back (see [`WorldGrid::read`]): per item (slot, index in slot), per slot counts,
+/// exclusive offsets and the key's checksum, and the compact cell storage.
 #[derive(Debug, Clone, PartialEq)]
 pub struct GridReadback {
     pub vertex_slot: Vec<[u32; 2]>,
     pub counters: Vec<u32>,
     pub offsets: Vec<u32>,
     pub cells: Vec<u32>,
+    pub checksums: Vec<u32>,
 }
 
 #[cfg(test)]

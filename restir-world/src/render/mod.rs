@@ -384,6 +384,13 @@ impl Renderer {
         Ok(v)
     }
 
+    /// The last frame's secondary vertices (where each pixel's GI ray landed), per pixel.
+    pub fn read_secondary(&self, ctx: &GpuContext) -> Result<Vec<GVertex>, GpuError> {
+        let mut v: Vec<GVertex> = buffers::read(ctx, &self.buffers.secondary)?;
+        v.truncate(self.pixels() as usize);
+        Ok(v)
+    }
+
     /// Clears the running sums (the frame counter, which seeds the passes, runs on).
     pub fn restart_accumulation(&mut self, f: &mut FrameEncoder) {
         f.raw().clear_buffer(&self.buffers.accum_direct, 0, None);

@@ -107,6 +107,10 @@ crate::knobs! {
         /// Cell size adapted to the distance from the eye (paper Algorithm 4; default on). Off:
         /// every cell is `min_cell_size`.
         adaptive_cell_size: bool = true, "adaptive-cell-size";
+        /// The axis the vertex normal points along most folded into the cell's key (as the
+        /// radiance cache's cells): the faces of a corner never share a cell (default off, the
+        /// paper's grid; `normal-threshold` skips reservoirs of other orientations).
+        fold_normal: bool = false, "fold-normal";
         /// A stored reservoir is reused only when the cosine between its vertex normal and the
         /// receiver's is at least this (default 0.8409 = 0.5^(1/4), i.e. dot^4 >= 0.5, about 33
         /// degrees, as in Capsaicin).
@@ -211,14 +215,13 @@ impl WorldRestirConfig {
         )
     }
 
-    /// The grid of frames seen by `camera` (the normal is not folded into the key: a stored
-    /// reservoir is skipped where its normal differs, `normal-threshold`).
+    /// The grid of frames seen by `camera`.
     pub fn grid(&self, camera: &Camera) -> GridSettings {
         GridSettings {
             table: self.table(camera.width, camera.height),
             sizing: self.sizing(camera),
             jitter: self.jitter,
-            fold_normal: false,
+            fold_normal: self.fold_normal,
             sort_cells: self.sort_cells,
         }
     }
@@ -688,6 +691,11 @@ impl WorldRestir {
         }
     }
 
+    /// The grid its items are gathered in.
+    pub fn world_grid(&self) -> &WorldGrid {
+        &self.grid
+    }
+
     /// Statistics of the last built grid (overflows = vertices left out of it).
     pub fn grid_stats(&self, ctx: &GpuContext) -> Result<HashStats, GpuError> {
         self.grid.stats(ctx)
@@ -782,6 +790,7 @@ mod tests {
             ("projected-size", "8"),
             ("jitter", "off"),
             ("adaptive-cell-size", "off"),
+            ("fold-normal", "on"),
             ("normal-threshold", "0.5"),
             ("gi-stride", "2"),
             ("combine", "one-over-z"),
@@ -804,6 +813,7 @@ mod tests {
                 projected_size: 8.0,
                 jitter: false,
                 adaptive_cell_size: false,
+                fold_normal: true,
                 normal_threshold: 0.5,
                 gi_stride: 2,
                 combine: Combination::OneOverZ,
