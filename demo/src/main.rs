@@ -793,10 +793,10 @@ fn compare_cmd(a: CompareArgs) -> Result<()> {
         progress: !a.quiet,
     };
     let command = std::env::args().collect::<Vec<_>>().join(" ");
-    compare::check(&opts)?;
+    let settings = compare::check(&opts)?;
     let ctx = gpu_context()?;
     eprintln!("{}", ctx.describe());
-    let report = compare::run(&ctx, &opts, command)?;
+    let report = compare::run(&ctx, &opts, &settings, command)?;
     for sc in &report.scenes {
         for m in &sc.methods {
             let errors: Vec<String> = m

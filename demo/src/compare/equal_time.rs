@@ -2,7 +2,7 @@
 //! the target's GPU time per frame, its error against the target's.
 
 use anyhow::Result;
-use restir_world::methods;
+use restir_world::methods::MethodSettings;
 
 use super::CompareOptions;
 use super::method_run::SceneRuns;
@@ -13,7 +13,7 @@ const MAX_SPP: u32 = 4096;
 
 /// Runs the comparison against the target of `runs` (none without one or without times).
 pub fn compare(job: &SceneRuns, runs: &[MethodRun]) -> Result<Option<EqualTime>> {
-    let Some(t) = equal_time_target(job.opts, runs) else {
+    let Some(t) = equal_time_target(job.opts, job.settings, runs) else {
         return Ok(None);
     };
     let target = &runs[t];
@@ -32,12 +32,7 @@ pub fn compare(job: &SceneRuns, runs: &[MethodRun]) -> Result<Option<EqualTime>>
         let entry = if spp == 1 {
             entry(run, spp, target, target_ms)
         } else {
-            entry(
-                &job.run_equal_time(&run.method, spp)?,
-                spp,
-                target,
-                target_ms,
-            )
+            entry(&job.run_equal_time(i, spp)?, spp, target, target_ms)
         };
         entries.push(entry);
     }
@@ -51,13 +46,17 @@ pub fn compare(job: &SceneRuns, runs: &[MethodRun]) -> Result<Option<EqualTime>>
 
 /// The method equal-time comparisons are measured against: `--equal-time-to`, else the first
 /// listed method the registry marks as the target (world-space ReSTIR), else the slowest.
-fn equal_time_target(opts: &CompareOptions, runs: &[MethodRun]) -> Option<usize> {
+fn equal_time_target(
+    opts: &CompareOptions,
+    settings: &[MethodSettings],
+    runs: &[MethodRun],
+) -> Option<usize> {
     if let Some(t) = &opts.equal_time_to {
         return runs.iter().position(|r| &r.method == t);
     }
-    if let Some(i) = runs.iter().position(|r| {
-        methods::entry(&r.method).is_ok_and(|e| e.equal_time_target) && r.planted_bias.is_none()
-    }) {
+    if let Some(i) = (runs.iter().zip(settings))
+        .position(|(r, s)| s.entry.equal_time_target && r.planted_bias.is_none())
+    {
         return Some(i);
     }
     runs.iter()

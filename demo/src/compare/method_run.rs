@@ -7,7 +7,7 @@ use indicatif::ProgressBar;
 use restir_world::GpuContext;
 use restir_world::gpu::PassTimes;
 use restir_world::images::FrameImages;
-use restir_world::methods::{self, FrameLoop, Readback, run_frames};
+use restir_world::methods::{FrameLoop, MethodSettings, Readback, run_frames};
 use restir_world::metrics;
 use restir_world::render::RenderOptions;
 use restir_world::scene::{Camera, Scene};
@@ -24,6 +24,8 @@ pub struct SceneRuns<'a> {
     pub scene: &'a Scene,
     pub base: Camera,
     pub opts: &'a CompareOptions,
+    /// The listed methods' settings, in `--methods` order.
+    pub settings: &'a [MethodSettings],
     pub refs: Refs,
     pub bar: ProgressBar,
 }
@@ -39,11 +41,12 @@ impl SceneRuns<'_> {
     pub fn run_listed(&self, label: &str) -> Result<Vec<(String, Finished)>> {
         let opts = self.opts;
         let mut done = Vec::new();
-        for spec in &opts.methods {
+        for (spec, settings) in opts.methods.iter().zip(self.settings) {
             self.bar.set_message(spec.clone());
             let bias = opts.plant_bias.iter().find(|(m, _)| m == spec);
             let run = RunSpec {
                 spec,
+                settings,
                 spp: 1,
                 frames: opts.frames,
                 bias: bias.map(|(_, b)| *b),
@@ -57,12 +60,15 @@ impl SceneRuns<'_> {
     }
 
     /// `spec` at `spp` samples per pixel per frame over `--equal-time-frames` frames.
-    pub fn run_equal_time(&self, spec: &str, spp: u32) -> Result<MethodRun> {
+    /// Listed method `i` at `spp` samples per pixel per frame.
+    pub fn run_equal_time(&self, i: usize, spp: u32) -> Result<MethodRun> {
+        let spec = &self.opts.methods[i];
         let frames = self.opts.equal_time_frames.clamp(1, self.opts.frames);
         self.bar.inc_length(u64::from(frames));
         self.bar.set_message(format!("{spec} x{spp} spp"));
         let run = RunSpec {
             spec,
+            settings: &self.settings[i],
             spp,
             frames,
             bias: None,
@@ -77,8 +83,9 @@ impl SceneRuns<'_> {
             paths: opts.paths,
             ..Default::default()
         };
-        let settings = methods::parse_spec(run.spec)?;
-        let mut m = settings.build_with(ctx, self.scene, &self.base, &options)?;
+        let mut m = run
+            .settings
+            .build_with(ctx, self.scene, &self.base, &options)?;
         let pixels = (self.base.width * self.base.height) as usize;
         let static_camera = opts.camera == CameraMode::Static;
         let mut tally = Tally::new(static_camera.then(|| Accumulator::new(pixels)));
@@ -120,6 +127,7 @@ impl SceneRuns<'_> {
 /// scales its indirect image (a planted defect).
 struct RunSpec<'a> {
     spec: &'a str,
+    settings: &'a MethodSettings,
     spp: u32,
     frames: u32,
     bias: Option<f32>,
@@ -282,7 +290,7 @@ impl Tally {
         let by_stage = sum.as_ref().map_or_else(Vec::new, PassTimes::per_frame);
         let report = MethodRun {
             method: run.spec.to_owned(),
-            about: methods::entry(run.spec)?.about.to_owned(),
+            about: run.settings.entry.about.to_owned(),
             spp_per_frame: run.spp,
             planted_bias: run.bias,
             frames: run.frames,

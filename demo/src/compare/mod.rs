@@ -96,13 +96,24 @@ fn scene_labels(scenes: &[String]) -> Vec<String> {
         .collect()
 }
 
+/// What [`compare_scene`] runs on a scene: the options, the listed methods' settings (in
+/// `--methods` order) and the scene's label.
+struct SceneJob<'a> {
+    opts: &'a CompareOptions,
+    settings: &'a [methods::MethodSettings],
+    label: String,
+}
+
 /// Runs every method on one scene against its references, then the equal-time comparison;
 /// adds the scene's row to the image strip and writes its reference EXRs (`--no-exr`: not).
 fn compare_scene(
     ctx: &GpuContext,
-    label: String,
+    SceneJob {
+        opts,
+        settings,
+        label,
+    }: SceneJob,
     scene: Scene,
-    opts: &CompareOptions,
     strip: &mut Vec<output::StripRow>,
 ) -> Result<SceneReport> {
     let base = scene.camera_or_default(opts.size.0, opts.size.1);
@@ -117,6 +128,7 @@ fn compare_scene(
         scene: &scene,
         base,
         opts,
+        settings,
         refs,
         bar,
     };
@@ -190,8 +202,9 @@ fn write_reference_exrs(out: &Path, label: &str, r: &Reference) -> Result<()> {
 
 /// Checks the options without a GPU and without rendering: every method spec parses, no
 /// method is listed twice, `--equal-time-to` and `--plant-bias` name listed methods, the
-/// reference settings make sense. [`run`] calls it first; tools may call it earlier.
-pub fn check(opts: &CompareOptions) -> Result<()> {
+/// reference settings make sense. Returns each listed method's settings, in `--methods` order
+/// (the one parse of each spec), which [`run`] takes.
+pub fn check(opts: &CompareOptions) -> Result<Vec<methods::MethodSettings>> {
     if opts.frames == 0 {
         bail!("--frames must be at least 1");
     }
@@ -265,7 +278,7 @@ pub fn check(opts: &CompareOptions) -> Result<()> {
             bail!("reference {}: missing or not a regular file", p.display());
         }
     }
-    Ok(())
+    Ok(parsed.into_iter().map(|(_, settings)| settings).collect())
 }
 
 /// `--out` must not be a scene file's directory (report.md, strip.jpg, ... would overwrite
@@ -297,9 +310,14 @@ fn check_out_and_cache(opts: &CompareOptions) -> Result<()> {
     Ok(())
 }
 
-/// Runs the whole comparison and writes every output into `opts.out`; returns the report.
-pub fn run(ctx: &GpuContext, opts: &CompareOptions, command: String) -> Result<Report> {
-    check(opts)?;
+/// Runs the whole comparison of the methods [`check`] parsed (`settings`) and writes every
+/// output into `opts.out`; returns the report.
+pub fn run(
+    ctx: &GpuContext,
+    opts: &CompareOptions,
+    settings: &[methods::MethodSettings],
+    command: String,
+) -> Result<Report> {
     if opts.frames <= TIMING_WARMUP_FRAMES {
         eprintln!(
             "warning: --frames {} is not above the {TIMING_WARMUP_FRAMES} warm-up frames GPU \
@@ -318,8 +336,8 @@ pub fn run(ctx: &GpuContext, opts: &CompareOptions, command: String) -> Result<R
         .collect::<Result<_>>()?;
     for (label, scene) in &loaded {
         let base = scene.camera_or_default(opts.size.0, opts.size.1);
-        for spec in &opts.methods {
-            methods::check_camera(spec, &base).with_context(|| {
+        for (spec, settings) in opts.methods.iter().zip(settings) {
+            settings.check_camera(&base).with_context(|| {
                 format!(
                     "--size {}x{}: method {spec} on {label}: use a larger --size",
                     opts.size.0, opts.size.1
@@ -327,19 +345,27 @@ pub fn run(ctx: &GpuContext, opts: &CompareOptions, command: String) -> Result<R
             })?;
         }
     }
-    crate::with_out_dir(&opts.out, || run_scenes(ctx, opts, command, loaded))
+    crate::with_out_dir(&opts.out, || {
+        run_scenes(ctx, opts, settings, command, loaded)
+    })
 }
 
 fn run_scenes(
     ctx: &GpuContext,
     opts: &CompareOptions,
+    settings: &[methods::MethodSettings],
     command: String,
     loaded: Vec<(String, Scene)>,
 ) -> Result<Report> {
     let mut scenes = Vec::new();
     let mut strip = Vec::new();
     for (label, scene) in loaded {
-        scenes.push(compare_scene(ctx, label, scene, opts, &mut strip)?);
+        let job = SceneJob {
+            opts,
+            settings,
+            label,
+        };
+        scenes.push(compare_scene(ctx, job, scene, &mut strip)?);
     }
     let report = Report {
         device: ctx.info.name.clone(),
