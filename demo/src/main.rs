@@ -130,7 +130,7 @@ struct CompareArgs {
     /// not reported.
     #[arg(long, requires = "reference")]
     reference_indirect: Option<PathBuf>,
-    /// Samples per pixel of the GPU reference.
+    /// Samples per pixel of the GPU reference, 2 to 1048576.
     #[arg(long, default_value_t = 1024)]
     reference_spp: u32,
     /// Reference cache directory.

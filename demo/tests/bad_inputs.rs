@@ -928,6 +928,13 @@ fn cases(tmp: &Path, gen_dir: &Path) -> Vec<Case> {
             1,
             "--reference-spp must be at least 2",
         ),
+        // Issue 38: its rounding to an even count overflowed and the reference ran forever.
+        case_of(
+            "reference-spp-u32-max",
+            compare(&["--reference-spp", "4294967295"]),
+            1,
+            "--reference-spp must be at most 1048576, got 4294967295",
+        ),
         // 24 (paths): the depth is checked before any work, by flag.
         cornell("bounces-0", &["--bounces", "0"], 1, "--bounces"),
         cornell(

@@ -17,6 +17,10 @@ use crate::scene::{Camera, Scene};
 /// Frames recorded per submission while rendering a reference.
 const FRAMES_PER_SUBMIT: u32 = 8;
 
+/// Most samples per pixel a reference takes (`ReferenceSettings::spp`): 2^20, a thousand
+/// times the default, days of lavapipe at 256x256; more is a mistaken flag, refused.
+pub const MAX_SPP: u32 = 1 << 20;
+
 /// How a reference is rendered.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ReferenceSettings {
@@ -92,6 +96,8 @@ pub enum ReferenceError {
     Metrics(#[from] MetricsError),
     #[error("reference {path}: {msg}")]
     Bad { path: PathBuf, msg: String },
+    #[error("a reference of {0} samples per pixel: at most {MAX_SPP}")]
+    Spp(u32),
 }
 
 /// 64-bit FNV-1a, a stable hash for cache keys (std's hasher may change between releases).
@@ -204,7 +210,13 @@ pub fn cache_key(scene: &Scene, camera: &Camera, settings: &ReferenceSettings) -
         Estimator::Nee => (0u32, 1u32),
         Estimator::Ris { candidates } => (1, candidates),
     };
-    for x in [settings.spp.div_ceil(2) * 2, m, k, settings.seed] {
+    // Wrapping: a count above MAX_SPP is refused by `render`, not here.
+    for x in [
+        settings.spp.div_ceil(2).wrapping_mul(2),
+        m,
+        k,
+        settings.seed,
+    ] {
         h.bytes(&x.to_le_bytes());
     }
     // Paths change the image: hashed unless one bounce without MIS (which keeps the key it had
@@ -259,6 +271,9 @@ pub fn render(
     settings: &ReferenceSettings,
     mut progress: impl FnMut(u32),
 ) -> Result<GpuReference, ReferenceError> {
+    if settings.spp > MAX_SPP {
+        return Err(ReferenceError::Spp(settings.spp));
+    }
     let frames = settings.spp.div_ceil(2).max(1);
     let seed_b = settings.seed ^ 0x9e37_79b9;
     let view = (scene, camera);

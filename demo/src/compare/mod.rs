@@ -261,6 +261,13 @@ pub fn check(opts: &CompareOptions) -> Result<Vec<methods::MethodSettings>> {
             opts.reference_spp
         );
     }
+    let max_spp = restir_world::gpu_reference::MAX_SPP;
+    if opts.reference.is_none() && opts.reference_spp > max_spp {
+        bail!(
+            "--reference-spp must be at most {max_spp}, got {}",
+            opts.reference_spp
+        );
+    }
     check_out_and_cache(opts)?;
     for p in opts.reference.iter().chain(&opts.reference_indirect) {
         let exr = p
