@@ -45,6 +45,10 @@ pub enum Planted {
     /// The path loop (bounces 2..) stops one bounce short of `--bounces`, MIS's last
     /// emission-hit ray included; at one bounce without MIS there is no loop to shorten.
     MissingBounce,
+    /// The light side's density in the MIS from the resampled density (world-restir's
+    /// vertices, WGSL `render_light_mis_at`) doubled, the ray side's not: the two weights no
+    /// longer sum to one.
+    LightMisDoubled,
     /// The radiance cache's update paths lose their tail (the radiance beyond their last
     /// vertex taken as 0): the cells learn only the light of `update-depth` vertices.
     CacheUpdateWithoutTail,
@@ -61,6 +65,7 @@ impl Planted {
             Self::LightPdfOverstated => 4,
             Self::MissingBounce => 5,
             Self::CacheUpdateWithoutTail => 6,
+            Self::LightMisDoubled => 7,
         }
     }
 
@@ -104,6 +109,7 @@ impl Planted {
             ("LIGHT_PDF_OVERSTATED", Self::LightPdfOverstated),
             ("MISSING_BOUNCE", Self::MissingBounce),
             ("CACHE_UPDATE_WITHOUT_TAIL", Self::CacheUpdateWithoutTail),
+            ("LIGHT_MIS_DOUBLED", Self::LightMisDoubled),
         ];
         let mut s = format!(
             "// Planted defects (restir_world::plant): 0 and scales of 1 but in tests' controls.\n\
@@ -132,6 +138,7 @@ mod tests {
             Planted::LightPdfOverstated,
             Planted::MissingBounce,
             Planted::CacheUpdateWithoutTail,
+            Planted::LightMisDoubled,
         ];
         let mut ids: Vec<u32> = all.iter().map(|p| p.id()).collect();
         ids.sort_unstable();

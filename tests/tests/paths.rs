@@ -218,13 +218,21 @@ fn closed_furnace_at_eight_bounces() {
 /// The furnace check's controls, defects planted on the GPU (seed 2), each of which must fail
 /// the bound: in `nee`'s path loop, one bounce too few at N = 8 (5% of the indirect light) and
 /// Russian roulette from bounce 2 without its division at N = 8; in world-restir's reuse at one
-/// bounce, the neighbours merged without their M.
+/// bounce, the neighbours merged without their M; in world-restir's MIS from the resampled
+/// density, the light side's density doubled (weights that sum to more than one) at N = 1 and,
+/// with restir-di, at N = 4.
 #[test]
 fn closed_furnace_controls_fail() {
+    let mis = |bounces| Paths {
+        mis: true,
+        ..depth(bounces, 0)
+    };
     for (spec, paths, planted) in [
         ("nee", depth(8, 0), Planted::MissingBounce),
         ("nee", depth(8, 2), Planted::RouletteWithoutDivision),
         ("world-restir", depth(1, 0), Planted::MergeWithoutM),
+        ("world-restir", mis(1), Planted::LightMisDoubled),
+        ("world-restir+restir-di", mis(4), Planted::LightMisDoubled),
     ] {
         let [d, i] = gpu_images_planted(spec, paths, 2, 64, planted);
         let e = furnace_error(&d, &i, paths.bounces);

@@ -310,7 +310,7 @@ fn modules() -> Vec<WgslModule> {
             KERNEL.source,
         ),
     ];
-    m.extend(render::path_modules(true));
+    m.extend(render::path_modules(true, false));
     m
 }
 

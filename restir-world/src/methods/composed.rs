@@ -184,10 +184,13 @@ impl FrameMethod for Composed {
                     self.world.as_mut().ok_or_else(missing)?.encode(f, r)?
                 }
                 Step::ShadeIndirect => r.encode_shade_indirect(f),
-                Step::Path { cache: true } => {
+                Step::Path { cache: true, .. } => {
                     self.cache.as_ref().ok_or_else(missing)?.encode_path(f)
                 }
-                Step::Path { cache: false } => r.encode_path(f),
+                Step::Path { world: true, .. } => {
+                    self.world.as_ref().ok_or_else(missing)?.encode_path(f, r)
+                }
+                Step::Path { .. } => r.encode_path(f),
                 Step::RestirGi => self.gi.as_mut().ok_or_else(missing)?.encode(f, r),
                 Step::RestirDi => self.di.as_mut().ok_or_else(missing)?.encode(f, r),
                 Step::ShadeDirect => r.encode_shade_direct(f),

@@ -68,8 +68,9 @@ pub enum Step {
     WorldRestir { tiles: bool, direct: bool },
     /// The renderer's light estimate at each secondary vertex.
     ShadeIndirect,
-    /// The path beyond the secondary vertex, the renderer's or (`cache`) ending in the cache.
-    Path { cache: bool },
+    /// The path beyond the secondary vertex: the renderer's, or (`cache`) ending in the cache,
+    /// or (`world`) world-restir's, whose vertices weigh their MIS with its grid's estimates.
+    Path { cache: bool, world: bool },
     /// Screen-space ReSTIR GI: resamples the path samples, rewrites the indirect image.
     RestirGi,
     /// Screen-space ReSTIR DI: the direct light.
@@ -89,8 +90,9 @@ impl Step {
             Step::CacheUpdate => "cache update+resolve",
             Step::WorldRestir { .. } => "world-restir",
             Step::ShadeIndirect => "renderer shade_indirect",
-            Step::Path { cache: false } => "renderer path",
-            Step::Path { cache: true } => "cache path",
+            Step::Path { cache: true, .. } => "cache path",
+            Step::Path { world: true, .. } => "world-restir path",
+            Step::Path { .. } => "renderer path",
             Step::RestirGi => "restir-gi",
             Step::RestirDi => "restir-di",
             Step::ShadeDirect => "renderer shade_direct",
@@ -126,7 +128,7 @@ impl Step {
                 vec![],
                 vec![],
             ),
-            Step::Path { cache } => (
+            Step::Path { cache, .. } => (
                 vertices.into_iter().chain(when(cache, Cache)).collect(),
                 vec![],
                 vec![PathRadiance, Indirect],

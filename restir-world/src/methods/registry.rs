@@ -267,8 +267,10 @@ impl MethodSettings {
             None => Step::ShadeIndirect,
         });
         if self.cache.is_some() || paths.bounces > 1 || paths.mis {
+            // The cache's path ends in its cells and keeps the light table's MIS beyond x2.
             steps.push(Step::Path {
                 cache: self.cache.is_some(),
+                world: self.world.is_some() && self.cache.is_none(),
             });
         }
         steps.extend(self.gi.map(|_| Step::RestirGi));
@@ -687,7 +689,7 @@ mod tests {
             plan.to_string(),
             "1. renderer primary+gi: writes primary, secondary;\n\
              2. world-restir: reads primary, secondary; writes path-radiance, indirect;\n\
-             3. renderer path: reads primary, secondary; adds to path-radiance, indirect;\n\
+             3. world-restir path: reads primary, secondary; adds to path-radiance, indirect;\n\
              4. restir-gi: reads primary, secondary, path-radiance; rewrites indirect;\n\
              5. renderer shade_direct: reads primary, secondary; writes direct;\n\
              6. renderer accumulate: reads direct, indirect; writes accumulation;\n"

@@ -19,6 +19,8 @@ pub const PASSES_WGSL: &str = include_str!("passes.wgsl");
 pub const PATH_WGSL: &str = include_str!("path.wgsl");
 /// The name of the module that defines `path_cache_radiance` for [`PATH_WGSL`].
 pub const PATH_CACHE: &str = "path-cache";
+/// The name of the module that defines `path_light_estimate` for [`PATH_WGSL`].
+pub const PATH_LIGHT: &str = "path-light";
 
 pub(super) const METHOD_NEE: u32 = 0;
 pub(super) const METHOD_RIS: u32 = 1;
@@ -118,14 +120,24 @@ pub(super) fn passes_module() -> WgslModule {
     WgslModule::new("render-passes", &["render-path", "workgroup"], PASSES_WGSL)
 }
 
-/// The path module ([`PATH_WGSL`]) and, when no cache provides [`PATH_CACHE`], a
-/// `path_cache_radiance` that never ends a path.
-pub fn path_modules(with_cache: bool) -> Vec<WgslModule> {
+/// The path module ([`PATH_WGSL`]); when no cache provides [`PATH_CACHE`], a
+/// `path_cache_radiance` that never ends a path; when no stage provides [`PATH_LIGHT`]
+/// (`with_light`), a `path_light_estimate` of 0 (MIS with the light table's density).
+pub fn path_modules(with_cache: bool, with_light: bool) -> Vec<WgslModule> {
     let mut m = vec![WgslModule::new(
         "render-path",
-        &["render", PATH_CACHE],
+        &["render", PATH_CACHE, PATH_LIGHT],
         PATH_WGSL,
     )];
+    if !with_light {
+        m.push(WgslModule::new(
+            PATH_LIGHT,
+            &["render"],
+            "// No estimates: the path's MIS weighs with the light table's density.\n\
+             fn path_light_estimate(i: u32, w: GVertex, bounce: u32) -> f32 {\n    \
+             return 0.0;\n}\n",
+        ));
+    }
     if !with_cache {
         m.push(WgslModule::new(
             PATH_CACHE,
@@ -141,7 +153,7 @@ pub fn path_modules(with_cache: bool) -> Vec<WgslModule> {
 /// The composed pass module on `tracer`.
 pub fn passes_source(tracer: Tracer) -> String {
     let mut m = vec![passes_module()];
-    m.extend(path_modules(false));
+    m.extend(path_modules(false, false));
     compose_with_library(tracer, m)
 }
 

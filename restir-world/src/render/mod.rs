@@ -49,9 +49,9 @@ mod streams;
 
 pub use debug::{DebugView, heat, read_rgb};
 pub use library::{
-    ComposedKernel, PASSES_WGSL, PATH_CACHE, PATH_WGSL, WGSL, bindings, compose_planted,
-    compose_with_library, constants_wgsl, kernels, library, passes_source, path_modules,
-    planted_library, shared_bindings,
+    ComposedKernel, PASSES_WGSL, PATH_CACHE, PATH_LIGHT, PATH_WGSL, WGSL, bindings,
+    compose_planted, compose_with_library, constants_wgsl, kernels, library, passes_source,
+    path_modules, planted_library, shared_bindings,
 };
 pub use records::{
     ATTR_NORMALS, ATTR_UV, GVertex, RenderParams, RenderState, StoredReservoir, TextureGpu,
@@ -163,7 +163,7 @@ impl Passes {
             "render_accumulate",
         ];
         let mut modules = vec![passes_module()];
-        modules.extend(path_modules(false));
+        modules.extend(path_modules(false, false));
         let kernel = shared.kernel(device, "render passes", modules, None, &entries);
         let pass = |entry| shared.pass(device, &kernel, entry, None);
         Self {

@@ -69,7 +69,7 @@ fn render_shade_indirect(id: Invocation) {
         let nee = render_nee(s, &rng);
         light = PathLight(g.albedo * nee, nee);
     }
-    render_store_path_light(i, light);
+    render_store_path_light(i, light, 0.0);
 }
 
 // Bounces 2..=render_params.bounces of the path beyond the secondary vertex (render_path_pixel,

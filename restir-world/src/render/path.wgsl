@@ -4,7 +4,12 @@
 //     fn path_cache_radiance(w: GVertex, bounce: u32, footprint: f32) -> vec4<f32>
 // the radiance reflected at the path's vertex w, reached by bounce `bounce` with the path's
 // footprint there (render_path_spread), towards the vertex before it (.w = 1), or .w = 0 when
-// the path goes on (no cache, no sample in w's cell, or a footprint smaller than the cell).
+// the path goes on (no cache, no sample in w's cell, or a footprint smaller than the cell);
+// and a module "path-light" that defines
+//     fn path_light_estimate(i: u32, w: GVertex, bounce: u32) -> f32
+// the estimate e that pixel i's light sample at the path's vertex w (reached by bounce
+// `bounce`) and the ray leaving w weigh their MIS with (render_light_density; 0: the light
+// table's density), drawn from numbers of its own.
 
 // The spread a cosine-sampled segment from v (direction dir, sampled about v's shading normal)
 // to w adds to a path's footprint (Mueller et al. 2021, neural radiance caching: the square
@@ -38,6 +43,8 @@ fn render_path_pixel(i: u32) {
     var reflected = g.albedo;
     var light = PathLight(vec3<f32>(0.0), vec3<f32>(0.0));
     var footprint = render_path_spread(g, v, normalize(v.position - g.position));
+    // The MIS estimate of v's light sample (x2's, as its pass stored it: render_store_path_light).
+    var e_v = render_path_radiance[i].w;
     // One bounce fewer under the planted defect MISSING_BOUNCE (restir_world::plant).
     let bounces = render_params.bounces - select(0u, 1u, PLANTED == PLANTED_MISSING_BOUNCE);
     // With MIS one more ray: the emission the last vertex's ray finds is part of the last bounce.
@@ -55,7 +62,8 @@ fn render_path_pixel(i: u32) {
         leaving *= v.albedo;
         reflected *= v.albedo;
         let w = render_path_step(v, &rng);
-        render_path_add(&light, leaving, reflected, render_hit_emission(v, w));
+        // The ray from v weighs what it finds as v's light sample was.
+        render_path_add(&light, leaving, reflected, render_hit_emission_at(v, w, e_v));
         if w.prim == BVH_NO_HIT || bounce > bounces {
             break;
         }
@@ -65,8 +73,10 @@ fn render_path_pixel(i: u32) {
             render_path_add(&light, leaving, reflected, cached.xyz);
             break;
         }
-        render_path_add(&light, leaving, reflected, render_nee(w, &rng));
+        let e_w = path_light_estimate(i, w, bounce);
+        render_path_add(&light, leaving, reflected, render_nee_at(w, &rng, e_w));
         v = w;
+        e_v = e_w;
     }
     render_path_radiance[i] += vec4<f32>(light.leaving, 0.0);
     render_indirect_frame[i] += vec4<f32>(light.reflected, 0.0);

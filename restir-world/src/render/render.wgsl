@@ -92,10 +92,12 @@ struct PathLight {
 }
 
 // Pixel i's PathLight, as the pass that lights its secondary vertex writes it (the path pass
-// adds to it).
-fn render_store_path_light(i: u32, light: PathLight) {
+// adds to it), and e, the estimate x2's light sample was MIS-weighted with
+// (render_light_mis_at; 0: the light table's density), kept in render_path_radiance[i].w so
+// that the path's first ray from x2 weighs the emission it finds with the same.
+fn render_store_path_light(i: u32, light: PathLight, e: f32) {
     render_indirect_frame[i] = vec4<f32>(light.reflected, 1.0);
-    render_path_radiance[i] = vec4<f32>(light.leaving, 1.0);
+    render_path_radiance[i] = vec4<f32>(light.leaving, e);
 }
 
 // GPU-side frame counter: advanced by render_accumulate, read by every pass for its seeds.
@@ -327,46 +329,115 @@ fn render_power_heuristic(a: f32, b: f32) -> f32 {
     return select(0.0, a2 / (a2 + b * b), a2 > 0.0);
 }
 
-// The light-sample strategy's weight of sample s at point p (shading normal ns).
+// The light-sample strategy's weight of sample s at point p (shading normal ns), with the
+// light table's density.
 fn render_light_mis(p: vec3<f32>, ns: vec3<f32>, s: LightSample) -> f32 {
+    return render_light_mis_at(p, ns, s, 0.0);
+}
+
+// MIS from the resampled density (world-restir's vertices). A light sample resampled from M
+// candidates of the light table (density p_table) towards the target p_hat (the unshadowed
+// reflected luminance) has about the density M p_hat(y) / (w(y) + (M - 1) I), w = p_hat /
+// p_table, I = the target's integral: p_hat / I (the resampled density) where one candidate's
+// weight is small beside the others' sum, M p_table where it dominates them. Over solid angle
+// at a vertex of albedo a, p_hat / I = p_ray lum(Le(y)) / e, p_ray = cos / pi the cosine
+// density, e = I / lum(a) (the vertex's cosine-weighted mean incident luminance, unshadowed),
+// so the light side's density is M / (1 / p_table + (M - 1) e / (p_ray lum(Le(y)))), with M =
+// RENDER_MIS_CANDIDATES (world-restir's default candidates; its reuse only sharpens the real
+// density). Both strategies compute it from the same y and the same e (an estimate independent
+// of the frame's light sample and ray) and weigh themselves by the power heuristic, so the two
+// weights sum to one for every y; e <= 0 (no estimate): the light table's density.
+const RENDER_MIS_CANDIDATES: f32 = 16.0;
+
+fn render_light_density(p_table: f32, p_ray: f32, le: vec3<f32>, e: f32) -> f32 {
+    if e <= 0.0 {
+        return p_table;
+    }
+    let p_res = p_ray * render_luminance(le) / e;
+    if !(p_table > 0.0) || !(p_res > 0.0) {
+        // No ray reaches y (p_ray = 0), or the table cannot draw it: the table's alone.
+        return p_table;
+    }
+    let m = RENDER_MIS_CANDIDATES;
+    return m / (1.0 / p_table + (m - 1.0) / p_res);
+}
+
+// The salt (render_rng_salted, with the stream of the pass that draws the reservoir's own
+// candidates) of render_light_estimate's light samples: apart from the reservoir's.
+const RENDER_ESTIMATE_SALT: u32 = 0xffeu;
+
+// An estimate e of vertex v's unshadowed cosine-weighted mean incident luminance (the target's
+// integral over lum(albedo), render_light_density) from k light samples of the light table
+// that no reservoir sees; 0 with k = 0 (MIS with the light table's density).
+fn render_light_estimate(v: GVertex, k: u32, rng: ptr<function, u32>) -> f32 {
+    let a = render_luminance(v.albedo);
+    if k == 0u || !(a > 0.0) {
+        return 0.0;
+    }
+    var sum = 0.0;
+    for (var c = 0u; c < k; c++) {
+        let s = render_light_sample(render_rand4(rng), rng);
+        if s.pdf_area > 0.0 {
+            sum += render_luminance(render_light_contribution(v.position, v.normal, v.shading, v.albedo, s)) / s.pdf_area;
+        }
+    }
+    return sum / (f32(k) * a);
+}
+
+// render_light_mis with the resampled density where the vertex has an estimate e > 0.
+fn render_light_mis_at(p: vec3<f32>, ns: vec3<f32>, s: LightSample, e: f32) -> f32 {
     if render_params.mis == 0u || s.kind == LIGHTS_KIND_POINT || s.kind == LIGHTS_KIND_DIRECTIONAL {
         return 1.0;
     }
     var wi = s.position;
-    var p_light = 0.0;
+    var p_table = 0.0;
     if s.kind == LIGHTS_KIND_ENV {
-        p_light = lights_pdf_env(wi);
+        p_table = lights_pdf_env(wi);
     } else {
         let to = s.position - p;
         wi = normalize(to);
-        p_light = lights_pdf_solid_angle(lights_pdf_area(s.light), to, s.normal);
+        p_table = lights_pdf_solid_angle(lights_pdf_area(s.light), to, s.normal);
     }
-    return render_power_heuristic(p_light, max(dot(ns, wi), 0.0) * SAMPLING_INV_PI);
+    let p_ray = max(dot(ns, wi), 0.0) * SAMPLING_INV_PI;
+    var p_light = render_light_density(p_table, p_ray, s.emission, e);
+    if e > 0.0 && PLANTED == PLANTED_LIGHT_MIS_DOUBLED {
+        // Planted defect: the light side's density doubled, the ray side's not.
+        p_light *= 2.0;
+    }
+    return render_power_heuristic(p_light, p_ray);
 }
 
 // The emission a cosine-sampled ray from v found at w (a hit, or an escaped ray whose emission
 // is the environment's radiance in direction w.shading), weighted by the ray strategy's MIS
-// weight; 0 without MIS (next-event estimation then counts all of it).
+// weight against the light table's density; 0 without MIS (next-event estimation then counts
+// all of it).
 fn render_hit_emission(v: GVertex, w: GVertex) -> vec3<f32> {
+    return render_hit_emission_at(v, w, 0.0);
+}
+
+// render_hit_emission against the resampled density where v has an estimate e > 0
+// (render_light_density).
+fn render_hit_emission_at(v: GVertex, w: GVertex, e: f32) -> vec3<f32> {
     if render_params.mis == 0u || all(w.emission == vec3<f32>(0.0)) {
         return vec3<f32>(0.0);
     }
     var dir = w.shading;
-    var p_light = 0.0;
+    var p_table = 0.0;
     if w.prim == BVH_NO_HIT {
-        p_light = lights_pdf_env(dir);
+        p_table = lights_pdf_env(dir);
     } else {
         dir = normalize(w.position - v.position);
-        p_light = lights_pdf_hit(bvh_triangles[w.prim].index, v.position, w.position, w.normal);
+        p_table = lights_pdf_hit(bvh_triangles[w.prim].index, v.position, w.position, w.normal);
     }
     let p_ray = max(dot(v.shading, dir), 0.0) * SAMPLING_INV_PI;
-    return w.emission * render_power_heuristic(p_ray, p_light);
+    return w.emission * render_power_heuristic(p_ray, render_light_density(p_table, p_ray, w.emission, e));
 }
 
-// f(y) of a stored reservoir's light sample y at vertex v (MIS-weighted with MIS on), with one
-// shadow ray: 0 when the reservoir is empty or y is occluded. Every reuse method shades its
-// final reservoirs with it, as weight x f(y) x W (render_shade_stored).
-fn render_stored_light(v: GVertex, res: StoredReservoir) -> vec3<f32> {
+// f(y) of a stored reservoir's light sample y at vertex v (MIS-weighted with MIS on, against
+// the resampled density where v has an estimate e > 0, render_light_mis_at), with one shadow
+// ray: 0 when the reservoir is empty or y is occluded. Every reuse method shades its final
+// reservoirs with it, as weight x f(y) x W (render_shade_stored).
+fn render_stored_light(v: GVertex, res: StoredReservoir, e: f32) -> vec3<f32> {
     if res.m == 0u || !(res.ucw > 0.0) {
         return vec3<f32>(0.0);
     }
@@ -376,7 +447,7 @@ fn render_stored_light(v: GVertex, res: StoredReservoir) -> vec3<f32> {
         return vec3<f32>(0.0);
     }
     if render_params.mis != 0u {
-        f *= render_light_mis(v.position, v.shading, y);
+        f *= render_light_mis_at(v.position, v.shading, y, e);
     }
     return f;
 }
@@ -420,13 +491,13 @@ fn render_reuse_store(c: ptr<function, Reuse>, own: StoredReservoir,
 
 // Direct light at primary vertex g from a stored reservoir: the emission seen + f(y) W with one
 // shadow ray (restir-di's and the unified cache's shading), + with MIS the emission its GI ray
-// found at `secondary`.
-fn render_direct_from_stored(g: GVertex, res: StoredReservoir, secondary: GVertex) -> vec3<f32> {
+// found at `secondary`, both weighted with g's estimate e (render_light_mis_at).
+fn render_direct_from_stored(g: GVertex, res: StoredReservoir, secondary: GVertex, e: f32) -> vec3<f32> {
     var c = g.emission;
     if g.prim != BVH_NO_HIT {
-        c += render_shade_stored(render_stored_light(g, res), res, vec3<f32>(1.0));
+        c += render_shade_stored(render_stored_light(g, res, e), res, vec3<f32>(1.0));
         if render_params.mis != 0u {
-            c += g.albedo * render_hit_emission(g, secondary);
+            c += g.albedo * render_hit_emission_at(g, secondary, e);
         }
     }
     return c;
@@ -596,7 +667,8 @@ fn render_visible_sample(p: vec3<f32>, n: vec3<f32>, s: LightSample) -> bool {
 }
 
 // Reflected direct light at (p, n, albedo) from one light sample with a shadow ray.
-fn render_nee_one(p: vec3<f32>, n: vec3<f32>, ns: vec3<f32>, albedo: vec3<f32>, rng: ptr<function, u32>) -> vec3<f32> {
+fn render_nee_one(p: vec3<f32>, n: vec3<f32>, ns: vec3<f32>, albedo: vec3<f32>, e: f32,
+                  rng: ptr<function, u32>) -> vec3<f32> {
     let s = render_light_sample(render_rand4(rng), rng);
     if s.pdf_area <= 0.0 {
         return vec3<f32>(0.0);
@@ -606,7 +678,7 @@ fn render_nee_one(p: vec3<f32>, n: vec3<f32>, ns: vec3<f32>, albedo: vec3<f32>, 
         return vec3<f32>(0.0);
     }
     if render_params.mis != 0u {
-        f *= render_light_mis(p, ns, s);
+        f *= render_light_mis_at(p, ns, s, e);
     }
     return f / s.pdf_area;
 }
@@ -657,27 +729,33 @@ fn render_ris_candidate(r: ptr<function, Reservoir>, out: ptr<function, RisLight
 // Reflected direct light by RIS over `candidates` light samples, then one shadow ray for the
 // selected sample.
 fn render_nee_ris(p: vec3<f32>, n: vec3<f32>, ns: vec3<f32>, albedo: vec3<f32>, candidates: u32,
-                  rng: ptr<function, u32>) -> vec3<f32> {
+                  e: f32, rng: ptr<function, u32>) -> vec3<f32> {
     let ris = render_ris_lights(p, n, ns, albedo, candidates, rng);
     if ris.reservoir.ucw <= 0.0 || !render_visible_sample(p, n, ris.light) {
         return vec3<f32>(0.0);
     }
     var f = render_light_contribution(p, n, ns, albedo, ris.light);
     if render_params.mis != 0u {
-        f *= render_light_mis(p, ns, ris.light);
+        f *= render_light_mis_at(p, ns, ris.light, e);
     }
     return f * ris.reservoir.ucw;
 }
 
-// Reflected direct light at a surface vertex with the render's method.
+// Reflected direct light at a surface vertex with the render's method, MIS-weighted with the
+// light table's density.
 fn render_nee(v: GVertex, rng: ptr<function, u32>) -> vec3<f32> {
+    return render_nee_at(v, rng, 0.0);
+}
+
+// render_nee with the MIS density of estimate e (render_light_density; 0: the table's).
+fn render_nee_at(v: GVertex, rng: ptr<function, u32>, e: f32) -> vec3<f32> {
     if lights_info.count == 0u {
         return vec3<f32>(0.0);
     }
     if render_params.method == RENDER_METHOD_RIS {
-        return render_nee_ris(v.position, v.normal, v.shading, v.albedo, render_params.candidates, rng);
+        return render_nee_ris(v.position, v.normal, v.shading, v.albedo, render_params.candidates, e, rng);
     }
-    return render_nee_one(v.position, v.normal, v.shading, v.albedo, rng);
+    return render_nee_one(v.position, v.normal, v.shading, v.albedo, e, rng);
 }
 
 // The debug views' heat map of t in [0, 1]: blue .. cyan .. yellow .. red (twin: render::heat).

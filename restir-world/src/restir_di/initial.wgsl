@@ -1,7 +1,8 @@
 // Pass "di-initial": RIS over screen_params.knobs.candidates light samples at each primary vertex,
 // drawn uniformly from the tile its 8x8 pixel block picked this frame (one random tile per
 // block per frame: coherent memory), target = luminance of the unshadowed reflected radiance. The stored
-// confidence is 1 (one frame of candidates), as RTXDI's. Writes screen_out.
+// confidence is 1 (one frame of candidates), as RTXDI's. Writes screen_out, and the pixel's MIS
+// estimate (render_light_estimate, from light samples of its own) to di_estimate.
 
 @compute @workgroup_size(WORKGROUP_SIZE)
 fn screen_initial(id: Invocation) {
@@ -9,6 +10,7 @@ fn screen_initial(id: Invocation) {
     if i >= render_params.pixel_count { return; }
     var out: StoredReservoir;
     let g = render_gbuffer[i];
+    di_estimate[i] = 0.0;
     if g.prim == BVH_NO_HIT {
         screen_out[i] = out;
         return;
@@ -24,4 +26,6 @@ fn screen_initial(id: Invocation) {
                               screen_params.knobs.candidates, &rng);
     out = render_store_reservoir(ris.light, PackedReservoir(ris.reservoir.ucw, 1u));
     screen_out[i] = out;
+    var rng_e = render_rng_salted(i, STREAM_DI_INITIAL, RENDER_ESTIMATE_SALT);
+    di_estimate[i] = render_light_estimate(g, screen_params.knobs.mis_candidates, &rng_e);
 }

@@ -16,7 +16,7 @@
 
 use reservoir::reuse::Combination;
 
-use crate::gpu::{FrameEncoder, GpuContext, GpuError, WgslModule};
+use crate::gpu::{Access, FrameEncoder, GpuContext, GpuError, WgslModule, buffers};
 use crate::knobs::{Knobs, Variant, reuse_variants};
 use crate::light_tiles::{self, LightTiles};
 use crate::render::{self, ComposedKernel, Renderer};
@@ -42,6 +42,10 @@ crate::knobs! {
         [gpu] tile_size: u32 = 1024, "tile-size", 1..=render::MAX_CANDIDATES;
         /// RIS candidates per pixel, drawn from its block's tile (default 16, `ris`'s).
         [gpu] candidates: u32 = render::DEFAULT_CANDIDATES, "candidates", 1..=render::MAX_CANDIDATES;
+        /// Light samples of the light table per pixel, apart from the reservoir's, that estimate
+        /// its mean incident light, the normaliser of the MIS density that follows the
+        /// resampled distribution (default 4; 0: MIS with the light table's density, as `ris`).
+        [gpu] mis_candidates: u32 = 4, "mis-candidates", 0..=render::MAX_CANDIDATES;
         /// Temporal reuse through last frame's camera (default on).
         temporal: bool = true, "temporal";
         /// Cap of a reused reservoir's confidence M, in frames of candidates (default 20).
@@ -108,9 +112,19 @@ pub static STAGE: ScreenStage = ScreenStage {
     library: "",
     constants: constants_wgsl,
     sources: [INITIAL_WGSL, REUSE_WGSL, SHADE_WGSL],
-    own: [&[light_tiles::BINDING], &[], &[]],
+    own: [
+        &[
+            light_tiles::BINDING,
+            ("di_estimate", ESTIMATE, Access::ReadWrite),
+        ],
+        &[],
+        &[("di_estimate", ESTIMATE, Access::Read)],
+    ],
     extra_modules,
 };
+
+/// Each pixel's MIS estimate (WGSL `render_light_estimate`), from the initial pass to the shade.
+const ESTIMATE: &str = "array<f32>";
 
 /// The knobs' struct, as the shared screen-space WGSL reads it.
 pub fn constants_wgsl() -> String {
@@ -136,6 +150,8 @@ pub fn kernels() -> Vec<ComposedKernel> {
 pub struct RestirDi {
     config: RestirDiConfig,
     reuse: ScreenReuse,
+    /// Bound by the initial and shade passes ([`ESTIMATE`]).
+    _estimate: wgpu::Buffer,
 }
 
 impl RestirDi {
@@ -160,12 +176,19 @@ impl RestirDi {
             temporal: config.temporal,
             spatial: config.spatial_k > 0,
         };
+        let px = u64::from(renderer.pixels());
+        let estimate = buffers::storage_zeroed(&ctx.device, "di estimate", px * 4);
         let own = StageBuffers {
-            initial: vec![("light_tiles", tiles.buffer())],
+            initial: vec![("light_tiles", tiles.buffer()), ("di_estimate", &estimate)],
+            shade: vec![("di_estimate", &estimate)],
             ..Default::default()
         };
         let reuse = ScreenReuse::new(ctx, renderer, &STAGE, &config.gpu_words(), chain, own)?;
-        Ok(Self { config, reuse })
+        Ok(Self {
+            config,
+            reuse,
+            _estimate: estimate,
+        })
     }
 
     pub fn config(&self) -> &RestirDiConfig {
@@ -198,7 +221,7 @@ mod tests {
 
     #[test]
     fn the_knob_struct_is_the_wgsl_one() {
-        assert_eq!(RestirDiConfig::GPU_KNOBS, 9);
+        assert_eq!(RestirDiConfig::GPU_KNOBS, 10);
         assert!(constants_wgsl().contains("struct ScreenKnobs {\n    tiles: u32,"));
     }
 }

@@ -1,11 +1,13 @@
 // Pass "di-shade": direct light at the primary vertex = emission seen + f(y) W for the final
 // reservoir's sample y with one shadow ray -> render_direct_frame (what the renderer's
-// render_shade_direct writes otherwise).
+// render_shade_direct writes otherwise); the light sample and the GI ray's emission weighed with
+// the pixel's estimate (di_estimate, render_light_density).
 
 @compute @workgroup_size(WORKGROUP_SIZE)
 fn screen_shade(id: Invocation) {
     let i = item_index(id);
     if i >= render_params.pixel_count { return; }
-    let c = render_direct_from_stored(render_gbuffer[i], screen_final[i], render_secondary[i]);
+    let c = render_direct_from_stored(render_gbuffer[i], screen_final[i], render_secondary[i],
+                                      di_estimate[i]);
     render_direct_frame[i] = vec4<f32>(c, 1.0);
 }

@@ -55,6 +55,9 @@ const ITEMS_WGSL: &str = include_str!("items.wgsl");
 const REUSE_WGSL: &str = include_str!("reuse.wgsl");
 const SHADE_WGSL: &str = include_str!("shade.wgsl");
 const DEBUG_WGSL: &str = include_str!("debug.wgsl");
+const ESTIMATE_WGSL: &str = include_str!("estimate.wgsl");
+const PATH_WGSL: &str = include_str!("path.wgsl");
+const PATH_LIGHT_WGSL: &str = include_str!("path_light.wgsl");
 
 /// Errors of world-space ReSTIR.
 #[derive(Debug, thiserror::Error)]
@@ -83,6 +86,10 @@ crate::knobs! {
         slots: u32 = 32, "slots";
         /// RIS light candidates per vertex, the initial M (default 16, the paper's).
         [gpu] candidates: u32 = render::DEFAULT_CANDIDATES, "candidates", 1..=render::MAX_CANDIDATES;
+        /// Light samples of the light table per vertex, apart from the reservoir's, that estimate
+        /// its mean incident light, the normaliser of the MIS density that follows the
+        /// resampled distribution (default 4; 0: MIS with the light table's density, as `ris`).
+        [gpu] mis_candidates: u32 = 4, "mis-candidates", 0..=render::MAX_CANDIDATES;
         /// Reservoirs merged per cell lookup at most (default 4, the paper's `max_count`).
         [gpu] max_count: u32 = 4, "max-count", 1..=u32::MAX;
         /// Spatial reuse passes per frame (default 2; the paper's is 4). Chosen by measurement
@@ -272,8 +279,19 @@ const GENERATE: KernelDef = KernelDef::new(
         PARAMS,
         ("wr_out", RESERVOIRS, Access::ReadWrite),
         light_tiles::BINDING,
+        ESTIMATES[0],
+        ESTIMATES[1],
     ]],
 );
+/// Each item's estimate of its vertex's unshadowed incident luminance for the MIS of its light
+/// sample (WGSL `render_light_density`; 0: none): `wr_estimate_raw` the generate pass's from
+/// its own light samples, `wr_estimate` what the shading uses (the first spatial pass's mean
+/// over the cell).
+const ESTIMATE: &str = "array<f32>";
+const ESTIMATES: [Buffer; 2] = [
+    ("wr_estimate", ESTIMATE, Access::ReadWrite),
+    ("wr_estimate_raw", ESTIMATE, Access::ReadWrite),
+];
 const REUSE: KernelDef = KernelDef::new(
     "reuse",
     &["wr_reuse"],
@@ -282,14 +300,30 @@ const REUSE: KernelDef = KernelDef::new(
         &[PARAMS],
         REUSE_IO,
         grid::LOOKUP,
-        &[("wr_prev_vertices", "array<GVertex>", Access::Read)],
+        &[
+            ("wr_prev_vertices", "array<GVertex>", Access::Read),
+            ESTIMATES[0],
+            RAW_ESTIMATES,
+        ],
     ],
+);
+/// The generate pass's estimates, as the kernels that look the grid up read them.
+const RAW_ESTIMATES: Buffer = ("wr_estimate_raw", ESTIMATE, Access::Read);
+const PATH: KernelDef = KernelDef::new(
+    "path",
+    &["wr_path"],
+    PATH_WGSL,
+    &[&[PARAMS, RAW_ESTIMATES], grid::LOOKUP],
 );
 const SHADE: KernelDef = KernelDef::new(
     "shade",
     &["wr_shade", "wr_shade_direct"],
     SHADE_WGSL,
-    &[&[PARAMS, ("wr_final", RESERVOIRS, Access::Read)]],
+    &[&[
+        PARAMS,
+        ("wr_final", RESERVOIRS, Access::Read),
+        ("wr_estimate", ESTIMATE, Access::Read),
+    ]],
 );
 const DEBUG: KernelDef = KernelDef::new(
     "debug",
@@ -303,11 +337,12 @@ const DEBUG: KernelDef = KernelDef::new(
     ]],
 );
 /// The kernels and whether each looks the grid up.
-const KERNELS: [(&KernelDef, bool); 4] = [
+const KERNELS: [(&KernelDef, bool); 5] = [
     (&GENERATE, false),
     (&REUSE, true),
     (&SHADE, false),
     (&DEBUG, false),
+    (&PATH, true),
 ];
 
 /// Group 3 of kernel `k`: its own buffers, then the grid's lookup block when it looks up.
@@ -341,7 +376,21 @@ fn modules(k: &KernelDef, lookup: bool) -> Vec<WgslModule> {
     let mut deps = vec!["world-restir", "wr-bindings", "workgroup"];
     if lookup {
         modules.extend(grid::lookup_modules(k.buffers().count() as u32));
-        deps.push("grid-lookup");
+        modules.push(WgslModule::new(
+            "wr-estimate",
+            &["world-restir", "wr-bindings", "grid-lookup"],
+            ESTIMATE_WGSL,
+        ));
+        deps.extend(["grid-lookup", "wr-estimate"]);
+    }
+    if k.name == PATH.name {
+        modules.extend(render::path_modules(false, true));
+        modules.push(WgslModule::new(
+            render::PATH_LIGHT,
+            &["wr-estimate"],
+            PATH_LIGHT_WGSL,
+        ));
+        deps.push("render-path");
     }
     modules.push(WgslModule::new(k.name, &deps, k.source));
     modules.extend(k.binds("light_tiles").then(light_tiles::reader_module));
@@ -389,6 +438,8 @@ struct WrBuffers {
     /// Last frame's grid items' vertices: secondary, then primary when unified (the temporal
     /// pass's MIS weights).
     prev_vertices: wgpu::Buffer,
+    /// Each item's MIS estimates ([`ESTIMATES`]): used, raw.
+    estimate: [wgpu::Buffer; 2],
     debug: wgpu::Buffer,
     /// Bound as the generate pass's light tiles when it draws from the light table.
     no_tiles: wgpu::Buffer,
@@ -427,6 +478,7 @@ impl WrBuffers {
             reservoirs: pair("wr reservoirs", res_bytes),
             prev_reservoirs: zeroed("wr prev reservoirs", res_bytes),
             prev_vertices: zeroed("wr prev vertices", vertex_bytes),
+            estimate: pair("wr estimate", items * 4),
             debug: zeroed("wr debug", px * 16),
             no_tiles: zeroed("wr no light tiles", light_tiles::LIGHT_SAMPLE_BYTES),
         })
@@ -434,7 +486,7 @@ impl WrBuffers {
 }
 
 /// The created kernels, in [`KERNELS`] order.
-struct WrKernels([OwnKernel; 4]);
+struct WrKernels([OwnKernel; 5]);
 
 impl WrKernels {
     fn new(ctx: &GpuContext, shared: &SharedGroups) -> Result<Self, GpuError> {
@@ -448,8 +500,8 @@ impl WrKernels {
                 k.entries,
             )
         };
-        let [a, b, c, d] = KERNELS.map(kernel);
-        Ok(Self([a?, b?, c?, d?]))
+        let [a, b, c, d, e] = KERNELS.map(kernel);
+        Ok(Self([a?, b?, c?, d?, e?]))
     }
 }
 
@@ -463,6 +515,8 @@ struct WrPasses {
     /// Direct light from the unified cache (replaces the renderer's).
     shade_direct: Option<Pass>,
     debug: Pass,
+    /// The path beyond the secondary vertex with the grid's MIS estimates (this frame's grid).
+    path: [Pass; 2],
     /// The reservoirs the shade pass reads.
     final_index: usize,
 }
@@ -513,9 +567,22 @@ impl Binder<'_> {
             ("reuse_self", own.into()),
             ("reuse_out", out.into()),
             ("wr_prev_vertices", (&self.b.prev_vertices).into()),
+            ("wr_estimate", (&self.b.estimate[0]).into()),
+            ("wr_estimate_raw", (&self.b.estimate[1]).into()),
         ];
         res.extend(self.grid.lookup_resources(grid, first));
         self.pass(1, "wr_reuse", res, true)
+    }
+
+    /// The path pass over the pixels, looking up the grid of parity `grid`.
+    fn path(&self, grid: usize) -> Result<Pass, GpuError> {
+        let first = PATH.buffers().count() as u32;
+        let mut res = vec![
+            self.params(),
+            ("wr_estimate_raw", (&self.b.estimate[1]).into()),
+        ];
+        res.extend(self.grid.lookup_resources(grid, first));
+        self.pass(4, "wr_path", res, false)
     }
 
     fn both(&self, f: impl Fn(usize) -> Result<Pass, GpuError>) -> Result<[Pass; 2], GpuError> {
@@ -560,10 +627,13 @@ impl WrPasses {
         let (b, params) = (binder.b, || binder.params());
         let (temporal, spatial, cur) = binder.reuse_chain(config)?;
         let last = || ("wr_final", Resource::from(&b.reservoirs[cur]));
+        let shade_res = || vec![params(), last(), ("wr_estimate", (&b.estimate[0]).into())];
         let generate_res = vec![
             params(),
             ("wr_out", (&b.reservoirs[0]).into()),
             ("light_tiles", tiles.unwrap_or(&b.no_tiles).into()),
+            ("wr_estimate", (&b.estimate[0]).into()),
+            ("wr_estimate_raw", (&b.estimate[1]).into()),
         ];
         let debug_res = vec![
             params(),
@@ -575,12 +645,13 @@ impl WrPasses {
             generate: binder.pass(0, "wr_generate", generate_res, true)?,
             temporal,
             spatial,
-            shade: binder.pass(2, "wr_shade", vec![params(), last()], false)?,
+            shade: binder.pass(2, "wr_shade", shade_res(), false)?,
             shade_direct: match config.unified {
-                true => Some(binder.pass(2, "wr_shade_direct", vec![params(), last()], false)?),
+                true => Some(binder.pass(2, "wr_shade_direct", shade_res(), false)?),
                 false => None,
             },
             debug: binder.pass(3, "wr_debug_view", debug_res, false)?,
+            path: binder.both(|p| binder.path(p))?,
             final_index: cur,
         })
     }
@@ -596,6 +667,8 @@ pub struct WorldRestir {
     grid: WorldGrid,
     buffers: WrBuffers,
     passes: WrPasses,
+    /// The parity of the grid the last frame built (its path pass looks it up).
+    parity: usize,
 }
 
 impl WorldRestir {
@@ -632,6 +705,7 @@ impl WorldRestir {
             grid,
             buffers,
             passes,
+            parity: 0,
         })
     }
 
@@ -656,6 +730,7 @@ impl WorldRestir {
         f.span("generate", |f| f.dispatch(&passes.generate));
         let (grid, eye) = (&mut self.grid, renderer.camera().eye);
         let p = f.span("build", |f| grid.encode_build(f, eye))?;
+        self.parity = p;
         if let Some(temporal) = &passes.temporal {
             f.span("temporal", |f| f.dispatch(&temporal[p]));
         }
@@ -672,6 +747,16 @@ impl WorldRestir {
             f.span("persist", |f| self.encode_persist(f, renderer));
         }
         Ok(())
+    }
+
+    /// The path beyond the secondary vertex (after [`WorldRestir::encode`] this frame), its
+    /// vertices' MIS weighed with the estimates of this frame's grid: the renderer's path
+    /// pass otherwise ([`Renderer::encode_path`]); nothing with one bounce and no MIS.
+    pub fn encode_path(&self, f: &mut FrameEncoder, renderer: &Renderer) {
+        let paths = renderer.options().paths;
+        if paths.bounces > 1 || paths.mis {
+            f.span("path", |f| f.dispatch(&self.passes.path[self.parity]));
+        }
     }
 
     /// Keeps this frame's final reservoirs and grid items' vertices (secondary, then primary
@@ -782,6 +867,7 @@ mod tests {
             ("buckets", "100000"),
             ("slots", "16"),
             ("candidates", "8"),
+            ("mis-candidates", "2"),
             ("max-count", "8"),
             ("spatial-passes", "2"),
             ("temporal", "off"),
@@ -805,6 +891,7 @@ mod tests {
                 buckets: Some(100_000),
                 slots: 16,
                 candidates: 8,
+                mis_candidates: 2,
                 max_count: 8,
                 spatial_passes: 2,
                 temporal: false,

@@ -8,13 +8,15 @@ fn wr_shade(id: Invocation) {
     let i = item_index(id);
     if i >= render_params.pixel_count { return; }
     var light = PathLight(vec3<f32>(0.0), vec3<f32>(0.0));
+    var e = 0.0;
     if wr_has_vertex(i) {
         let res = wr_final[i];
-        let f = render_stored_light(render_secondary[i], res);
+        e = wr_estimate[i];
+        let f = render_stored_light(render_secondary[i], res, e);
         light = PathLight(render_shade_stored(f, res, render_gbuffer[i].albedo),
                           render_shade_stored(f, res, vec3<f32>(1.0)));
     }
-    render_store_path_light(i, light);
+    render_store_path_light(i, light, e);
 }
 
 // Pass "shade_direct" of the unified cache: direct light at pixel i's primary vertex = its
@@ -24,7 +26,8 @@ fn wr_shade(id: Invocation) {
 fn wr_shade_direct(id: Invocation) {
     let i = item_index(id);
     if i >= render_params.pixel_count { return; }
-    let c = render_direct_from_stored(render_gbuffer[i], wr_final[render_params.pixel_count + i],
-                                      render_secondary[i]);
+    let item = render_params.pixel_count + i;
+    let c = render_direct_from_stored(render_gbuffer[i], wr_final[item], render_secondary[i],
+                                      wr_estimate[item]);
     render_direct_frame[i] = vec4<f32>(c, 1.0);
 }
