@@ -119,7 +119,8 @@ const RESULTS_PARTS: [(&str, &str, &str, &[&str]); 3] = [
         "docs/results/default-depth",
         &[
             "--methods",
-            "nee,ris,world-restir,world-restir+restir-di,restir-gi,restir-gi+world-restir",
+            "nee,ris,world-restir,restir-di,world-restir+restir-di,restir-gi,\
+             restir-gi+world-restir",
         ],
     ),
     (

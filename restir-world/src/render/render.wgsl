@@ -368,10 +368,11 @@ const RENDER_ESTIMATE_SALT: u32 = 0xffeu;
 
 // An estimate e of vertex v's unshadowed cosine-weighted mean incident luminance (the target's
 // integral over lum(albedo), render_light_density) from k light samples of the light table
-// that no reservoir sees; 0 with k = 0 (MIS with the light table's density).
+// that no reservoir sees; 0 with k = 0 (MIS with the light table's density) and without MIS
+// (nothing reads it).
 fn render_light_estimate(v: GVertex, k: u32, rng: ptr<function, u32>) -> f32 {
     let a = render_luminance(v.albedo);
-    if k == 0u || !(a > 0.0) {
+    if k == 0u || render_params.mis == 0u || !(a > 0.0) {
         return 0.0;
     }
     var sum = 0.0;

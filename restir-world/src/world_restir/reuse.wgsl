@@ -59,7 +59,8 @@ fn wr_reuse(id: Invocation) {
         return;
     }
     let v = wr_vertex(i);
-    if !temporal && reuse_pass.pass_index == 0u && wr_params.knobs.mis_candidates > 0u {
+    if !temporal && reuse_pass.pass_index == 0u && wr_params.knobs.mis_candidates > 0u
+        && render_params.mis != 0u {
         var rng_e = render_rng_salted(i, STREAM_WR_SPATIAL, WR_ESTIMATE_SALT);
         wr_estimate[i] = wr_cell_estimate(v, i, &rng_e);
     }
