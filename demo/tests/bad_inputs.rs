@@ -625,6 +625,54 @@ fn new_input_cases(tmp: &Path, g: &Path) -> Vec<Case> {
         );
     }
 
+    // 12b: cache entries that are not a regular file of an entry's size are dropped unopened,
+    // with the reason (a FIFO blocked the read; /dev/zero and a sparse 4 GiB file were read
+    // until memory ran out).
+    type Make = fn(&Path);
+    let entries: [(&'static str, &'static str, Make, &'static str); 3] = [
+        (
+            "27-12-cache-fifo",
+            ".combined.exr",
+            make_fifo,
+            "not a regular file",
+        ),
+        (
+            "27-12-cache-link-dev-zero",
+            ".txt",
+            link_dev_zero,
+            "not a regular file",
+        ),
+        (
+            "27-12-cache-sparse-4gib",
+            ".txt",
+            sparse_4gib,
+            "bytes, more than",
+        ),
+    ];
+    for (name, suffix, make, needle) in entries {
+        let (c, c2) = (cache.clone(), cache.clone());
+        let ours = move |f: &Path| f.to_string_lossy().ends_with(suffix);
+        v.push(
+            case_of(name, with_cache(compare(&[]), &cache), 0, needle)
+                .before(move |_, _| {
+                    for f in files_under(&c).iter().filter(|f| ours(f)) {
+                        std::fs::remove_file(f).unwrap();
+                        make(f);
+                    }
+                })
+                .after(move |_| {
+                    for f in files_under(&c2).iter().filter(|f| ours(f)) {
+                        let meta = std::fs::symlink_metadata(f).map_err(|e| e.to_string())?;
+                        if !meta.file_type().is_file() || meta.len() > 1 << 20 {
+                            return Err(format!("{} stayed", f.display()));
+                        }
+                    }
+                    Ok(())
+                })
+                .mem_mib(4096),
+        );
+    }
+
     // 13: --add-lights quads too large or degenerate.
     for (name, size) in [
         ("27-13-add-light-size-1e10", "1e10"),
@@ -862,6 +910,26 @@ fn limit(info: &str, name: &str) -> Option<u64> {
 }
 
 /// Every file under `dir` (recursively).
+/// A FIFO at `p` (nobody writes it: opening it for reading blocks).
+fn make_fifo(p: &Path) {
+    let ok = std::process::Command::new("mkfifo")
+        .arg(p)
+        .status()
+        .unwrap()
+        .success();
+    assert!(ok, "mkfifo {}", p.display());
+}
+
+/// A symbolic link at `p` to /dev/zero (endless bytes).
+fn link_dev_zero(p: &Path) {
+    std::os::unix::fs::symlink("/dev/zero", p).unwrap();
+}
+
+/// A sparse file of 4 GiB at `p`.
+fn sparse_4gib(p: &Path) {
+    std::fs::File::create(p).unwrap().set_len(4 << 30).unwrap();
+}
+
 fn files_under(dir: &Path) -> Vec<PathBuf> {
     let mut out = Vec::new();
     if let Ok(rd) = std::fs::read_dir(dir) {

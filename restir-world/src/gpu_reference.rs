@@ -312,14 +312,46 @@ fn cache_paths(dir: &Path, key: &str) -> [PathBuf; 3] {
     ]
 }
 
+/// The most bytes a cache entry's text file may hold (it holds four short lines).
+const MAX_CACHE_TEXT_BYTES: u64 = 4096;
+
+/// The most bytes a cache entry's EXR for `camera` may hold: its pixels as uncompressed f32
+/// RGBA, and 1 MiB of header and offset tables.
+fn max_cache_exr_bytes(camera: &Camera) -> u64 {
+    u64::from(camera.width) * u64::from(camera.height) * 16 + (1 << 20)
+}
+
+/// Checks a cache entry's file before it is opened: a regular file (not a link, a FIFO or a
+/// device: opening a FIFO blocks, a link may point anywhere) of at most `max` bytes.
+fn check_cache_file(p: &Path, max: u64) -> Result<(), String> {
+    let meta = std::fs::symlink_metadata(p).map_err(|e| format!("{}: {e}", p.display()))?;
+    if !meta.file_type().is_file() {
+        return Err(format!("{}: not a regular file", p.display()));
+    }
+    if meta.len() > max {
+        return Err(format!(
+            "{}: {} bytes, more than the {max} an entry of this size holds",
+            p.display(),
+            meta.len()
+        ));
+    }
+    Ok(())
+}
+
 /// The cache entry under `key`: `Ok(None)` when there is none, an error saying what is wrong
-/// when it is damaged (unreadable, a missing or bad line, images of another size than
-/// `camera`'s, NaN, infinite or negative values, a combined image of zeros): cache entries are
-/// checked like `--reference` files.
+/// when it is damaged (not a regular file, larger than an entry of `camera`'s size, unreadable,
+/// a missing or bad line, images of another size than `camera`'s, NaN, infinite or negative
+/// values, a combined image of zeros): cache entries are checked like `--reference` files, and
+/// each file's kind and size before it is opened.
 fn read_cached(dir: &Path, key: &str, camera: &Camera) -> Result<Option<GpuReference>, String> {
     let [c, i, t] = cache_paths(dir, key);
-    if [&c, &i, &t].iter().all(|p| !p.exists()) {
+    let present = |p: &&PathBuf| std::fs::symlink_metadata(p).is_ok();
+    if ![&c, &i, &t].iter().any(present) {
         return Ok(None);
+    }
+    check_cache_file(&t, MAX_CACHE_TEXT_BYTES)?;
+    for p in [&c, &i] {
+        check_cache_file(p, max_cache_exr_bytes(camera))?;
     }
     let text = std::fs::read_to_string(&t).map_err(|e| format!("{}: {e}", t.display()))?;
     let mut samples = None;
