@@ -7,7 +7,7 @@
 //! | span | passes | reads | writes |
 //! |---|---|---|---|
 //! | `primary`, `gi` | the renderer's | camera, BVH | G-buffer, secondary vertices |
-//! | `generate` | `wr_generate` (Alg. 1) | secondary, lights | reservoirs R0 |
+//! | `generate` | `wr_generate` (Alg. 1), with each vertex's MIS estimate | secondary, lights | reservoirs R0, estimates |
 //! | `build` | the [`WorldGrid`]'s (Alg. 2): clear, insert, gpu-scan, scatter, sort cells | secondary | grid\[p\] |
 //! | `temporal` | `wr_reuse` over table\[1-p\] (Alg. 3) | R0, prev reservoirs | R1 |
 //! | `spatial` | k x `wr_reuse` over table\[p\], ping-pong | R1/R0 | R0/R1 |
@@ -15,6 +15,7 @@
 //! | `shade_direct` | the renderer's, or `wr_shade_direct` when unified | | direct |
 //! | `accumulate` | the renderer's | | sums |
 //! | `persist` | copy final reservoirs -> prev reservoirs | | |
+//! | `path` | `wr_path`: the renderer's path, each vertex's MIS estimate from grid\[p\] ([`WorldRestir::encode_path`]) | estimates | path radiance, indirect |
 //!
 //! The passes from `generate` to `spatial` run over the grid's items: the secondary vertices,
 //! followed by the primary ones with the unified cache ([`WorldRestirConfig::unified`]).
