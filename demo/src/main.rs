@@ -107,7 +107,8 @@ struct CompareArgs {
     #[arg(long, default_value = "many-lights", value_delimiter = ',')]
     scene: Vec<String>,
     /// Methods of the registry, comma-separated, each `name` or `name:variant`; default: every
-    /// registered method.
+    /// registered method that renders the paths asked for (the `+cache` methods only with
+    /// unbounded paths).
     #[arg(long, value_delimiter = ',')]
     methods: Vec<String>,
     /// Frames per method.
@@ -762,12 +763,21 @@ fn smoke_into(out: &Path, (width, height): (u32, u32)) -> Result<()> {
     Ok(())
 }
 
+/// compare's methods when `--methods` is not given: every registered method that renders
+/// `paths` (the `+cache` methods need unbounded paths, so at the default 3 bounces they are
+/// left out rather than refused).
+fn default_compare_methods(paths: &restir_world::sampling::Paths) -> Vec<String> {
+    restir_world::methods::registry()
+        .iter()
+        .filter(|e| e.settings(None).is_ok_and(|s| s.check_paths(paths).is_ok()))
+        .map(|e| e.name.to_owned())
+        .collect()
+}
+
 fn compare_cmd(a: CompareArgs) -> Result<()> {
+    let paths = a.paths.paths()?;
     let methods = if a.methods.is_empty() {
-        restir_world::methods::registry()
-            .iter()
-            .map(|e| e.name.to_owned())
-            .collect()
+        default_compare_methods(&paths)
     } else {
         a.methods
     };
@@ -784,7 +794,7 @@ fn compare_cmd(a: CompareArgs) -> Result<()> {
         cache: (!a.no_cache).then_some(a.cache),
         scene_opts: a.scene_opts,
         seed: a.seed,
-        paths: a.paths.paths()?,
+        paths,
         equal_time_frames: a.equal_time_frames,
         equal_time_to: a.equal_time_to,
         eval_every: a.eval_every,
@@ -818,4 +828,30 @@ fn compare_cmd(a: CompareArgs) -> Result<()> {
     }
     println!("report: {}", opts.out.join("report.md").display());
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::default_compare_methods;
+    use restir_world::sampling::Paths;
+
+    /// compare without `--methods` lists what renders the paths: no `+cache` method at the
+    /// default 3 bounces (they refuse bounded paths, and the whole run failed on them), all of
+    /// them with unbounded paths.
+    #[test]
+    fn default_compare_methods_render_the_paths() {
+        let bounded = default_compare_methods(&Paths::default());
+        assert!(bounded.iter().any(|m| m == "world-restir"));
+        assert!(
+            !bounded.iter().any(|m| m.ends_with("+cache")),
+            "{bounded:?}"
+        );
+        let unbounded = Paths {
+            bounces: 64,
+            ..Paths::default()
+        };
+        let all = default_compare_methods(&unbounded);
+        assert!(all.iter().any(|m| m == "ris+cache"), "{all:?}");
+        assert!(all.len() > bounded.len());
+    }
 }
