@@ -883,6 +883,15 @@ fn new_input_cases(tmp: &Path, g: &Path) -> Vec<Case> {
         1,
         "--camera -1",
     ));
+
+    // 28: a depth the method's candidates cannot loop over is refused by its flags before any
+    // work (it was refused after the adapter and the reference, naming neither flag).
+    v.push(case_of(
+        "27-28-bounces-times-candidates",
+        compare(&["--bounces", "64", "--methods", "ris:2000"]),
+        1,
+        "--methods ris:2000 with --bounces 64",
+    ));
     v
 }
 

@@ -224,11 +224,20 @@ impl MethodSettings {
         Ok(())
     }
 
-    /// Checks without a GPU what the method needs of the paths: a radiance cache holds the light
+    /// Checks without a GPU what the method needs of the paths: its light estimator's loops at
+    /// every bounce within the drivers' cap (`Paths::check`); a radiance cache holds the light
     /// of every bounce, so a `+cache` method renders unbounded paths only
     /// ([`render::MAX_BOUNCES`] bounces, Russian roulette on), or its image would hold more
     /// light than the depth asked for.
     pub fn check_paths(&self, paths: &render::Paths) -> Result<(), MethodError> {
+        // The renderer checks the same when it is built; here it is refused before any work.
+        let candidates = match self.estimator {
+            Estimator::Nee => 1,
+            Estimator::Ris { candidates } => candidates,
+        };
+        paths
+            .check(candidates)
+            .map_err(|e| self.entry.bad(format!("bad render setting: {e}")))?;
         if self.cache.is_some()
             && (paths.bounces != render::MAX_BOUNCES || paths.roulette_from == 0)
         {
