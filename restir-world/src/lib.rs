@@ -59,6 +59,7 @@ pub fn kernels() -> Vec<render::ComposedKernel> {
     k.extend(world_restir::kernels());
     k.extend(restir_di::kernels());
     k.extend(restir_gi::kernels());
+    k.extend(restir_gi::world::kernels());
     k.extend(cache::kernels());
     k
 }

@@ -57,6 +57,12 @@ impl<'a> FrameEncoder<'a> {
         self.encoder.copy_buffer_to_buffer(src, 0, dst, 0, None);
     }
 
+    /// Copies the whole of `src` into `dst` from byte `offset` on.
+    pub fn copy_to(&mut self, src: &wgpu::Buffer, dst: &wgpu::Buffer, offset: u64) {
+        self.encoder
+            .copy_buffer_to_buffer(src, 0, dst, offset, None);
+    }
+
     /// Writes `data` into `dst` at `offset` from inside the encoder (through a small staging
     /// buffer), so that it takes effect in recording order, not at the next submission.
     pub fn upload<T: bytemuck::Pod>(&mut self, dst: &wgpu::Buffer, offset: u64, data: &T) {

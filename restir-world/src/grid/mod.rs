@@ -426,6 +426,12 @@ impl WorldGrid {
         ]
     }
 
+    /// The compact cell storage of the grid of parity `p`: each slot's offset and the item
+    /// indices of every cell, run after run.
+    pub fn lists(&self, p: usize) -> (&wgpu::Buffer, &wgpu::Buffer) {
+        (&self.buffers.offsets[p], &self.buffers.cells[p])
+    }
+
     /// Per item of the last build: (slot, index in slot), or a sentinel slot (at or above
     /// [`FIRST_SENTINEL`]) when it is not in the grid.
     pub fn item_slots(&self) -> &wgpu::Buffer {
@@ -457,6 +463,26 @@ impl WorldGrid {
     /// The cells' parameters (the eye is each build's: [`HashGridParams::with_eye`]).
     pub fn params(&self) -> &HashGridParams {
         &self.grid_params
+    }
+
+    /// Bytes of its buffers: the two hash tables (checksums, slot counters, statistics,
+    /// parameters), the slot offsets and cell lists of both frames, the items' slots.
+    pub fn bytes(&self) -> u64 {
+        let b = &self.buffers;
+        let tables = self.tables.iter().flat_map(|t| {
+            [t.checksums(), t.counters(), t.stats(), t.params()].map(wgpu::Buffer::size)
+        });
+        let own = [
+            &b.params,
+            &b.offsets[0],
+            &b.offsets[1],
+            &b.cells[0],
+            &b.cells[1],
+        ]
+        .into_iter()
+        .chain([&b.item_slot])
+        .map(wgpu::Buffer::size);
+        tables.chain(own).sum()
     }
 
     /// Items per frame.

@@ -66,9 +66,10 @@ impl Composed {
             Some(w) => Some(WorldRestir::new(ctx, &renderer, w, gi_tiles)?),
             None => None,
         };
-        let gi = match settings.gi {
-            Some(g) => Some(RestirGi::new(ctx, &renderer, g)?),
-            None => None,
+        let gi = match (settings.gi, settings.wgi) {
+            (Some(g), _) => Some(RestirGi::new(ctx, &renderer, g)?),
+            (None, Some(g)) => Some(RestirGi::world(ctx, &renderer, g)?),
+            (None, None) => None,
         };
         let di = match (settings.di, &tiles) {
             (Some(d), Some(t)) => Some(RestirDi::new(ctx, &renderer, d, t)?),
@@ -124,7 +125,7 @@ impl Composed {
         self.world.as_ref()
     }
 
-    /// The ReSTIR GI stage, when the method has one.
+    /// The ReSTIR GI stage (screen or world space), when the method has one.
     pub fn gi(&self) -> Option<&RestirGi> {
         self.gi.as_ref()
     }
@@ -191,7 +192,7 @@ impl FrameMethod for Composed {
                     self.world.as_ref().ok_or_else(missing)?.encode_path(f, r)
                 }
                 Step::Path { .. } => r.encode_path(f),
-                Step::RestirGi => self.gi.as_mut().ok_or_else(missing)?.encode(f, r),
+                Step::RestirGi { .. } => self.gi.as_mut().ok_or_else(missing)?.encode(f, r)?,
                 Step::RestirDi => self.di.as_mut().ok_or_else(missing)?.encode(f, r),
                 Step::ShadeDirect => r.encode_shade_direct(f),
                 Step::Accumulate => r.encode_accumulate(f),
@@ -209,10 +210,23 @@ impl FrameMethod for Composed {
     }
 
     fn grid_overflows(&self, ctx: &GpuContext) -> Result<Option<u32>, MethodError> {
-        match &self.world {
-            Some(w) => Ok(Some(w.grid_stats(ctx)?.overflows)),
-            None => Ok(None),
-        }
+        // Items left out of a grid: world-restir's and world-restir-gi's, added up.
+        let world = match &self.world {
+            Some(w) => Some(w.grid_stats(ctx)?.overflows),
+            None => None,
+        };
+        let gi = match &self.gi {
+            Some(g) => g.grid_stats(ctx)?.map(|s| s.overflows),
+            None => None,
+        };
+        Ok(match (world, gi) {
+            (None, None) => None,
+            (a, b) => Some(a.unwrap_or(0) + b.unwrap_or(0)),
+        })
+    }
+
+    fn reuse_bytes(&self) -> Option<u64> {
+        self.gi.as_ref().map(RestirGi::bytes)
     }
 
     fn cache_stats(&self, ctx: &GpuContext) -> Result<Option<CacheStats>, MethodError> {

@@ -68,6 +68,11 @@ pub trait FrameMethod: fmt::Debug {
     fn grid_overflows(&self, _ctx: &GpuContext) -> Result<Option<u32>, MethodError> {
         Ok(None)
     }
+    /// Bytes of the buffers its path-resampling stage keeps (reservoirs, history, grid, pool),
+    /// for methods with one.
+    fn reuse_bytes(&self) -> Option<u64> {
+        None
+    }
     /// The radiance cache's size and use after the last frame, for methods with one.
     fn cache_stats(&self, _ctx: &GpuContext) -> Result<Option<CacheStats>, MethodError> {
         Ok(None)

@@ -71,8 +71,9 @@ pub enum Step {
     /// The path beyond the secondary vertex: the renderer's, or (`cache`) ending in the cache,
     /// or (`world`) world-restir's, whose vertices weigh their MIS with its grid's estimates.
     Path { cache: bool, world: bool },
-    /// Screen-space ReSTIR GI: resamples the path samples, rewrites the indirect image.
-    RestirGi,
+    /// ReSTIR GI: resamples the path samples, rewrites the indirect image; between pixels
+    /// (screen space) or (`world`) through a world-space grid of the primary vertices.
+    RestirGi { world: bool },
     /// Screen-space ReSTIR DI: the direct light.
     RestirDi,
     /// The renderer's direct light.
@@ -93,7 +94,8 @@ impl Step {
             Step::Path { cache: true, .. } => "cache path",
             Step::Path { world: true, .. } => "world-restir path",
             Step::Path { .. } => "renderer path",
-            Step::RestirGi => "restir-gi",
+            Step::RestirGi { world: false } => "restir-gi",
+            Step::RestirGi { world: true } => "world-restir-gi",
             Step::RestirDi => "restir-di",
             Step::ShadeDirect => "renderer shade_direct",
             Step::Accumulate => "renderer accumulate",
@@ -134,7 +136,7 @@ impl Step {
                 vec![PathRadiance, Indirect],
                 vec![],
             ),
-            Step::RestirGi => (
+            Step::RestirGi { .. } => (
                 vec![Primary, Secondary, PathRadiance],
                 vec![],
                 vec![],
@@ -236,7 +238,7 @@ mod tests {
     fn a_step_that_reads_before_its_writer_is_refused() {
         let e = FramePlan::new(vec![
             Step::PrimaryAndGi,
-            Step::RestirGi,
+            Step::RestirGi { world: false },
             Step::ShadeIndirect,
             Step::ShadeDirect,
             Step::Accumulate,

@@ -11,7 +11,7 @@ use crate::gpu::GpuContext;
 use crate::knobs::{Knob, Knobs, Variant, parse_config};
 use crate::render::{self, RenderOptions};
 use crate::restir_di::{self, RestirDiConfig};
-use crate::restir_gi::{self, RestirGiConfig};
+use crate::restir_gi::{self, RestirGiConfig, WorldRestirGiConfig};
 use crate::sampling::Estimator;
 use crate::scene::{Camera, Scene};
 use crate::world_restir::{self, WorldRestirConfig, WorldRestirError};
@@ -29,6 +29,8 @@ pub enum VariantOf {
     RestirDi,
     /// ReSTIR GI's knobs.
     RestirGi,
+    /// World-space ReSTIR GI's knobs.
+    WorldRestirGi,
     /// The radiance cache's knobs.
     Cache,
 }
@@ -45,6 +47,8 @@ pub struct MethodEntry {
     /// does).
     pub world_restir: bool,
     pub restir_gi: bool,
+    /// World-space ReSTIR GI resampling the paths (instead of ReSTIR GI).
+    pub world_restir_gi: bool,
     pub restir_di: bool,
     /// Paths end in a radiance cache.
     pub cache: bool,
@@ -72,6 +76,7 @@ impl MethodEntry {
             VariantOf::WorldRestir => world_restir::variants(),
             VariantOf::RestirDi => restir_di::variants(),
             VariantOf::RestirGi => restir_gi::variants(),
+            VariantOf::WorldRestirGi => restir_gi::world::variants(),
             VariantOf::Cache => cache::variants(),
             VariantOf::Nothing | VariantOf::RisCandidates => Vec::new(),
         }
@@ -85,6 +90,7 @@ impl MethodEntry {
             VariantOf::WorldRestir => self.knobs_help(WorldRestirConfig::KNOBS),
             VariantOf::RestirDi => self.knobs_help(RestirDiConfig::KNOBS),
             VariantOf::RestirGi => self.knobs_help(RestirGiConfig::KNOBS),
+            VariantOf::WorldRestirGi => self.knobs_help(WorldRestirGiConfig::KNOBS),
             VariantOf::Cache => self.knobs_help(CacheConfig::KNOBS),
         }
     }
@@ -114,6 +120,7 @@ impl MethodEntry {
             estimator: render::ris(),
             world: self.world_restir.then(WorldRestirConfig::default),
             gi: self.restir_gi.then(RestirGiConfig::default),
+            wgi: self.world_restir_gi.then(WorldRestirGiConfig::default),
             di: self.restir_di.then(RestirDiConfig::default),
             cache: self.cache.then(CacheConfig::default),
         };
@@ -142,6 +149,10 @@ impl MethodEntry {
             (VariantOf::RestirGi, v) => {
                 s.gi = Some(parse_config(&restir_gi::variants(), v).map_err(|e| self.bad(e))?);
             }
+            (VariantOf::WorldRestirGi, v) => {
+                let variants = restir_gi::world::variants();
+                s.wgi = Some(parse_config(&variants, v).map_err(|e| self.bad(e))?);
+            }
             (VariantOf::Cache, v) => {
                 s.cache = Some(parse_config(&cache::variants(), v).map_err(|e| self.bad(e))?);
             }
@@ -162,6 +173,7 @@ pub struct MethodSettings {
     pub estimator: Estimator,
     pub world: Option<WorldRestirConfig>,
     pub gi: Option<RestirGiConfig>,
+    pub wgi: Option<WorldRestirGiConfig>,
     pub di: Option<RestirDiConfig>,
     pub cache: Option<CacheConfig>,
 }
@@ -177,6 +189,7 @@ impl PartialEq for MethodSettings {
                     other.di,
                     other.cache,
                 )
+            && self.wgi == other.wgi
     }
 }
 
@@ -189,6 +202,12 @@ impl MethodSettings {
         }
         if let Some(g) = &self.gi {
             g.validate().map_err(|e| self.entry.bad(e.to_string()))?;
+        }
+        if let Some(g) = &self.wgi {
+            g.validate().map_err(|e| self.entry.bad(e.to_string()))?;
+            if self.gi.is_some() {
+                return bad("restir-gi and world-restir-gi both resample the paths: use one");
+            }
         }
         if let Some(c) = &self.cache {
             c.validate().map_err(|e| self.entry.bad(e.to_string()))?;
@@ -215,6 +234,11 @@ impl MethodSettings {
             let table = w.table(camera.width, camera.height);
             gpu_hash::HashGridParams::new(&table, &w.sizing(camera), camera.eye)
                 .map_err(WorldRestirError::from)?;
+        }
+        if let Some(g) = &self.wgi {
+            let table = g.table(camera.width.saturating_mul(camera.height));
+            gpu_hash::HashGridParams::new(&table, &g.sizing(camera), camera.eye)
+                .map_err(|e| self.entry.bad(e.to_string()))?;
         }
         if let Some(c) = &self.cache {
             let table = c.table(camera.width.saturating_mul(camera.height));
@@ -282,7 +306,8 @@ impl MethodSettings {
                 world: self.world.is_some() && self.cache.is_none(),
             });
         }
-        steps.extend(self.gi.map(|_| Step::RestirGi));
+        steps.extend(self.gi.map(|_| Step::RestirGi { world: false }));
+        steps.extend(self.wgi.map(|_| Step::RestirGi { world: true }));
         match self.di {
             _ if unified => {}
             Some(_) => steps.push(Step::RestirDi),
@@ -305,6 +330,7 @@ impl MethodSettings {
             VariantOf::WorldRestir => self.world.map(|c| c.knobs_spec()).unwrap_or_default(),
             VariantOf::RestirDi => self.di.map(|c| c.knobs_spec()).unwrap_or_default(),
             VariantOf::RestirGi => self.gi.map(|c| c.knobs_spec()).unwrap_or_default(),
+            VariantOf::WorldRestirGi => self.wgi.map(|c| c.knobs_spec()).unwrap_or_default(),
             VariantOf::Cache => self.cache.map(|c| c.knobs_spec()).unwrap_or_default(),
         };
         match knobs.is_empty() {
@@ -326,6 +352,7 @@ impl MethodSettings {
             VariantOf::WorldRestir => self.world.as_ref().map(values),
             VariantOf::RestirDi => self.di.as_ref().map(values),
             VariantOf::RestirGi => self.gi.as_ref().map(values),
+            VariantOf::WorldRestirGi => self.wgi.as_ref().map(values),
             VariantOf::Cache => self.cache.as_ref().map(values),
             VariantOf::Nothing | VariantOf::RisCandidates => None,
         }
@@ -339,6 +366,7 @@ impl MethodSettings {
             VariantOf::WorldRestir => next.world.as_mut().map(|w| w.set(key, value)),
             VariantOf::RestirDi => next.di.as_mut().map(|d| d.set(key, value)),
             VariantOf::RestirGi => next.gi.as_mut().map(|g| g.set(key, value)),
+            VariantOf::WorldRestirGi => next.wgi.as_mut().map(|g| g.set(key, value)),
             VariantOf::Cache => next.cache.as_mut().map(|c| c.set(key, value)),
             VariantOf::Nothing | VariantOf::RisCandidates => None,
         }
@@ -381,6 +409,7 @@ pub fn registry() -> &'static [MethodEntry] {
             about,
             world_restir: false,
             restir_gi: false,
+            world_restir_gi: false,
             restir_di: false,
             cache: false,
             nee: false,
@@ -461,6 +490,37 @@ pub fn registry() -> &'static [MethodEntry] {
             )
         },
         MethodEntry {
+            world_restir_gi: true,
+            ..entry(
+                "world-restir-gi",
+                "world-space ReSTIR GI: each pixel's path resampled with the path samples other \
+                 pixels left in its cell of a world-space grid, this frame and last (ris lights \
+                 every vertex)",
+                VariantOf::WorldRestirGi,
+            )
+        },
+        MethodEntry {
+            world_restir: true,
+            world_restir_gi: true,
+            ..entry(
+                "world-restir-gi+world-restir",
+                "world-restir-gi (its variants) over paths whose secondary vertex world-restir \
+                 lights (its defaults)",
+                VariantOf::WorldRestirGi,
+            )
+        },
+        MethodEntry {
+            world_restir: true,
+            world_restir_gi: true,
+            restir_di: true,
+            ..entry(
+                "restir-di+world-restir-gi+world-restir",
+                "ReSTIR DI for the direct light, world-restir-gi over world-restir's secondary \
+                 vertices (their defaults; the variant is world-restir-gi's)",
+                VariantOf::WorldRestirGi,
+            )
+        },
+        MethodEntry {
             nee: true,
             cache: true,
             ..entry(
@@ -523,6 +583,15 @@ pub fn registry() -> &'static [MethodEntry] {
                 "restir-gi+world-restir+cache",
                 "restir-gi+world-restir (their defaults) over paths that end in the radiance \
                  cache",
+                VariantOf::Cache,
+            )
+        },
+        MethodEntry {
+            world_restir_gi: true,
+            cache: true,
+            ..entry(
+                "world-restir-gi+cache",
+                "world-restir-gi (its defaults) over paths that end in the radiance cache",
                 VariantOf::Cache,
             )
         },
@@ -616,6 +685,12 @@ mod tests {
             "restir-gi:biased+spatial-k=8",
             "restir-gi+world-restir:no-reuse",
             "restir-di+restir-gi+world-restir:max-jacobian=4",
+            "world-restir-gi",
+            "world-restir-gi:no-reuse",
+            "world-restir-gi:temporal-k=2+projected-size=16",
+            "world-restir-gi+world-restir:biased",
+            "restir-di+world-restir-gi+world-restir",
+            "world-restir-gi+cache:history=64",
             "ris+cache",
             "ris+cache:after=3+update-fraction=0.1",
             "world-restir+cache:frequent",

@@ -121,6 +121,8 @@ pub static STAGE: ScreenStage = ScreenStage {
         &[("di_estimate", ESTIMATE, Access::Read)],
     ],
     extra_modules,
+    neighbours: screen_reuse::NEIGHBOURS_WGSL,
+    grid_lookup: false,
 };
 
 /// Each pixel's MIS estimate (WGSL `render_light_estimate`), from the initial pass to the shade.
@@ -175,6 +177,7 @@ impl RestirDi {
         let chain = Chain {
             temporal: config.temporal,
             spatial: config.spatial_k > 0,
+            pool: 0,
         };
         let px = u64::from(renderer.pixels());
         let estimate = buffers::storage_zeroed(&ctx.device, "di estimate", px * 4);
@@ -200,7 +203,7 @@ impl RestirDi {
     /// `render_direct_frame`, and keeps this frame's reservoirs, G-buffer and camera for the
     /// next.
     pub fn encode(&mut self, f: &mut FrameEncoder, renderer: &Renderer) {
-        self.reuse.encode(f, renderer);
+        self.reuse.encode(f, renderer, 0);
     }
 
     /// The last frame's final reservoirs, per pixel.

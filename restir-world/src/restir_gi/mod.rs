@@ -17,7 +17,10 @@
 
 use reservoir::reuse::Combination;
 
+use gpu_hash::HashStats;
+
 use crate::gpu::{Access, FrameEncoder, GpuContext, GpuError, buffers};
+use crate::grid::WorldGrid;
 use crate::knobs::{Knobs, Variant, reuse_variants};
 use crate::render::{self, Buffer, ComposedKernel, DebugView, Renderer};
 use crate::screen_reuse::{self, Chain, ScreenReuse, ScreenReuseError, ScreenStage, StageBuffers};
@@ -27,6 +30,10 @@ pub const WGSL: &str = include_str!("restir_gi.wgsl");
 const INITIAL_WGSL: &str = include_str!("initial.wgsl");
 const REUSE_WGSL: &str = include_str!("reuse.wgsl");
 const SHADE_WGSL: &str = include_str!("shade.wgsl");
+
+pub mod world;
+pub use world::WorldRestirGiConfig;
+use world::{Pool, PoolBuffers};
 
 /// Largest stored confidence M (10 bits of [`GiReservoir::normal_m`]); larger sums saturate.
 pub const MAX_M: u32 = 1023;
@@ -68,7 +75,13 @@ crate::knobs! {
 /// The named variants of `restir-gi`: the reuse variants every method has (`biased` is the
 /// paper's biased mode here: 1/M and no visibility rays).
 pub fn variants() -> Vec<Variant> {
-    reuse_variants("spatial-k=0")
+    variants_with("spatial-k=0")
+}
+
+/// The reuse variants with `spatial_off` turning spatial reuse off; `biased` is 1/M weights
+/// without visibility rays.
+fn variants_with(spatial_off: &'static str) -> Vec<Variant> {
+    reuse_variants(spatial_off)
         .into_iter()
         .map(|v| match v.name {
             "biased" => Variant::new(
@@ -130,6 +143,8 @@ pub static STAGE: ScreenStage = ScreenStage {
     sources: [INITIAL_WGSL, REUSE_WGSL, SHADE_WGSL],
     own: [&[DEBUG], &[DEBUG], &[]],
     extra_modules: |_| Vec::new(),
+    neighbours: screen_reuse::NEIGHBOURS_WGSL,
+    grid_lookup: false,
 };
 
 /// Every kernel of ReSTIR GI, composed as used, with its binding sets.
@@ -139,51 +154,145 @@ pub fn kernels() -> Vec<ComposedKernel> {
 
 /// The ReSTIR GI stage of a frame: built on a [`Renderer`], it resamples the path samples the
 /// indirect passes recorded (`render_secondary`, `render_path_radiance`) and rewrites the
-/// indirect image.
+/// indirect image; its neighbours are the screen's (`restir-gi`) or a world-space grid's
+/// (`world-restir-gi`, [`world`]).
 #[derive(Debug)]
 pub struct RestirGi {
-    config: RestirGiConfig,
     reuse: ScreenReuse,
     /// Per pixel: neighbours merged (low 16 bits) and reconnections rejected (high 16 bits).
     debug: wgpu::Buffer,
+    /// The grid of the pixels' primary vertices and its pool (world-restir-gi).
+    grid: Option<WorldGrid>,
+    pool: Option<(PoolBuffers, Pool)>,
 }
 
 impl RestirGi {
-    /// The stage for `renderer`'s scene and image with `config`.
+    /// Screen-space ReSTIR GI for `renderer`'s scene and image with `config`.
     pub fn new(
         ctx: &GpuContext,
         renderer: &Renderer,
         config: RestirGiConfig,
     ) -> Result<Self, RestirGiError> {
         config.validate()?;
-        let bytes = u64::from(renderer.pixels()) * 4;
-        let debug = buffers::storage_zeroed(&ctx.device, "gi debug", bytes);
         let chain = Chain {
             temporal: config.temporal,
             spatial: config.spatial_k > 0,
+            pool: 0,
         };
+        Self::with_stage(ctx, renderer, &STAGE, &config.gpu_words(), chain, None)
+    }
+
+    /// World-space ReSTIR GI for `renderer`'s scene and image with `config`.
+    pub fn world(
+        ctx: &GpuContext,
+        renderer: &Renderer,
+        config: WorldRestirGiConfig,
+    ) -> Result<Self, RestirGiError> {
+        config.validate()?;
+        let pixels = renderer.pixels();
+        let chain = Chain {
+            temporal: config.temporal,
+            spatial: config.spatial_k > 0,
+            pool: pixels,
+        };
+        let camera = renderer.camera();
+        let size = size_of::<GiReservoir>();
+        let pool_buffers = PoolBuffers::new(ctx, pixels, size);
+        let items = world::grid_items(pixels, Some(&pool_buffers));
+        let grid = WorldGrid::new(
+            ctx,
+            &renderer.shared,
+            config.grid(camera),
+            items,
+            camera.eye,
+        )?;
+        let words = config.gpu_words();
+        let mut gi = Self::with_stage(ctx, renderer, &world::STAGE, &words, chain, Some(grid))?;
+        let grid = gi.grid.as_ref().expect("built with a grid");
+        let setup = (pixels, config.history_frames, size);
+        let pool = Pool::new(
+            ctx,
+            &renderer.shared,
+            setup,
+            &pool_buffers,
+            grid,
+            gi.reuse.history(),
+        )?;
+        gi.pool = Some((pool_buffers, pool));
+        Ok(gi)
+    }
+
+    fn with_stage(
+        ctx: &GpuContext,
+        renderer: &Renderer,
+        stage: &'static ScreenStage,
+        words: &[u32],
+        chain: Chain,
+        grid: Option<WorldGrid>,
+    ) -> Result<Self, RestirGiError> {
+        let bytes = u64::from(renderer.pixels()) * 4;
+        let debug = buffers::storage_zeroed(&ctx.device, "gi debug", bytes);
         let own = StageBuffers {
             initial: vec![(DEBUG.0, &debug)],
             reuse: vec![(DEBUG.0, &debug)],
+            grid: grid.as_ref(),
             ..Default::default()
         };
-        let reuse = ScreenReuse::new(ctx, renderer, &STAGE, &config.gpu_words(), chain, own)?;
+        let reuse = ScreenReuse::new(ctx, renderer, stage, words, chain, own)?;
         Ok(Self {
-            config,
             reuse,
             debug,
+            grid,
+            pool: None,
         })
     }
 
-    pub fn config(&self) -> &RestirGiConfig {
-        &self.config
+    /// Records the stage for the frame whose camera is `renderer`'s, after the indirect passes
+    /// recorded the path samples: (world-restir-gi) this frame's grid of the primary vertices,
+    /// initial samples, temporal and spatial reuse, shading into `render_indirect_frame`, and
+    /// keeps this frame's reservoirs, G-buffer and camera.
+    pub fn encode(
+        &mut self,
+        f: &mut FrameEncoder,
+        renderer: &Renderer,
+    ) -> Result<(), RestirGiError> {
+        let parity = match &mut self.grid {
+            Some(grid) => {
+                let eye = renderer.camera().eye;
+                f.span("wgi-build", |f| grid.encode_build(f, eye))?
+            }
+            None => 0,
+        };
+        self.reuse.encode(f, renderer, parity);
+        if let Some((buffers, pool)) = &self.pool {
+            let history = self.reuse.history();
+            f.span("wgi-pool", |f| pool.encode(f, parity, buffers, history))?;
+        }
+        Ok(())
     }
 
-    /// Records the stage for the frame whose camera is `renderer`'s, after the indirect passes
-    /// recorded the path samples: initial samples, temporal and spatial reuse, shading into
-    /// `render_indirect_frame`, and keeps this frame's reservoirs, G-buffer and camera.
-    pub fn encode(&mut self, f: &mut FrameEncoder, renderer: &Renderer) {
-        self.reuse.encode(f, renderer);
+    /// Bytes of its buffers: the reservoirs and history, the debug counts and
+    /// (world-restir-gi) the grid.
+    pub fn bytes(&self) -> u64 {
+        let grid = self.grid.as_ref().map_or(0, WorldGrid::bytes);
+        let pool = self.pool.as_ref().map_or(0, |(b, p)| b.bytes() + p.bytes());
+        self.reuse.bytes() + self.debug.size() + grid + pool
+    }
+
+    /// The pool after the last frame (world-restir-gi): the ages of its records, and how many
+    /// records wanted in (more than it holds: the rest were dropped).
+    pub fn pool(&self, ctx: &GpuContext) -> Result<Option<(Vec<u32>, u32)>, GpuError> {
+        let Some((b, _)) = &self.pool else {
+            return Ok(None);
+        };
+        let (mut ages, count) = b.read(ctx)?;
+        ages.truncate(count[0] as usize);
+        Ok(Some((ages, count[1])))
+    }
+
+    /// Statistics of the last built grid (world-restir-gi).
+    pub fn grid_stats(&self, ctx: &GpuContext) -> Result<Option<HashStats>, GpuError> {
+        self.grid.as_ref().map(|g| g.stats(ctx)).transpose()
     }
 
     /// The last frame's final reservoirs, per pixel.

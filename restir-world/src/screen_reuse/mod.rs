@@ -23,6 +23,7 @@ use crate::gpu::{
     Access, BindingSet, FrameEncoder, GpuContext, GpuError, Pass, Resource, Tracer, WgslModule,
     buffers,
 };
+use crate::grid::{self, WorldGrid};
 use crate::render::{
     self, Buffer, ComposedKernel, GVertex, OwnKernel, Renderer, ReusePass, STAGE_GROUP,
 };
@@ -32,8 +33,12 @@ use crate::scene::Camera;
 /// The shared library: `ScreenParams` (the stage's knobs and the frame's history) and the
 /// similarity test.
 pub const WGSL: &str = include_str!("screen_reuse.wgsl");
-/// The neighbours of one reuse pass (composed into the stage's reuse kernel only).
+/// The screen-space neighbour choice of one reuse pass (a disc of pixels, last frame's
+/// reprojected pixel): restir-di's and restir-gi's [`ScreenStage::neighbours`].
 pub const NEIGHBOURS_WGSL: &str = include_str!("neighbours.wgsl");
+/// The reuse pass's entry point and the neighbours' struct (composed into the stage's reuse
+/// kernel only).
+pub const REUSE_PASS_WGSL: &str = include_str!("reuse_pass.wgsl");
 
 /// Most spatial neighbours per pixel (each stage's `spatial-k`).
 pub const MAX_SPATIAL_K: u32 = 16;
@@ -50,6 +55,10 @@ pub enum ScreenReuseError {
     Render(#[from] render::RenderError),
     #[error(transparent)]
     Gpu(#[from] GpuError),
+    #[error(transparent)]
+    Grid(#[from] grid::GridError),
+    #[error(transparent)]
+    Scan(#[from] gpu_scan::ScanError),
     #[error("bad {stage} setting: {msg}")]
     Config { stage: &'static str, msg: String },
 }
@@ -87,6 +96,12 @@ pub struct ScreenStage {
     pub own: [&'static [Buffer]; 3],
     /// Modules a kernel needs beyond these (e.g. a reader of the buffers it binds).
     pub extra_modules: fn(Kernel) -> Vec<WgslModule>,
+    /// Its neighbour choice (`fn screen_neighbours`): [`NEIGHBOURS_WGSL`], the screen's, or
+    /// its own.
+    pub neighbours: &'static str,
+    /// Whether its neighbour choice looks the world-space grid up ([`grid::LOOKUP`]): the
+    /// temporal pass last frame's grid, the spatial pass this frame's.
+    pub grid_lookup: bool,
 }
 
 /// A stage's kernels.
@@ -112,8 +127,18 @@ impl Kernel {
 
 impl ScreenStage {
     /// The group-3 bindings of kernel `k`: [`PARAMS`], the reservoirs it reads and writes,
-    /// then the stage's own.
+    /// then the stage's own, then (the reuse kernel of a stage that looks the grid up) the
+    /// grid's lookup.
     pub fn bindings(&self, k: Kernel) -> BindingSet {
+        let set = self.buffers(k);
+        match k == Kernel::Reuse && self.grid_lookup {
+            true => grid::with_lookup(set),
+            false => set,
+        }
+    }
+
+    /// [`Self::bindings`]' buffers (without gpu-hash's block).
+    fn buffers(&self, k: Kernel) -> BindingSet {
         let set = BindingSet::new(k.names().0).buffer(PARAMS.0, PARAMS.1, PARAMS.2);
         let set = match k {
             Kernel::Initial => set.buffer("screen_out", self.reservoirs, Access::ReadWrite),
@@ -123,8 +148,13 @@ impl ScreenStage {
                 .fold(set, |set, &(name, ty, access)| set.buffer(name, ty, access)),
             Kernel::Shade => set.buffer("screen_final", self.reservoirs, Access::Read),
         };
+        let grid: &[Buffer] = match k == Kernel::Reuse && self.grid_lookup {
+            true => grid::LOOKUP,
+            false => &[],
+        };
         self.own[k as usize]
             .iter()
+            .chain(grid)
             .fold(set, |set, &(name, ty, access)| set.buffer(name, ty, access))
     }
 
@@ -151,9 +181,18 @@ impl ScreenStage {
             ),
         ];
         if k == Kernel::Reuse {
-            let deps = [self.name, "stage-bindings"];
-            modules.push(WgslModule::new("screen-neighbours", &deps, NEIGHBOURS_WGSL));
-            needs.push("screen-neighbours");
+            let mut deps = vec![self.name, "stage-bindings"];
+            if self.grid_lookup {
+                let own = self.buffers(k).next_binding();
+                modules.extend(grid::lookup_modules(own));
+                deps.push("grid-lookup");
+            }
+            let pass_deps = [self.name, "stage-bindings", "screen-neighbours"];
+            modules.extend([
+                WgslModule::new("screen-neighbours", &deps, self.neighbours),
+                WgslModule::new("screen-reuse-pass", &pass_deps, REUSE_PASS_WGSL),
+            ]);
+            needs.push("screen-reuse-pass");
         }
         modules.push(WgslModule::new(name, &needs, self.sources[k as usize]));
         modules.extend((self.extra_modules)(k));
@@ -200,7 +239,8 @@ pub fn params_layout(knob_words: usize) -> (usize, [(&'static str, usize); 6]) {
 }
 
 /// A stage's reservoir buffers: this frame's pair (the passes write one from the other), last
-/// frame's final reservoirs and last frame's G-buffer (the temporal pass's history).
+/// frame's final reservoirs and last frame's G-buffer (the temporal pass's history; a stage's
+/// pool of older records after the pixels' when it keeps one).
 #[derive(Debug)]
 struct ReuseBuffers {
     reservoirs: [wgpu::Buffer; 2],
@@ -209,25 +249,27 @@ struct ReuseBuffers {
 }
 
 impl ReuseBuffers {
-    /// Buffers for `pixels` reservoirs of `reservoir_size` bytes, labelled `stage`; the
-    /// reservoirs must fit one storage binding of the device.
+    /// Buffers for `pixels` reservoirs of `reservoir_size` bytes, labelled `stage`, and a
+    /// history of `pixels + pool` records; each must fit one storage binding of the device.
     fn new(
         ctx: &GpuContext,
         stage: &str,
         pixels: u32,
+        pool: u32,
         reservoir_size: usize,
     ) -> Result<Self, GpuError> {
         let px = u64::from(pixels);
+        let history = px + u64::from(pool);
         let bytes = px * reservoir_size as u64;
-        ctx.check_binding_size(&format!("the {stage} reservoirs"), bytes)?;
+        let history_bytes = history * reservoir_size as u64;
+        let vertex_bytes = history * size_of::<GVertex>() as u64;
+        ctx.check_binding_size(&format!("the {stage} reservoirs"), history_bytes)?;
+        ctx.check_binding_size(&format!("the {stage} history's vertices"), vertex_bytes)?;
         let zeroed = |label: String, size| buffers::storage_zeroed(&ctx.device, &label, size);
         Ok(Self {
             reservoirs: [0, 1].map(|p| zeroed(format!("{stage} reservoirs {p}"), bytes)),
-            prev_reservoirs: zeroed(format!("{stage} prev reservoirs"), bytes),
-            prev_gbuffer: zeroed(
-                format!("{stage} prev gbuffer"),
-                px * size_of::<GVertex>() as u64,
-            ),
+            prev_reservoirs: zeroed(format!("{stage} prev reservoirs"), history_bytes),
+            prev_gbuffer: zeroed(format!("{stage} prev gbuffer"), vertex_bytes),
         })
     }
 }
@@ -238,13 +280,18 @@ pub struct StageBuffers<'a> {
     pub initial: Vec<(&'static str, &'a wgpu::Buffer)>,
     pub reuse: Vec<(&'static str, &'a wgpu::Buffer)>,
     pub shade: Vec<(&'static str, &'a wgpu::Buffer)>,
+    /// The grid the reuse kernel of a stage with [`ScreenStage::grid_lookup`] looks up.
+    pub grid: Option<&'a WorldGrid>,
 }
 
 /// Which reuse passes the chain has.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub struct Chain {
     pub temporal: bool,
     pub spatial: bool,
+    /// Records of older frames a stage keeps after last frame's pixels in the temporal pass's
+    /// sources ([`ScreenReuse::history`]; 0: none).
+    pub pool: u32,
 }
 
 /// The pass of `entry` of `kernel` over every pixel, binding the stage's parameters, `res`
@@ -262,6 +309,10 @@ fn bind_pass<'a>(
     renderer.shared.bound_pass(device, kernel, entry, res, None)
 }
 
+/// A reuse pass's bound passes: one, or one per grid parity (index: the parity of this
+/// frame's grid) for a stage that looks the grid up.
+type ReusePasses = Vec<Pass>;
+
 /// A screen-space reuse stage built on a [`Renderer`]: its buffers, its bound passes and its
 /// camera history. Reservoir chain: initial -> R0; temporal R0 (+ last frame's) -> R1;
 /// spatial R(cur) -> R(1-cur); the shade pass reads the final pair member.
@@ -270,8 +321,8 @@ pub struct ScreenReuse {
     params: wgpu::Buffer,
     buffers: ReuseBuffers,
     initial: Pass,
-    temporal: Option<Pass>,
-    spatial: Option<Pass>,
+    temporal: Option<ReusePasses>,
+    spatial: Option<ReusePasses>,
     shade: Pass,
     /// Which of the pair holds the final reservoirs.
     final_index: usize,
@@ -294,7 +345,13 @@ impl ScreenReuse {
         own: StageBuffers<'_>,
     ) -> Result<Self, GpuError> {
         let device = &ctx.device;
-        let b = ReuseBuffers::new(ctx, stage.name, renderer.pixels(), stage.reservoir_size)?;
+        let b = ReuseBuffers::new(
+            ctx,
+            stage.name,
+            renderer.pixels(),
+            chain.pool,
+            stage.reservoir_size,
+        )?;
         let words = params_words(knobs, renderer.camera(), false);
         let usage = wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST;
         let label = format!("{} params", stage.name);
@@ -310,23 +367,44 @@ impl ScreenReuse {
         };
         let [initial_k, reuse_k, shade_k] = Kernel::ALL.map(kernel);
         let (initial_k, reuse_k, shade_k) = (initial_k?, reuse_k?, shade_k?);
+        let grid = match (stage.grid_lookup, own.grid) {
+            (false, _) => None,
+            (true, Some(g)) => Some(g),
+            (true, None) => {
+                return Err(GpuError::Binding(format!(
+                    "{} looks up a world-space grid: none given",
+                    stage.name
+                )));
+            }
+        };
+        let first_hash = stage.buffers(Kernel::Reuse).next_binding();
+        // The temporal pass looks up last frame's grid, the spatial pass this frame's.
         let reuse = |temporal: bool, [src, receivers, out]: [&wgpu::Buffer; 3]| {
-            let u = ReusePass::buffer(device, temporal, 0);
-            let res = vec![
-                ("reuse_pass", (&u).into()),
-                ("reuse_src", src.into()),
-                ("reuse_self", receivers.into()),
-                ("reuse_out", out.into()),
-                (PREV_GBUFFER.0, (&b.prev_gbuffer).into()),
-            ];
-            bind_pass(
-                renderer,
-                device,
-                (&reuse_k.0, reuse_k.1),
-                &params,
-                res,
-                &own.reuse,
-            )
+            let parities = if grid.is_some() { 2 } else { 1 };
+            (0..parities)
+                .map(|p| {
+                    let u = ReusePass::buffer(device, temporal, 0);
+                    let mut res = vec![
+                        ("reuse_pass", (&u).into()),
+                        ("reuse_src", src.into()),
+                        ("reuse_self", receivers.into()),
+                        ("reuse_out", out.into()),
+                        (PREV_GBUFFER.0, (&b.prev_gbuffer).into()),
+                    ];
+                    if let Some(g) = grid {
+                        let looked_up = if temporal { 1 - p } else { p };
+                        res.extend(g.lookup_resources(looked_up, first_hash));
+                    }
+                    bind_pass(
+                        renderer,
+                        device,
+                        (&reuse_k.0, reuse_k.1),
+                        &params,
+                        res,
+                        &own.reuse,
+                    )
+                })
+                .collect::<Result<ReusePasses, GpuError>>()
         };
         let r = &b.reservoirs;
         let mut cur = 0;
@@ -368,8 +446,9 @@ impl ScreenReuse {
 
     /// Records the stage for the frame whose camera is `renderer`'s (after the passes that
     /// write its inputs): initial samples, temporal and spatial reuse, the shade pass, and keeps
-    /// this frame's reservoirs, G-buffer and camera for the next.
-    pub fn encode(&mut self, f: &mut FrameEncoder, renderer: &Renderer) {
+    /// this frame's reservoirs, G-buffer and camera for the next. `parity`: that of this
+    /// frame's grid (0 for a stage that looks none up).
+    pub fn encode(&mut self, f: &mut FrameEncoder, renderer: &Renderer, parity: usize) {
         let camera = *renderer.camera();
         let prev = self.last_camera.unwrap_or(camera);
         let words = params_words(&self.knobs, &prev, self.last_camera.is_some());
@@ -377,10 +456,10 @@ impl ScreenReuse {
         let [initial, temporal, spatial, shade, persist] = &self.spans;
         f.span(initial, |f| f.dispatch(&self.initial));
         if let Some(t) = &self.temporal {
-            f.span(temporal, |f| f.dispatch(t));
+            f.span(temporal, |f| f.dispatch(&t[parity % t.len()]));
         }
         if let Some(s) = &self.spatial {
-            f.span(spatial, |f| f.dispatch(s));
+            f.span(spatial, |f| f.dispatch(&s[parity % s.len()]));
         }
         f.span(shade, |f| f.dispatch(&self.shade));
         if self.temporal.is_some() {
@@ -391,6 +470,27 @@ impl ScreenReuse {
             });
         }
         self.last_camera = Some(camera);
+    }
+
+    /// The temporal pass's sources: last frame's final reservoirs and G-buffer, per pixel,
+    /// then (a stage with [`Chain::pool`]) its pool's records.
+    pub fn history(&self) -> (&wgpu::Buffer, &wgpu::Buffer) {
+        (&self.buffers.prev_reservoirs, &self.buffers.prev_gbuffer)
+    }
+
+    /// Bytes of its buffers (parameters, reservoirs, last frame's reservoirs and G-buffer).
+    pub fn bytes(&self) -> u64 {
+        let b = &self.buffers;
+        [
+            &self.params,
+            &b.reservoirs[0],
+            &b.reservoirs[1],
+            &b.prev_reservoirs,
+            &b.prev_gbuffer,
+        ]
+        .iter()
+        .map(|x| x.size())
+        .sum()
     }
 
     /// The last frame's final reservoirs, per pixel.

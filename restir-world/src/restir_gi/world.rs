@@ -1,0 +1,429 @@
+//! World-space ReSTIR GI (`world-restir-gi`): restir-gi's path samples, target and
+//! reconnection shift, with neighbours found in a world-space grid instead of on the screen.
+//! Each frame the pixels' primary vertices x1 enter a [`crate::grid::WorldGrid`] (adaptive
+//! cells, the normal's axis folded into the key, on `gpu-hash` and `gpu-scan`); a pixel's
+//! record is its path-sample reservoir. Beside the pixels the grid holds a *pool*: one record
+//! per cell (its first pixel's final reservoir and primary vertex) kept across frames, which
+//! ages while its cell is out of view and goes after `history-frames` frames ([`Pool`],
+//! `world_pool.wgsl`). The temporal pass merges path samples that last frame's pixels or the
+//! pool left in the receiver's cell of last frame's grid (no reprojection: the cell is where
+//! the surface is, whatever the camera did, and a surface seen again finds its cell's record),
+//! the spatial pass those this frame's pixels left in its cell of this frame's grid, the lookup
+//! jittered by up to a cell. The method's own code is its neighbour choice
+//! (`world_neighbours.wgsl`) and its cells (`world_items.wgsl`, the pool,
+//! [`WorldRestirGiConfig::grid`]); the chain of passes is [`crate::screen_reuse`]'s and the
+//! combination the reservoir crate's.
+//!
+//! | span | what |
+//! |---|---|
+//! | `wgi-build` | this frame's grid of the pixels and the pool |
+//! | `wgi-initial` .. `wgi-persist` | [`crate::screen_reuse`]'s chain |
+//! | `wgi-pool` | the pool's records into the history, then the next pool: flag each cell's first item, gpu-scan, scatter |
+
+use gpu_hash::{CellSizing, TableConfig};
+use gpu_scan::{Scan, ScanBinding, ScanDescriptor, ScanKind};
+use reservoir::reuse::Combination;
+
+use super::{DEBUG, GiReservoir, INITIAL_WGSL, MAX_M, REUSE_WGSL, SHADE_WGSL};
+use crate::gpu::{
+    Access, FrameEncoder, GpuContext, GpuError, Pass, Resource, Tracer, WgslModule, buffers,
+};
+use crate::grid::{self, GridItems, GridSettings, WorldGrid, auto_buckets};
+use crate::knobs::{Knobs, Variant};
+use crate::render::{
+    Buffer, ComposedKernel, GVertex, KernelDef, STAGE_GROUP, SharedGroups, Stream,
+    compose_with_library,
+};
+use crate::scene::Camera;
+use crate::screen_reuse::{self, ScreenReuseError, ScreenStage};
+
+const NEIGHBOURS_WGSL: &str = include_str!("world_neighbours.wgsl");
+const ITEMS_WGSL: &str = include_str!("world_items.wgsl");
+const POOL_WGSL: &str = include_str!("world_pool.wgsl");
+const POOL_FLAG_WGSL: &str = include_str!("world_pool_flag.wgsl");
+const POOL_SCATTER_WGSL: &str = include_str!("world_pool_scatter.wgsl");
+
+crate::knobs! {
+    /// Every knob of world-space ReSTIR GI with its default: restir-gi's reuse knobs, and the
+    /// cells its neighbours are found in.
+    #[derive(Debug, Clone, Copy, PartialEq)]
+    pub struct WorldRestirGiConfig {
+        /// Temporal reuse from the receiver's cell in last frame's grid (default on).
+        temporal: bool = true, "temporal";
+        /// Cap of a reused reservoir's confidence M, in frames of paths (default 20).
+        [gpu] temporal_m_cap: u32 = 20, "temporal-m-cap", 1..=MAX_M;
+        /// Path samples of last frame's cell merged per pixel (default 1).
+        [gpu] temporal_k: u32 = 1, "temporal-k", 1..=screen_reuse::MAX_SPATIAL_K;
+        /// Path samples of this frame's cell merged per pixel (default 4; 0: no spatial pass).
+        [gpu] spatial_k: u32 = 4, "spatial-k", 0..=screen_reuse::MAX_SPATIAL_K;
+        /// A reused pixel's depth (distance to the eye) must be within this fraction of the
+        /// receiver's (default 0.1).
+        [gpu] depth_threshold: f32 = 0.1, "depth-threshold", 0.0..=f32::MAX;
+        /// Cosine between a reused pixel's shading normal and the receiver's, at least (default
+        /// 0.9, about 25 degrees).
+        [gpu] normal_threshold: f32 = 0.9, "normal-threshold", -1.0..=1.0;
+        /// A reconnection whose Jacobian is above this or below its inverse is rejected
+        /// (default 10).
+        [gpu] max_jacobian: f32 = 10.0, "max-jacobian", 1.0..=f32::MAX;
+        /// Combination weights (default pairwise MIS, unbiased; `biased`: 1/M).
+        [gpu] combine: Combination = Combination::Pairwise, "combine";
+        /// One visibility ray per reconnection (default on, unbiased).
+        [gpu] visibility: bool = true, "visibility";
+        /// Targeted projected cell size in pixels (default 8: a cell holds about 8 x 8 pixels'
+        /// primary vertices where it faces the camera).
+        projected_size: f32 = 8.0, "projected-size", 0.5..=4096.0;
+        /// Smallest cell edge in world units (default 0.001).
+        min_cell_size: f32 = 0.001, "min-cell-size", 1e-6..=f32::MAX;
+        /// Tangent-plane jitter of the lookups and the insertion by up to one cell (default on).
+        jitter: bool = true, "jitter";
+        /// Slots per hash bucket (default 32).
+        slots: u32 = 32, "slots", 1..=1024;
+        /// Frames a cell's pooled record outlives the last frame its cell was in view (default
+        /// 32; 0: the pool holds last frame's records only).
+        history_frames: u32 = 32, "history-frames", 0..=MAX_HISTORY_FRAMES;
+    }
+}
+
+/// The named variants of `world-restir-gi`: the reuse variants every method has, `biased`
+/// restir-gi's (1/M weights, no visibility rays).
+pub fn variants() -> Vec<Variant> {
+    super::variants_with("spatial-k=0")
+}
+
+impl WorldRestirGiConfig {
+    /// Checks every knob.
+    pub fn validate(&self) -> Result<(), ScreenReuseError> {
+        self.check_ranges()
+            .map_err(ScreenReuseError::config("world-restir-gi"))?;
+        self.table(1)
+            .validate()
+            .map_err(|e| ScreenReuseError::config("world-restir-gi")(e.to_string()))
+    }
+
+    /// The hash table's dimensions for frames of `pixels` (the grid's items: the pixels and
+    /// the pool, as many).
+    pub fn table(&self, pixels: u32) -> TableConfig {
+        TableConfig {
+            num_buckets: auto_buckets(pixels.saturating_mul(2), self.slots),
+            slots_per_bucket: self.slots,
+            probe_buckets: 1,
+        }
+    }
+
+    /// The cell sizing for `camera`.
+    pub fn sizing(&self, camera: &Camera) -> CellSizing {
+        grid::cell_sizing(camera, self.min_cell_size, self.projected_size, true)
+    }
+
+    /// The grid of frames seen by `camera`: adaptive cells with the normal's axis folded into
+    /// the key (the faces of a corner share no path samples), lists ordered by pixel.
+    pub fn grid(&self, camera: &Camera) -> GridSettings {
+        GridSettings {
+            table: self.table(camera.width.saturating_mul(camera.height)),
+            sizing: self.sizing(camera),
+            jitter: self.jitter,
+            fold_normal: true,
+            sort_cells: true,
+        }
+    }
+}
+
+/// Generated constants header: the largest M and the knobs' struct.
+pub fn constants_wgsl() -> String {
+    format!(
+        "const GI_MAX_M: u32 = {MAX_M}u;\n{}",
+        WorldRestirGiConfig::wgsl_struct("ScreenKnobs")
+    )
+}
+
+/// World-space ReSTIR GI as a reuse stage: restir-gi's with the world-space neighbour choice.
+pub static STAGE: ScreenStage = ScreenStage {
+    name: "world-restir-gi",
+    short: "wgi",
+    reservoirs: "array<GiReservoir>",
+    reservoir_size: size_of::<GiReservoir>(),
+    library: super::WGSL,
+    constants: constants_wgsl,
+    sources: [INITIAL_WGSL, REUSE_WGSL, SHADE_WGSL],
+    own: [&[DEBUG], &[DEBUG], &[]],
+    extra_modules: |_| Vec::new(),
+    neighbours: NEIGHBOURS_WGSL,
+    grid_lookup: true,
+};
+
+/// Most frames a pooled record may outlive its cell's last view (`history-frames`).
+pub const MAX_HISTORY_FRAMES: u32 = 1000;
+
+/// What the grid's items read of the pool: its records' vertices and its count.
+const ITEM_BINDINGS: &[Buffer] = &[
+    ("wgi_pool_vertices", "array<GVertex>", Access::Read),
+    ("wgi_pool_count", "array<u32>", Access::Read),
+];
+
+/// The grid's items: every pixel's primary vertex, then the pool's records (`pool`: its
+/// buffers, `None` for the kernels' checks).
+pub(super) fn grid_items<'a>(pixels: u32, pool: Option<&'a PoolBuffers>) -> GridItems<'a> {
+    GridItems {
+        name: "world-restir-gi",
+        count: pixels.saturating_mul(2),
+        // The build's jitter only moves cells: world-restir's stream is free to share.
+        stream: Stream::WrBuild,
+        modules: vec![WgslModule::new("grid-items", &["grid"], ITEMS_WGSL)],
+        bindings: ITEM_BINDINGS,
+        buffers: pool.map_or_else(Vec::new, |p| vec![&p.vertices, &p.count]),
+    }
+}
+
+/// WGSL `WgiPoolParams`.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct PoolParams {
+    pub pixels: u32,
+    /// Grid items: the pixels and the pool's records.
+    pub items: u32,
+    /// Most records the pool keeps (the pixel count).
+    pub capacity: u32,
+    pub max_age: u32,
+    /// Words of one stored reservoir.
+    pub reservoir_words: u32,
+    pub _pad: [u32; 3],
+}
+
+const POOL_PARAMS: Buffer = ("wgi_pool_params", "WgiPoolParams", Access::Uniform);
+const FLAG: KernelDef = KernelDef::new(
+    "wgi-pool-flag",
+    &["wgi_pool_flag"],
+    POOL_FLAG_WGSL,
+    &[&[
+        POOL_PARAMS,
+        ("grid_item_slot", "array<vec2<u32>>", Access::Read),
+        ("grid_offsets", "array<u32>", Access::Read),
+        ("grid_cells", "array<u32>", Access::Read),
+        ("wgi_history_age", "array<u32>", Access::Read),
+        ("wgi_flags", "array<u32>", Access::ReadWrite),
+    ]],
+);
+const SCATTER: KernelDef = KernelDef::new(
+    "wgi-pool-scatter",
+    &["wgi_pool_scatter"],
+    POOL_SCATTER_WGSL,
+    &[&[
+        POOL_PARAMS,
+        ("wgi_history_age", "array<u32>", Access::Read),
+        ("wgi_flags", "array<u32>", Access::Read),
+        ("wgi_positions", "array<u32>", Access::Read),
+        ("wgi_history_reservoirs", "array<u32>", Access::Read),
+        ("wgi_history_vertices", "array<u32>", Access::Read),
+        ("wgi_pool_reservoirs", "array<u32>", Access::ReadWrite),
+        ("wgi_pool_vertices", "array<u32>", Access::ReadWrite),
+        ("wgi_pool_age", "array<u32>", Access::ReadWrite),
+        ("wgi_pool_count", "array<u32>", Access::ReadWrite),
+    ]],
+);
+
+/// The modules of pool kernel `k`: its bindings and the pool's WGSL.
+fn pool_modules(k: &KernelDef) -> Vec<WgslModule> {
+    let constants = format!(
+        "const GRID_FIRST_SENTINEL: u32 = {:#x}u;\n",
+        grid::FIRST_SENTINEL
+    );
+    vec![
+        WgslModule::new("wgi-pool-bindings", &[], k.bindings().wgsl(STAGE_GROUP)),
+        WgslModule::new("wgi-pool-constants", &[], constants),
+        WgslModule::new(
+            "wgi-pool",
+            &["wgi-pool-bindings", "wgi-pool-constants"],
+            POOL_WGSL,
+        ),
+        WgslModule::new(k.name, &["wgi-pool", "workgroup"], k.source),
+    ]
+}
+
+/// Every kernel of world-space ReSTIR GI (its stage's, its grid build's and its pool's),
+/// composed as used.
+pub fn kernels() -> Vec<ComposedKernel> {
+    let mut k = STAGE.composed();
+    k.extend(grid::kernels(&grid_items(0, None)));
+    k.extend([&FLAG, &SCATTER].map(|d| {
+        let source = compose_with_library(Tracer::Bvh, pool_modules(d));
+        let name = format!("restir-world/restir_gi/{}", d.name);
+        ComposedKernel::stage(name, source, d.bindings())
+    }));
+    k
+}
+
+/// The pool's records (reservoirs, vertices, ages) and count, written by its scatter and read
+/// by the next frame's grid build and history.
+#[derive(Debug)]
+pub struct PoolBuffers {
+    reservoirs: wgpu::Buffer,
+    vertices: wgpu::Buffer,
+    age: wgpu::Buffer,
+    /// \[kept, wanted\]: records in the pool, and records that wanted in (more: dropped).
+    count: wgpu::Buffer,
+}
+
+impl PoolBuffers {
+    /// A pool of up to `capacity` records of `reservoir_size`-byte reservoirs.
+    pub(super) fn new(ctx: &GpuContext, capacity: u32, reservoir_size: usize) -> Self {
+        let n = u64::from(capacity);
+        let zeroed = |label: &str, size: u64| buffers::storage_zeroed(&ctx.device, label, size);
+        Self {
+            reservoirs: zeroed("wgi pool reservoirs", n * reservoir_size as u64),
+            vertices: zeroed("wgi pool vertices", n * size_of::<GVertex>() as u64),
+            age: zeroed("wgi pool age", n * 4),
+            count: zeroed("wgi pool count", 16),
+        }
+    }
+
+    /// Its records' ages and \[kept, wanted\].
+    pub(super) fn read(&self, ctx: &GpuContext) -> Result<(Vec<u32>, Vec<u32>), GpuError> {
+        Ok((
+            buffers::read(ctx, &self.age)?,
+            buffers::read(ctx, &self.count)?,
+        ))
+    }
+
+    pub(super) fn bytes(&self) -> u64 {
+        [&self.reservoirs, &self.vertices, &self.age, &self.count]
+            .map(wgpu::Buffer::size)
+            .iter()
+            .sum()
+    }
+}
+
+/// The pool's passes and the buffers they need beyond [`PoolBuffers`]: the history's ages,
+/// the flags and their scan.
+#[derive(Debug)]
+pub struct Pool {
+    history_age: wgpu::Buffer,
+    flags: wgpu::Buffer,
+    positions: wgpu::Buffer,
+    scan: Scan,
+    scan_binding: ScanBinding,
+    /// The flag pass per grid parity (it reads that frame's cell lists).
+    flag: [Pass; 2],
+    scatter: Pass,
+    _params: wgpu::Buffer,
+    pixels: u32,
+    reservoir_size: usize,
+}
+
+impl Pool {
+    /// The pool of a frame of `pixels` keeping records up to `max_age` frames, whose
+    /// records are `reservoir_size`-byte reservoirs: `buffers` (the grid's items read them),
+    /// `grid` the grid they enter and `history` the stage's temporal sources (reservoirs,
+    /// vertices).
+    pub(super) fn new(
+        ctx: &GpuContext,
+        shared: &SharedGroups,
+        (pixels, max_age, reservoir_size): (u32, u32, usize),
+        buffers: &PoolBuffers,
+        grid: &WorldGrid,
+        history: (&wgpu::Buffer, &wgpu::Buffer),
+    ) -> Result<Self, ScreenReuseError> {
+        let device = &ctx.device;
+        let items = pixels.saturating_mul(2);
+        let params = PoolParams {
+            pixels,
+            items,
+            capacity: pixels,
+            max_age,
+            reservoir_words: (reservoir_size / 4) as u32,
+            _pad: [0; 3],
+        };
+        let params_buf = buffers::with_usage(
+            device,
+            "wgi pool params",
+            &[params],
+            wgpu::BufferUsages::UNIFORM,
+        );
+        let zeroed = |label: &str, size: u64| buffers::storage_zeroed(device, label, size);
+        let history_age = zeroed("wgi history age", u64::from(pixels) * 4);
+        let flags = zeroed("wgi pool flags", u64::from(items) * 4);
+        let positions = zeroed("wgi pool positions", u64::from(items) * 4);
+        let scan = Scan::new(device, &ScanDescriptor::for_device(device, items.max(1)))?;
+        let scan_binding =
+            scan.bind(device, &flags, &positions, items, ScanKind::Exclusive, None)?;
+        let kernel = |k: &KernelDef| {
+            let label = format!("world-restir-gi {}", k.name);
+            shared.own_kernel(ctx, &label, &k.bindings(), pool_modules(k), k.entries)
+        };
+        let (flag_k, scatter_k) = (kernel(&FLAG)?, kernel(&SCATTER)?);
+        let flag = |p: usize| {
+            let (offsets, cells) = grid.lists(p);
+            let res: Vec<(&str, Resource)> = vec![
+                ("wgi_pool_params", (&params_buf).into()),
+                ("grid_item_slot", grid.item_slots().into()),
+                ("grid_offsets", offsets.into()),
+                ("grid_cells", cells.into()),
+                ("wgi_history_age", (&history_age).into()),
+                ("wgi_flags", (&flags).into()),
+            ];
+            shared.bound_pass(device, &flag_k, "wgi_pool_flag", res, Some(items))
+        };
+        let res: Vec<(&str, Resource)> = vec![
+            ("wgi_pool_params", (&params_buf).into()),
+            ("wgi_history_age", (&history_age).into()),
+            ("wgi_flags", (&flags).into()),
+            ("wgi_positions", (&positions).into()),
+            ("wgi_history_reservoirs", history.0.into()),
+            ("wgi_history_vertices", history.1.into()),
+            ("wgi_pool_reservoirs", (&buffers.reservoirs).into()),
+            ("wgi_pool_vertices", (&buffers.vertices).into()),
+            ("wgi_pool_age", (&buffers.age).into()),
+            ("wgi_pool_count", (&buffers.count).into()),
+        ];
+        let scatter =
+            shared.bound_pass(device, &scatter_k, "wgi_pool_scatter", res, Some(items))?;
+        let flag = [flag(0)?, flag(1)?];
+        Ok(Self {
+            history_age,
+            flags,
+            positions,
+            scan,
+            scan_binding,
+            flag,
+            scatter,
+            _params: params_buf,
+            pixels,
+            reservoir_size,
+        })
+    }
+
+    /// Records the pool's step of a frame whose grid has parity `parity`, after the stage's
+    /// persist copies: the pool the grid was built with into the history after the pixels'
+    /// records, then the next pool.
+    pub(super) fn encode(
+        &self,
+        f: &mut FrameEncoder,
+        parity: usize,
+        buffers: &PoolBuffers,
+        history: (&wgpu::Buffer, &wgpu::Buffer),
+    ) -> Result<(), ScreenReuseError> {
+        let px = u64::from(self.pixels);
+        f.copy_to(
+            &buffers.reservoirs,
+            history.0,
+            px * self.reservoir_size as u64,
+        );
+        f.copy_to(
+            &buffers.vertices,
+            history.1,
+            px * size_of::<GVertex>() as u64,
+        );
+        f.copy(&buffers.age, &self.history_age);
+        f.dispatch(&self.flag[parity]);
+        self.scan.encode(f.raw(), &self.scan_binding)?;
+        f.dispatch(&self.scatter);
+        Ok(())
+    }
+
+    /// Bytes of its buffers (the pool's own excluded).
+    pub(super) fn bytes(&self) -> u64 {
+        [&self.history_age, &self.flags, &self.positions]
+            .map(wgpu::Buffer::size)
+            .iter()
+            .sum()
+    }
+}

@@ -1,0 +1,42 @@
+// World-space ReSTIR GI's neighbour choice (module screen-neighbours of world-restir-gi): the
+// path samples of the receiver's cell in the world-space grid of the pixels' primary vertices
+// (grid-lookup; the cells are restir_gi::world's).
+// - temporal: up to temporal_k of the items of the cell of the receiver's x1 in last frame's
+//   grid: last frame's pixels and the pool's records (the temporal pass looks that grid up; its
+//   sources are last frame's final reservoirs and G-buffer, then the pool's reservoirs and
+//   vertices). No reprojection: the cell is where the surface is, whatever the camera did; the
+//   first frame (history = 0) has none.
+// - spatial: up to spatial_k items of the receiver's cell in this frame's grid (the receiver
+//   itself skipped), the lookup jittered in the tangent plane by up to one cell, so that a
+//   neighbouring cell is visited at times.
+// A cell's items are visited every increment-th from a random offset (grid_visit); each must
+// pass screen_similar (depth and normal thresholds) and hold a reservoir, its M capped at
+// temporal_m_cap.
+
+fn screen_neighbours(i: u32, g: GVertex, temporal: bool, rng: ptr<function, u32>) -> ScreenNeighbours {
+    var n: ScreenNeighbours;
+    if temporal && screen_params.history == 0u {
+        return n;
+    }
+    let cap = max(screen_params.knobs.temporal_m_cap, 1u);
+    let wanted = min(select(screen_params.knobs.spatial_k, screen_params.knobs.temporal_k, temporal),
+                     SCREEN_MAX_NEIGHBOURS);
+    // This frame's cell holds the receiver too: visit one more.
+    let visit = grid_visit(g.position, g.normal, wanted + select(1u, 0u, temporal), rng);
+    let eye = select(render_params.camera.eye, screen_params.prev_camera.eye, temporal);
+    for (var k = 0u; k < visit.count && n.k < wanted; k += visit.increment) {
+        let j = grid_visited(visit, k);
+        // This frame's grid also holds the pool's records, which only the temporal pass reads.
+        if !temporal && (j == i || j >= render_params.pixel_count) {
+            continue;
+        }
+        let m = screen_m(reuse_src[j]);
+        if m == 0u || !screen_similar(g, screen_source_vertex(j, temporal), eye) {
+            continue;
+        }
+        n.idx[n.k] = j;
+        n.ms[n.k] = reuse_cap_m(m, cap);
+        n.k += 1u;
+    }
+    return n;
+}

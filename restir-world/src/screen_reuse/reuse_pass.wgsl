@@ -1,0 +1,49 @@
+// The reuse pass every screen-space stage shares (the entry point screen_reuse): a receiver
+// with no primary hit or no reservoir (M = 0) keeps its own; any other merges the neighbours
+// its stage's neighbour choice (`fn screen_neighbours`, module screen-neighbours: the pixels of a
+// disc and last frame's reprojected pixel, neighbours.wgsl, or a stage's own) finds, by the
+// stage's screen_merge (its target and shift), and writes reuse_out. The stage supplies:
+// - `fn screen_m(r: R) -> u32`: the confidence M of a reservoir R of its own type;
+// - `fn screen_merge(i: u32, own: R, g: GVertex, temporal: bool, nb: ScreenNeighbours,
+//   rng: ptr<function, u32>) -> R`: receiver i's reservoir after merging nb;
+// - `const SCREEN_STREAM_TEMPORAL` and `SCREEN_STREAM_SPATIAL`: the random streams of its
+//   passes.
+// In the temporal pass the sources (reuse_src) are last frame's final reservoirs, and a
+// source's vertex is last frame's G-buffer's (screen_prev_gbuffer).
+
+struct ScreenNeighbours {
+    // The merged pixels and their capped M; the first k are set.
+    idx: array<u32, SCREEN_MAX_NEIGHBOURS>,
+    ms: array<u32, SCREEN_MAX_NEIGHBOURS>,
+    k: u32,
+    // The sum of the k capped M (saturating, as reservoir_add_m; the pass adds them up).
+    m_sum: u32,
+}
+
+// The primary vertex that produced source reservoir j (last frame's in the temporal pass).
+fn screen_source_vertex(j: u32, temporal: bool) -> GVertex {
+    if temporal {
+        return screen_prev_gbuffer[j];
+    }
+    return render_gbuffer[j];
+}
+
+@compute @workgroup_size(WORKGROUP_SIZE)
+fn screen_reuse(id: Invocation) {
+    let i = item_index(id);
+    if i >= render_params.pixel_count { return; }
+    let own = reuse_self[i];
+    let g = render_gbuffer[i];
+    if g.prim == BVH_NO_HIT || screen_m(own) == 0u {
+        reuse_out[i] = own;
+        return;
+    }
+    let temporal = reuse_pass.temporal != 0u;
+    var rng = render_rng(i, select(SCREEN_STREAM_SPATIAL, SCREEN_STREAM_TEMPORAL, temporal));
+    var nb = screen_neighbours(i, g, temporal, &rng);
+    nb.m_sum = 0u;
+    for (var s = 0u; s < nb.k; s++) {
+        nb.m_sum = reservoir_add_m(nb.m_sum, nb.ms[s]);
+    }
+    reuse_out[i] = screen_merge(i, own, g, temporal, nb, &rng);
+}
