@@ -119,6 +119,7 @@ impl SceneRuns<'_> {
             self.bar.inc(1);
             Ok(())
         })?;
+        tally.reuse_bytes_per_pixel = m.reuse_bytes().map(|b| b as f64 / pixels as f64);
         tally.finish(run, &self.refs)
     }
 }
@@ -208,6 +209,7 @@ struct Tally {
     /// The last frame with a reference and its images.
     last_eval: Option<(u32, PerImage<Rgb>)>,
     cache: Option<CacheUse>,
+    reuse_bytes_per_pixel: Option<f64>,
 }
 
 impl Tally {
@@ -220,6 +222,7 @@ impl Tally {
             accumulated,
             last_eval: None,
             cache: None,
+            reuse_bytes_per_pixel: None,
         }
     }
 
@@ -301,6 +304,7 @@ impl Tally {
             ms_per_frame_by_stage_median: Stage::list(PassTimes::median_per_frame(&timed)),
             max_grid_overflows: self.records.iter().filter_map(|r| r.grid_overflows).max(),
             cache: self.cache,
+            reuse_bytes_per_pixel: self.reuse_bytes_per_pixel,
             images: self.image_errors(refs)?,
             per_frame: self.records,
         };

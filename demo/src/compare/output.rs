@@ -300,6 +300,7 @@ fn write_times(s: &mut String, methods: &[MethodRun]) {
         "ms/frame median (mean)",
         "median ms by stage",
         "grid overflows (most in a frame)",
+        "path-reuse bytes/pixel",
     ]);
     let rows = methods.iter().map(|m| {
         let stages: Vec<String> = m
@@ -314,6 +315,8 @@ fn write_times(s: &mut String, methods: &[MethodRun]) {
             stages.join(", "),
             m.max_grid_overflows
                 .map_or_else(|| "-".to_owned(), |o| o.to_string()),
+            m.reuse_bytes_per_pixel
+                .map_or_else(|| "-".to_owned(), |b| format!("{b:.0}")),
         ]
     });
     table(s, &header, rows);

@@ -190,6 +190,9 @@ pub struct MethodRun {
     pub max_grid_overflows: Option<u32>,
     /// The radiance cache's size and use (`+cache` methods).
     pub cache: Option<CacheUse>,
+    /// Bytes per pixel of the buffers its path-resampling stage keeps (restir-gi,
+    /// world-restir-gi: reservoirs, history, grid and pool).
+    pub reuse_bytes_per_pixel: Option<f64>,
     pub images: PerImage<ImageErrors>,
     pub per_frame: Vec<FrameRecord>,
 }
