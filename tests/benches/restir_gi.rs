@@ -1,9 +1,12 @@
-//! Per-stage GPU milliseconds per frame of screen-space ReSTIR GI against the `ris` baseline
-//! measured in the same run, on many-lights (10,000 lights), timed with GPU timestamp spans
-//! around every pass after a warm-up of 4 frames (temporal history built). One `RESULT
-//! restir-gi` line per variant of the registry's `restir-gi` (`variant=default` first) and per
-//! composition (`restir-gi+world-restir`, `restir-di+restir-gi+world-restir`), each with the
-//! share of its reconnections rejected in the last frame.
+//! Per-stage GPU milliseconds per frame of ReSTIR GI, screen space (`restir-gi`) and world
+//! space (`world-restir-gi`), against the `ris` baseline measured in the same run, on
+//! many-lights (10,000 lights), timed with GPU timestamp spans around every pass after a
+//! warm-up of 4 frames (temporal history built). One `RESULT restir-gi` line per variant of the
+//! registry's `restir-gi` (`variant=default` first), per composition
+//! (`restir-gi+world-restir`, `restir-di+restir-gi+world-restir`) and per world-space method
+//! (`world-restir-gi`, `world-restir-gi+world-restir`), each with the share of its
+//! reconnections rejected in the last frame and the bytes its buffers hold per pixel (the
+//! world-space grid's included).
 //!
 //! Size: `GI_BENCH_SIZE` (default 128).
 
@@ -14,13 +17,9 @@ use restir_world::scene::{Camera, Scene};
 use tests::{bench, gpu};
 
 const WARM_UP: u32 = 4;
-/// Every pass of the stage.
-const GI_SPANS: [&str; 5] = [
-    "gi-initial",
-    "gi-temporal",
-    "gi-spatial",
-    "gi-shade",
-    "gi-persist",
+/// Every pass of the stage, after its span prefix (`gi`, `wgi`).
+const GI_STEPS: [&str; 6] = [
+    "build", "initial", "temporal", "spatial", "shade", "persist",
 ];
 const FRAMES: u32 = 6;
 
@@ -41,8 +40,13 @@ fn specs() -> Vec<(&'static str, String)> {
                 .map(|v| ("restir-gi", v.name.to_string())),
         )
         .chain(
-            ["restir-gi+world-restir", "restir-di+restir-gi+world-restir"]
-                .map(|m| (m, "default".to_string())),
+            [
+                "restir-gi+world-restir",
+                "restir-di+restir-gi+world-restir",
+                "world-restir-gi",
+                "world-restir-gi+world-restir",
+            ]
+            .map(|m| (m, "default".to_string())),
         )
         .collect()
 }
@@ -67,6 +71,16 @@ fn main() {
             (a + u64::from(t), b + u64::from(r))
         });
         let frame_ms = t.ms_per_frame();
+        let prefix = if method.contains("world-restir-gi") {
+            "wgi"
+        } else {
+            "gi"
+        };
+        let span = |step: &str| format!("{prefix}-{step}");
+        let ms = |step: &str| bench::span_ms(&t, &[span(step).as_str()]);
+        let all: Vec<String> = GI_STEPS.iter().map(|s| span(s)).collect();
+        let all: Vec<&str> = all.iter().map(String::as_str).collect();
+        let bytes = m.gi().unwrap().bytes() as f64 / f64::from(side * side);
         bench::print_result(
             ctx,
             "restir-gi",
@@ -75,11 +89,12 @@ fn main() {
                 ("variant", variant),
                 ("scene", "many-lights".into()),
                 ("size", format!("{side}x{side}")),
-                ("initial_ms", f(bench::span_ms(&t, &["gi-initial"]))),
-                ("temporal_ms", f(bench::span_ms(&t, &["gi-temporal"]))),
-                ("spatial_ms", f(bench::span_ms(&t, &["gi-spatial"]))),
-                ("shade_ms", f(bench::span_ms(&t, &["gi-shade"]))),
-                ("reuse_share", f(bench::span_ms(&t, &GI_SPANS) / frame_ms)),
+                ("build_ms", f(ms("build"))),
+                ("initial_ms", f(ms("initial"))),
+                ("temporal_ms", f(ms("temporal"))),
+                ("spatial_ms", f(ms("spatial"))),
+                ("shade_ms", f(ms("shade"))),
+                ("reuse_share", f(bench::span_ms(&t, &all) / frame_ms)),
                 ("frame_ms", f(frame_ms)),
                 ("ris_frame_ms", f(ris_ms)),
                 ("vs_ris_frame", format!("{:.3}", frame_ms / ris_ms)),
@@ -88,6 +103,7 @@ fn main() {
                     "rejected_share",
                     format!("{:.3}", rejected as f64 / tried.max(1) as f64),
                 ),
+                ("bytes_per_pixel", format!("{bytes:.1}")),
             ],
         );
     }
