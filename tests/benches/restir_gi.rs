@@ -18,8 +18,8 @@ use tests::{bench, gpu};
 
 const WARM_UP: u32 = 4;
 /// Every pass of the stage, after its span prefix (`gi`, `wgi`).
-const GI_STEPS: [&str; 6] = [
-    "build", "initial", "temporal", "spatial", "shade", "persist",
+const GI_STEPS: [&str; 7] = [
+    "build", "initial", "temporal", "spatial", "shade", "persist", "pool",
 ];
 const FRAMES: u32 = 6;
 
@@ -94,6 +94,7 @@ fn main() {
                 ("temporal_ms", f(ms("temporal"))),
                 ("spatial_ms", f(ms("spatial"))),
                 ("shade_ms", f(ms("shade"))),
+                ("pool_ms", f(ms("pool"))),
                 ("reuse_share", f(bench::span_ms(&t, &all) / frame_ms)),
                 ("frame_ms", f(frame_ms)),
                 ("ris_frame_ms", f(ris_ms)),
