@@ -175,19 +175,28 @@ fn bias(
 /// measured -10.8/-14.5/-14.4%). Each must leave the bound. One test per scene (they run in
 /// parallel); the cornell-only controls are `wrong_jacobian_and_one_over_m_are_caught_on_cornell`.
 fn assert_unbiased_on(name: &str) {
+    assert_spec_unbiased_on("restir-gi", name, &[CameraPath::Static, ORBIT]);
+}
+
+/// `spec`'s check on scene `name` along each of `paths`, with the merge without M (static,
+/// seed 20) as the control that must leave the bound.
+fn assert_spec_unbiased_on(spec: &str, name: &str, paths: &[CameraPath]) {
     let mut failed = Vec::new();
-    for path in [CameraPath::Static, ORBIT] {
-        let d = bias("restir-gi", name, path, seeds(name), Planted::None);
-        eprintln!("restir-gi {name} {path:?}: bias {d:+.4?} (bound {BOUND})");
+    for &path in paths {
+        let d = bias(spec, name, path, seeds(name), Planted::None);
+        eprintln!("{spec} {name} {path:?}: bias {d:+.4?} (bound {BOUND})");
         if !within(d, BOUND) {
             failed.push(format!("{name} {path:?}: {d:+.4?}"));
         }
     }
     let merge = Planted::MergeWithoutM;
-    let control = bias("restir-gi", name, CameraPath::Static, 20..21, merge);
-    eprintln!("control, {name}, merged without M: {control:+.4?}");
-    assert!(failed.is_empty(), "{failed:?} (bound {BOUND})");
-    assert!(!within(control, BOUND), "the merge without M passed");
+    let control = bias(spec, name, CameraPath::Static, 20..21, merge);
+    eprintln!("control, {spec} {name}, merged without M: {control:+.4?}");
+    assert!(failed.is_empty(), "{spec}: {failed:?} (bound {BOUND})");
+    assert!(
+        !within(control, BOUND),
+        "{spec}: the merge without M passed"
+    );
 }
 
 #[test]
@@ -253,19 +262,7 @@ const DOLLY: CameraPath = CameraPath::Dolly {
 /// `wrong_jacobian_and_one_over_m_are_caught_on_cornell` (with world-space neighbours, whose
 /// distances to x2 differ little, it measured only -0.8/-1.6/-2.8% over 9 seeds on cornell).
 fn assert_world_unbiased_on(name: &str, paths: &[CameraPath]) {
-    let mut failed = Vec::new();
-    for &path in paths {
-        let d = bias("world-restir-gi", name, path, seeds(name), Planted::None);
-        eprintln!("world-restir-gi {name} {path:?}: bias {d:+.4?} (bound {BOUND})");
-        if !within(d, BOUND) {
-            failed.push(format!("{name} {path:?}: {d:+.4?}"));
-        }
-    }
-    let merge = Planted::MergeWithoutM;
-    let control = bias("world-restir-gi", name, CameraPath::Static, 20..21, merge);
-    eprintln!("control, world-restir-gi {name}, merged without M: {control:+.4?}");
-    assert!(failed.is_empty(), "{failed:?} (bound {BOUND})");
-    assert!(!within(control, BOUND), "the merge without M passed");
+    assert_spec_unbiased_on("world-restir-gi", name, paths);
 }
 
 /// [`assert_world_unbiased_on`] cornell, static; control, its biased mode (1/M weights, no
