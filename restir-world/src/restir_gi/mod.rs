@@ -193,11 +193,11 @@ impl RestirGi {
         let chain = Chain {
             temporal: config.temporal,
             spatial: config.spatial_k > 0,
-            pool: pixels,
+            pool: world::pool_capacity(pixels),
         };
         let camera = renderer.camera();
         let size = size_of::<GiReservoir>();
-        let pool_buffers = PoolBuffers::new(ctx, pixels, size);
+        let pool_buffers = PoolBuffers::new(ctx, world::pool_capacity(pixels), size);
         let items = world::grid_items(pixels, Some(&pool_buffers));
         let grid = WorldGrid::new(
             ctx,

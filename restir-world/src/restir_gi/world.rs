@@ -101,10 +101,10 @@ impl WorldRestirGiConfig {
     }
 
     /// The hash table's dimensions for frames of `pixels` (the grid's items: the pixels and
-    /// the pool, as many).
+    /// the pool's records).
     pub fn table(&self, pixels: u32) -> TableConfig {
         TableConfig {
-            num_buckets: auto_buckets(pixels.saturating_mul(2), self.slots),
+            num_buckets: auto_buckets(grid_item_count(pixels), self.slots),
             slots_per_bucket: self.slots,
             probe_buckets: 1,
         }
@@ -154,6 +154,22 @@ pub static STAGE: ScreenStage = ScreenStage {
 /// Most frames a pooled record may outlive its cell's last view (`history-frames`).
 pub const MAX_HISTORY_FRAMES: u32 = 1000;
 
+/// Pixels per record the pool has room for. It keeps one record per cell: on many-lights at
+/// 256x256 (small lights, each face its own cell) 9,098 of them for 65,536 pixels with a still
+/// camera, 1,141 for 4,096 at 64x64, so half leaves room for cells out of view (when more
+/// want in, the oldest are dropped: they come last in item order).
+pub const PIXELS_PER_POOL_RECORD: u32 = 2;
+
+/// The records the pool of a frame of `pixels` keeps at most.
+pub fn pool_capacity(pixels: u32) -> u32 {
+    pixels.div_ceil(PIXELS_PER_POOL_RECORD)
+}
+
+/// The grid's items for a frame of `pixels`: the pixels, then the pool's records.
+pub fn grid_item_count(pixels: u32) -> u32 {
+    pixels.saturating_add(pool_capacity(pixels))
+}
+
 /// What the grid's items read of the pool: its records' vertices and its count.
 const ITEM_BINDINGS: &[Buffer] = &[
     ("wgi_pool_vertices", "array<GVertex>", Access::Read),
@@ -165,7 +181,7 @@ const ITEM_BINDINGS: &[Buffer] = &[
 pub(super) fn grid_items<'a>(pixels: u32, pool: Option<&'a PoolBuffers>) -> GridItems<'a> {
     GridItems {
         name: "world-restir-gi",
-        count: pixels.saturating_mul(2),
+        count: grid_item_count(pixels),
         // The build's jitter only moves cells: world-restir's stream is free to share.
         stream: Stream::WrBuild,
         modules: vec![WgslModule::new("grid-items", &["grid"], ITEMS_WGSL)],
@@ -181,7 +197,7 @@ pub struct PoolParams {
     pub pixels: u32,
     /// Grid items: the pixels and the pool's records.
     pub items: u32,
-    /// Most records the pool keeps (the pixel count).
+    /// Most records the pool keeps ([`pool_capacity`]).
     pub capacity: u32,
     pub max_age: u32,
     /// Words of one stored reservoir.
@@ -323,11 +339,12 @@ impl Pool {
         history: (&wgpu::Buffer, &wgpu::Buffer),
     ) -> Result<Self, ScreenReuseError> {
         let device = &ctx.device;
-        let items = pixels.saturating_mul(2);
+        let items = grid_item_count(pixels);
+        let capacity = pool_capacity(pixels);
         let params = PoolParams {
             pixels,
             items,
-            capacity: pixels,
+            capacity,
             max_age,
             reservoir_words: (reservoir_size / 4) as u32,
             _pad: [0; 3],
@@ -339,7 +356,7 @@ impl Pool {
             wgpu::BufferUsages::UNIFORM,
         );
         let zeroed = |label: &str, size: u64| buffers::storage_zeroed(device, label, size);
-        let history_age = zeroed("wgi history age", u64::from(pixels) * 4);
+        let history_age = zeroed("wgi history age", u64::from(capacity) * 4);
         let flags = zeroed("wgi pool flags", u64::from(items) * 4);
         let positions = zeroed("wgi pool positions", u64::from(items) * 4);
         let scan = Scan::new(device, &ScanDescriptor::for_device(device, items.max(1)))?;
