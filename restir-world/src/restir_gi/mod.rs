@@ -152,6 +152,15 @@ pub fn kernels() -> Vec<ComposedKernel> {
     STAGE.composed()
 }
 
+/// world-restir-gi's world-space part: the grid of the pixels' primary vertices and the pool
+/// of records kept across frames.
+#[derive(Debug)]
+struct WorldCells {
+    grid: WorldGrid,
+    pool_buffers: PoolBuffers,
+    pool: Pool,
+}
+
 /// The ReSTIR GI stage of a frame: built on a [`Renderer`], it resamples the path samples the
 /// indirect passes recorded (`render_secondary`, `render_path_radiance`) and rewrites the
 /// indirect image; its neighbours are the screen's (`restir-gi`) or a world-space grid's
@@ -161,9 +170,26 @@ pub struct RestirGi {
     reuse: ScreenReuse,
     /// Per pixel: neighbours merged (low 16 bits) and reconnections rejected (high 16 bits).
     debug: wgpu::Buffer,
-    /// The grid of the pixels' primary vertices and its pool (world-restir-gi).
-    grid: Option<WorldGrid>,
-    pool: Option<(PoolBuffers, Pool)>,
+    world: Option<WorldCells>,
+}
+
+/// The debug buffer and the reuse chain of `stage` (its reuse kernel looking up `grid`).
+fn reuse_stage(
+    ctx: &GpuContext,
+    renderer: &Renderer,
+    (stage, words, chain): (&'static ScreenStage, &[u32], Chain),
+    grid: Option<&WorldGrid>,
+) -> Result<(ScreenReuse, wgpu::Buffer), RestirGiError> {
+    let bytes = u64::from(renderer.pixels()) * 4;
+    let debug = buffers::storage_zeroed(&ctx.device, "gi debug", bytes);
+    let own = StageBuffers {
+        initial: vec![(DEBUG.0, &debug)],
+        reuse: vec![(DEBUG.0, &debug)],
+        grid,
+        ..Default::default()
+    };
+    let reuse = ScreenReuse::new(ctx, renderer, stage, words, chain, own)?;
+    Ok((reuse, debug))
 }
 
 impl RestirGi {
@@ -179,7 +205,14 @@ impl RestirGi {
             spatial: config.spatial_k > 0,
             pool: 0,
         };
-        Self::with_stage(ctx, renderer, &STAGE, &config.gpu_words(), chain, None)
+        let words = config.gpu_words();
+        let stage = (&STAGE, words.as_slice(), chain);
+        let (reuse, debug) = reuse_stage(ctx, renderer, stage, None)?;
+        Ok(Self {
+            reuse,
+            debug,
+            world: None,
+        })
     }
 
     /// World-space ReSTIR GI for `renderer`'s scene and image with `config`.
@@ -190,14 +223,15 @@ impl RestirGi {
     ) -> Result<Self, RestirGiError> {
         config.validate()?;
         let pixels = renderer.pixels();
+        let capacity = world::pool_capacity(pixels);
         let chain = Chain {
             temporal: config.temporal,
             spatial: config.spatial_k > 0,
-            pool: world::pool_capacity(pixels),
+            pool: capacity,
         };
         let camera = renderer.camera();
         let size = size_of::<GiReservoir>();
-        let pool_buffers = PoolBuffers::new(ctx, world::pool_capacity(pixels), size);
+        let pool_buffers = PoolBuffers::new(ctx, capacity, size);
         let items = world::grid_items(pixels, Some(&pool_buffers));
         let grid = WorldGrid::new(
             ctx,
@@ -207,92 +241,67 @@ impl RestirGi {
             camera.eye,
         )?;
         let words = config.gpu_words();
-        let mut gi = Self::with_stage(ctx, renderer, &world::STAGE, &words, chain, Some(grid))?;
-        let grid = gi.grid.as_ref().expect("built with a grid");
+        let stage = (&world::STAGE, words.as_slice(), chain);
+        let (reuse, debug) = reuse_stage(ctx, renderer, stage, Some(&grid))?;
         let setup = (pixels, config.history_frames, size);
-        let pool = Pool::new(
-            ctx,
-            &renderer.shared,
-            setup,
-            &pool_buffers,
-            grid,
-            gi.reuse.history(),
-        )?;
-        gi.pool = Some((pool_buffers, pool));
-        Ok(gi)
-    }
-
-    fn with_stage(
-        ctx: &GpuContext,
-        renderer: &Renderer,
-        stage: &'static ScreenStage,
-        words: &[u32],
-        chain: Chain,
-        grid: Option<WorldGrid>,
-    ) -> Result<Self, RestirGiError> {
-        let bytes = u64::from(renderer.pixels()) * 4;
-        let debug = buffers::storage_zeroed(&ctx.device, "gi debug", bytes);
-        let own = StageBuffers {
-            initial: vec![(DEBUG.0, &debug)],
-            reuse: vec![(DEBUG.0, &debug)],
-            grid: grid.as_ref(),
-            ..Default::default()
-        };
-        let reuse = ScreenReuse::new(ctx, renderer, stage, words, chain, own)?;
+        let history = reuse.history();
+        let pool = Pool::new(ctx, &renderer.shared, setup, &pool_buffers, &grid, history)?;
         Ok(Self {
             reuse,
             debug,
-            grid,
-            pool: None,
+            world: Some(WorldCells {
+                grid,
+                pool_buffers,
+                pool,
+            }),
         })
     }
 
     /// Records the stage for the frame whose camera is `renderer`'s, after the indirect passes
     /// recorded the path samples: (world-restir-gi) this frame's grid of the primary vertices,
-    /// initial samples, temporal and spatial reuse, shading into `render_indirect_frame`, and
-    /// keeps this frame's reservoirs, G-buffer and camera.
+    /// initial samples, temporal and spatial reuse, shading into `render_indirect_frame`, keeps
+    /// this frame's reservoirs, G-buffer and camera, and (world-restir-gi) the next pool.
     pub fn encode(
         &mut self,
         f: &mut FrameEncoder,
         renderer: &Renderer,
     ) -> Result<(), RestirGiError> {
-        let parity = match &mut self.grid {
-            Some(grid) => {
-                let eye = renderer.camera().eye;
-                f.span("wgi-build", |f| grid.encode_build(f, eye))?
-            }
-            None => 0,
+        let Some(w) = &mut self.world else {
+            self.reuse.encode(f, renderer, 0);
+            return Ok(());
         };
+        let eye = renderer.camera().eye;
+        let parity = f.span("wgi-build", |f| w.grid.encode_build(f, eye))?;
         self.reuse.encode(f, renderer, parity);
-        if let Some((buffers, pool)) = &self.pool {
-            let history = self.reuse.history();
-            f.span("wgi-pool", |f| pool.encode(f, parity, buffers, history))?;
-        }
+        let history = self.reuse.history();
+        let (pool, buffers) = (&w.pool, &w.pool_buffers);
+        f.span("wgi-pool", |f| pool.encode(f, parity, buffers, history))?;
         Ok(())
     }
 
     /// Bytes of its buffers: the reservoirs and history, the debug counts and
-    /// (world-restir-gi) the grid.
+    /// (world-restir-gi) the grid and the pool.
     pub fn bytes(&self) -> u64 {
-        let grid = self.grid.as_ref().map_or(0, WorldGrid::bytes);
-        let pool = self.pool.as_ref().map_or(0, |(b, p)| b.bytes() + p.bytes());
-        self.reuse.bytes() + self.debug.size() + grid + pool
+        let world = self.world.as_ref().map_or(0, |w| {
+            w.grid.bytes() + w.pool_buffers.bytes() + w.pool.bytes()
+        });
+        self.reuse.bytes() + self.debug.size() + world
     }
 
     /// The pool after the last frame (world-restir-gi): the ages of its records, and how many
     /// records wanted in (more than it holds: the rest were dropped).
     pub fn pool(&self, ctx: &GpuContext) -> Result<Option<(Vec<u32>, u32)>, GpuError> {
-        let Some((b, _)) = &self.pool else {
+        let Some(w) = &self.world else {
             return Ok(None);
         };
-        let (mut ages, count) = b.read(ctx)?;
+        let (mut ages, count) = w.pool_buffers.read(ctx)?;
         ages.truncate(count[0] as usize);
         Ok(Some((ages, count[1])))
     }
 
     /// Statistics of the last built grid (world-restir-gi).
     pub fn grid_stats(&self, ctx: &GpuContext) -> Result<Option<HashStats>, GpuError> {
-        self.grid.as_ref().map(|g| g.stats(ctx)).transpose()
+        self.world.as_ref().map(|w| w.grid.stats(ctx)).transpose()
     }
 
     /// The last frame's final reservoirs, per pixel.
