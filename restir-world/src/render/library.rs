@@ -19,7 +19,8 @@ pub const PASSES_WGSL: &str = include_str!("passes.wgsl");
 pub const PATH_WGSL: &str = include_str!("path.wgsl");
 /// The name of the module that defines `path_cache_radiance` for [`PATH_WGSL`].
 pub const PATH_CACHE: &str = "path-cache";
-/// The name of the module that defines `path_light_estimate` for [`PATH_WGSL`].
+/// The name of the module that defines `path_light_estimate` and `path_light_nee` for
+/// [`PATH_WGSL`].
 pub const PATH_LIGHT: &str = "path-light";
 
 pub(super) const METHOD_NEE: u32 = 0;
@@ -122,7 +123,8 @@ pub(super) fn passes_module() -> WgslModule {
 
 /// The path module ([`PATH_WGSL`]); when no cache provides [`PATH_CACHE`], a
 /// `path_cache_radiance` that never ends a path; when no stage provides [`PATH_LIGHT`]
-/// (`with_light`), a `path_light_estimate` of 0 (MIS with the light table's density).
+/// (`with_light`), a `path_light_estimate` of 0 (MIS with the light table's density) and a
+/// `path_light_nee` that is the renderer's light sample.
 pub fn path_modules(with_cache: bool, with_light: bool) -> Vec<WgslModule> {
     let mut m = vec![WgslModule::new(
         "render-path",
@@ -135,7 +137,11 @@ pub fn path_modules(with_cache: bool, with_light: bool) -> Vec<WgslModule> {
             &["render"],
             "// No estimates: the path's MIS weighs with the light table's density.\n\
              fn path_light_estimate(i: u32, w: GVertex, bounce: u32) -> f32 {\n    \
-             return 0.0;\n}\n",
+             return 0.0;\n}\n\
+             // The renderer's light sample at every vertex.\n\
+             fn path_light_nee(i: u32, w: GVertex, bounce: u32, e: f32, \
+             rng: ptr<function, u32>) -> vec3<f32> {\n    \
+             return render_nee_at(w, rng, e);\n}\n",
         ));
     }
     if !with_cache {

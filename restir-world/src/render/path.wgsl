@@ -9,7 +9,9 @@
 //     fn path_light_estimate(i: u32, w: GVertex, bounce: u32) -> f32
 // the estimate e that pixel i's light sample at the path's vertex w (reached by bounce
 // `bounce`) and the ray leaving w weigh their MIS with (render_light_density; 0: the light
-// table's density), drawn from numbers of its own.
+// table's density), drawn from numbers of its own, and
+//     fn path_light_nee(i: u32, w: GVertex, bounce: u32, e: f32, rng: ptr<function, u32>) -> vec3<f32>
+// the light reflected at w by its light sample (render_nee_at without a stage's own).
 
 // The spread a cosine-sampled segment from v (direction dir, sampled about v's shading normal)
 // to w adds to a path's footprint (Mueller et al. 2021, neural radiance caching: the square
@@ -74,7 +76,7 @@ fn render_path_pixel(i: u32) {
             break;
         }
         let e_w = path_light_estimate(i, w, bounce);
-        render_path_add(&light, leaving, reflected, render_nee_at(w, &rng, e_w));
+        render_path_add(&light, leaving, reflected, path_light_nee(i, w, bounce, e_w, &rng));
         v = w;
         e_v = e_w;
     }

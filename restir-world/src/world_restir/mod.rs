@@ -15,7 +15,7 @@
 //! | `shade_direct` | the renderer's, or `wr_shade_direct` when unified | | direct |
 //! | `accumulate` | the renderer's | | sums |
 //! | `persist` | copy final reservoirs -> prev reservoirs | | |
-//! | `path` | `wr_path`: the renderer's path, each vertex's MIS estimate from grid\[p\] ([`WorldRestir::encode_path`]) | estimates | path radiance, indirect |
+//! | `path` | `wr_path`: the renderer's path, each vertex's MIS estimate and (`path-reservoirs`) one of its cell's final reservoirs from grid\[p\] ([`WorldRestir::encode_path`]) | estimates, final reservoirs | path radiance, indirect |
 //!
 //! The passes from `generate` to `spatial` run over the grid's items: the secondary vertices,
 //! followed by the primary ones with the unified cache ([`WorldRestirConfig::unified`]).
@@ -130,6 +130,10 @@ crate::knobs! {
         /// its own gets only samples its neighbours could draw (measured on many-lights at
         /// 128x128 with stride 2: indirect mean -15/-22/-13% per channel), so the default stays 1.
         [gpu] gi_stride: u32 = 1, "gi-stride", 1..=8;
+        /// World-space reservoirs at every path vertex past the secondary one (default on): the
+        /// vertex's RIS reservoir (the renderer's `candidates`) merges one final reservoir of
+        /// its cell in this frame's grid before its shadow ray. Off: the renderer's RIS there.
+        [gpu] path_reservoirs: bool = false, "path-reservoirs";
         /// How reused reservoirs are weighted (default pairwise MIS, unbiased; `biased` is the
         /// paper's 1/M, `one-over-z` Bitterli et al.'s 1/Z).
         [gpu] combine: Combination = Combination::Pairwise, "combine";
@@ -314,7 +318,14 @@ const PATH: KernelDef = KernelDef::new(
     "path",
     &["wr_path"],
     PATH_WGSL,
-    &[&[PARAMS, RAW_ESTIMATES], grid::LOOKUP],
+    &[
+        &[
+            PARAMS,
+            RAW_ESTIMATES,
+            ("wr_final", RESERVOIRS, Access::Read),
+        ],
+        grid::LOOKUP,
+    ],
 );
 const SHADE: KernelDef = KernelDef::new(
     "shade",
@@ -575,12 +586,14 @@ impl Binder<'_> {
         self.pass(1, "wr_reuse", res, true)
     }
 
-    /// The path pass over the pixels, looking up the grid of parity `grid`.
-    fn path(&self, grid: usize) -> Result<Pass, GpuError> {
+    /// The path pass over the pixels, looking up the grid of parity `grid` and its final
+    /// reservoirs `last`.
+    fn path(&self, grid: usize, last: &wgpu::Buffer) -> Result<Pass, GpuError> {
         let first = PATH.buffers().count() as u32;
         let mut res = vec![
             self.params(),
             ("wr_estimate_raw", (&self.b.estimate[1]).into()),
+            ("wr_final", last.into()),
         ];
         res.extend(self.grid.lookup_resources(grid, first));
         self.pass(4, "wr_path", res, false)
@@ -652,7 +665,7 @@ impl WrPasses {
                 false => None,
             },
             debug: binder.pass(3, "wr_debug_view", debug_res, false)?,
-            path: binder.both(|p| binder.path(p))?,
+            path: binder.both(|p| binder.path(p, &b.reservoirs[cur]))?,
             final_index: cur,
         })
     }
