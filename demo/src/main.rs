@@ -7,7 +7,7 @@ use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
 use anyhow::{Context, Result};
-use clap::{Parser, Subcommand};
+use clap::{CommandFactory, FromArgMatches, Parser, Subcommand};
 use glam::Vec3;
 use indicatif::{ProgressBar, ProgressStyle};
 use restir_world::gpu::{Access, BindingSet, Kernel, Tracer, buffers, workgroup_size_wgsl};
@@ -24,10 +24,10 @@ mod scenes;
 mod view;
 
 #[derive(Parser, Debug)]
-#[command(name = "restir-demo", version, about)]
+#[command(name = "restir-demo", version, about, arg_required_else_help = true)]
 struct Cli {
     #[command(subcommand)]
-    command: Option<Command>,
+    command: Command,
     /// How rays are traced: auto (ray queries on GPUs that have them, else the software BVH),
     /// bvh (our CWBVH traversal, every adapter) or ray-query (the adapter's ray queries).
     #[arg(long, global = true, default_value = "auto", value_parser = parse_tracer)]
@@ -81,8 +81,7 @@ enum Command {
     },
     /// Render a scene: direct, indirect and combined images as linear EXR + sRGB PNG.
     Render(Box<RenderArgs>),
-    /// The default job: prove the device works by running a compute shader and writing its
-    /// image as a PNG.
+    /// Prove the device works: run a compute shader and write its image as a PNG.
     Smoke {
         /// Output directory.
         #[arg(long, default_value = "out")]
@@ -268,13 +267,22 @@ fn parse_vec3(s: &str) -> Result<Vec3, String> {
     }
 }
 
+/// The command line. A value that looks like a negative number is a value, so that
+/// `--bounces -1` is refused by its flag's check, not as an unknown argument.
+fn parse_cli() -> Cli {
+    let cmd = Cli::command().mut_subcommands(|s| {
+        s.mut_args(|a| match a.get_action().takes_values() {
+            true => a.allow_negative_numbers(true),
+            false => a,
+        })
+    });
+    Cli::from_arg_matches(&cmd.get_matches()).unwrap_or_else(|e| e.exit())
+}
+
 fn main() -> ExitCode {
-    let cli = Cli::parse();
+    let cli = parse_cli();
     let _ = TRACER.set(cli.tracer.0);
-    let result = match cli.command.unwrap_or(Command::Smoke {
-        out: "out".into(),
-        size: (256, 256),
-    }) {
+    let result = match cli.command {
         Command::Info {
             scene,
             scene_opts,
@@ -639,7 +647,10 @@ fn render_into(
                 camera.height,
                 start.elapsed().as_secs_f64()
             );
-            out
+            render_cmd::MethodRender {
+                images: out,
+                debug_views: Vec::new(),
+            }
         }
         Some(settings) => render_cmd::render_method(
             &args.method,
@@ -653,16 +664,16 @@ fn render_into(
                 paths: args.paths.paths()?,
                 ..Default::default()
             },
-            &args.out,
-            &format!("{scene_tag}-{method_tag}"),
         )?,
     };
     write_images(args, &format!("{scene_tag}-{method_tag}"), &images)
 }
 
 /// Writes the direct, indirect and combined images of a render as `TAG-KIND.exr` and `.png`
-/// into `--out`: all six files or none (a failed write removes the ones before it).
-fn write_images(args: &RenderArgs, tag: &str, images: &reference::Rendered) -> Result<()> {
+/// into `--out`, and its debug views as `TAG-VIEW.png`: every file or none (a failed write
+/// removes the ones before it).
+fn write_images(args: &RenderArgs, tag: &str, render: &render_cmd::MethodRender) -> Result<()> {
+    let images = &render.images;
     let sets = [
         ("direct", &images.direct),
         ("indirect", &images.indirect),
@@ -680,11 +691,18 @@ fn write_images(args: &RenderArgs, tag: &str, images: &reference::Rendered) -> R
             files.push(PathBuf::from(p));
         }
     }
+    let views = &render.debug_views;
+    files.extend(
+        views
+            .iter()
+            .map(|(name, _)| args.out.join(format!("{tag}-{name}.png"))),
+    );
     write_all_or_none(&files, |i, f| {
-        let img = sets[i / 2].1;
-        match i % 2 {
-            0 => image_io::write_exr(f, img)?,
-            _ => image_io::write_png(f, img, args.exposure)?,
+        match i.checked_sub(2 * sets.len()) {
+            // Debug views are colours already: no exposure.
+            Some(v) => image_io::write_png(f, &views[v].1, 1.0)?,
+            None if i % 2 == 0 => image_io::write_exr(f, sets[i / 2].1)?,
+            None => image_io::write_png(f, sets[i / 2].1, args.exposure)?,
         }
         Ok(())
     })?;
@@ -697,6 +715,9 @@ fn write_images(args: &RenderArgs, tag: &str, images: &reference::Rendered) -> R
             m[1],
             m[2]
         );
+    }
+    for f in &files[2 * sets.len()..] {
+        println!("wrote {}", f.display());
     }
     Ok(())
 }

@@ -2,18 +2,16 @@
 //! (orbit or dolly over F frames), the per-pass GPU times, and the debug views (PNG) of
 //! methods that have them.
 
-use std::path::Path;
-
 use anyhow::Result;
 use clap::Args;
 use restir_world::GpuContext;
-use restir_world::image_io::{Image, write_png};
+use restir_world::image_io::Image;
 use restir_world::methods::{
     FrameLoop, FrameMethod, MethodError, MethodSettings, Readback, run_frames,
 };
 use restir_world::reference::Rendered;
 use restir_world::render::{DebugView, RenderOptions};
-use restir_world::scene::{Camera, Scene};
+use restir_world::scene::{Camera, CameraPath, Scene};
 
 use crate::camera::Motion;
 use crate::progress_bar;
@@ -63,12 +61,39 @@ impl AnimArgs {
         }
         Ok(())
     }
+
+    /// Checks the camera of each of the first `frames` frames of the animation from the
+    /// scene's camera `base` before any work: a dolly far backwards (`--dolly-fraction -1e38`)
+    /// would leave floats.
+    pub fn check_cameras(&self, base: &Camera, frames: u32) -> Result<()> {
+        let path = self.path();
+        for frame in 0..self.anim_frames.min(frames).max(1) {
+            if let Err(e) = path.camera(base, frame).validate() {
+                let flag = match self.animation {
+                    Motion::Dolly => format!("--dolly-fraction {:?}", self.dolly_fraction),
+                    _ => format!("--orbit-degrees {:?}", self.orbit_degrees),
+                };
+                anyhow::bail!("{flag}: frame {frame}'s camera is not valid: {e}");
+            }
+        }
+        Ok(())
+    }
+
+    fn path(&self) -> CameraPath {
+        self.animation
+            .path(self.anim_frames, self.orbit_degrees, self.dolly_fraction)
+    }
+}
+
+/// A method's render: the accumulated images, and the debug views of its last frame when asked
+/// (each with its file name's suffix, e.g. `debug-m`), written together by the caller.
+pub struct MethodRender {
+    pub images: Rendered,
+    pub debug_views: Vec<(&'static str, Image)>,
 }
 
 /// Renders `frames` frames of the registry method `spec` (parsed: `settings`) and returns the
-/// accumulated images; writes the debug views into `out` when asked (`tag` prefixes their
-/// names).
-#[allow(clippy::too_many_arguments)]
+/// accumulated images, and the debug views when asked.
 pub fn render_method(
     spec: &str,
     settings: &MethodSettings,
@@ -77,16 +102,13 @@ pub fn render_method(
     camera: &Camera,
     frames: u32,
     options: &RenderOptions,
-    out: &Path,
-    tag: &str,
-) -> Result<Rendered> {
+) -> Result<MethodRender> {
+    args.check_cameras(camera, frames)?;
     let ctx = crate::gpu_context()?;
     eprintln!("{}", ctx.describe());
     let mut m = settings.build_with(&ctx, scene, camera, options)?;
     let l = FrameLoop {
-        path: args
-            .animation
-            .path(args.anim_frames, args.orbit_degrees, args.dolly_fraction),
+        path: args.path(),
         ..FrameLoop::frames(frames)
     };
     let pb = progress_bar(u64::from(frames), &format!("{spec} frames"));
@@ -106,10 +128,14 @@ pub fn render_method(
         None => println!("{spec}: {frames} frames (adapter has no timestamps)"),
     }
     print_stage_stats(&ctx, m.as_ref())?;
-    if args.debug_views {
-        write_debug_views(&ctx, m.as_ref(), spec, camera, out, tag)?;
-    }
-    Ok(m.read(&ctx, Readback::Accumulated)?.into_rendered()?)
+    let debug_views = match args.debug_views {
+        true => debug_views(&ctx, m.as_ref(), spec, camera)?,
+        false => Vec::new(),
+    };
+    Ok(MethodRender {
+        images: m.read(&ctx, Readback::Accumulated)?.into_rendered()?,
+        debug_views,
+    })
 }
 
 /// The hash grid's and the radiance cache's use in the last frame, for methods with them.
@@ -135,16 +161,14 @@ fn print_stage_stats(ctx: &GpuContext, m: &dyn FrameMethod) -> Result<()> {
     Ok(())
 }
 
-/// Writes the debug views `m` draws as `{tag}-debug-*.png` into `out`.
-fn write_debug_views(
+/// The debug views `m` draws, each with its file name's suffix.
+fn debug_views(
     ctx: &GpuContext,
     m: &dyn FrameMethod,
     spec: &str,
     camera: &Camera,
-    out: &Path,
-    tag: &str,
-) -> Result<()> {
-    let mut written = 0;
+) -> Result<Vec<(&'static str, Image)>> {
+    let mut views = Vec::new();
     for (view, name) in [
         (DebugView::Cells, "debug-cells"),
         (DebugView::M, "debug-m"),
@@ -158,15 +182,12 @@ fn write_debug_views(
         let Some(px) = m.debug_image(ctx, view)? else {
             continue;
         };
-        written += 1;
         let img = Image::from_pixels(camera.width, camera.height, px)
-            .map_err(|e| anyhow::anyhow!("{e}"))?;
-        let file = out.join(format!("{tag}-{name}.png"));
-        write_png(&file, &img, 1.0)?;
-        println!("wrote {}", file.display());
+            .map_err(|e| anyhow::anyhow!("{spec}'s debug view {name}: {e}"))?;
+        views.push((name, img));
     }
-    if written == 0 {
+    if views.is_empty() {
         eprintln!("warning: {spec} has no debug views");
     }
-    Ok(())
+    Ok(views)
 }

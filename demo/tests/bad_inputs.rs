@@ -1408,7 +1408,69 @@ fn cases(tmp: &Path, gen_dir: &Path) -> Vec<Case> {
             1,
             "--method: method ris+cache: the radiance cache holds the light of every bounce",
         ),
+        // Issue 38: with no arguments it ran `smoke` (a GPU job writing into ./out).
+        case("38-no-arguments-prints-help", &[], 2, "Usage: restir-demo").no_out(),
+        // Issue 38: "unexpected argument '-1'", which named no flag.
+        cornell(
+            "38-bounces-negative",
+            &["--bounces", "-1"],
+            2,
+            "invalid value '-1' for '--bounces",
+        ),
+        // Issue 38: a camera overflow after the adapter, naming no flag.
+        case_of(
+            "38-dolly-fraction-overflow",
+            gpu_render("4x4", &["--animation", "dolly", "--dolly-fraction=-1e38"]),
+            1,
+            "--dolly-fraction -1e38: frame 1's camera is not valid",
+        ),
+        // Issue 38: restir-gi's debug views at 1x1 failed ("image of 1x1 needs 1 pixels, has
+        // 4": a padded buffer read whole).
+        case_of(
+            "38-debug-views-1x1",
+            gpu_render("1x1", &["--debug-views", "--animation", "orbit"]),
+            0,
+            "",
+        )
+        .after(|out| expect_files(out, 8)),
+        // Issue 38: the debug views were written before the images, so a failed image write
+        // left them behind (a directory planted at the last image's name makes it fail).
+        case_of(
+            "38-debug-views-written-with-the-images",
+            gpu_render("4x4", &["--debug-views"]),
+            1,
+            "cornell-restir-gi-combined.png",
+        )
+        .before(|_, out| {
+            std::fs::create_dir_all(out.join("cornell-restir-gi-combined.png")).unwrap();
+        }),
     ]
+}
+
+/// `restir-demo render` of cornell with restir-gi (a GPU method with debug views) at `size`,
+/// two frames, with `extra` flags.
+fn gpu_render(size: &str, extra: &[&str]) -> Vec<String> {
+    let base = [
+        "render",
+        "--scene",
+        "cornell",
+        "--method",
+        "restir-gi",
+        "--size",
+        size,
+        "--frames",
+        "2",
+    ];
+    base.iter().chain(extra).map(|s| s.to_string()).collect()
+}
+
+/// That `out` holds `count` files.
+fn expect_files(out: &Path, count: usize) -> Result<(), String> {
+    let files = files_under(out);
+    match files.len() == count {
+        true => Ok(()),
+        false => Err(format!("expected {count} files, found {files:?}")),
+    }
 }
 
 /// Cases that depend on the adapter's limits (skipped, with the reason printed, where the

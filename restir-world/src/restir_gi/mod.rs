@@ -168,6 +168,8 @@ struct WorldCells {
 #[derive(Debug)]
 pub struct RestirGi {
     reuse: ScreenReuse,
+    /// The image's pixels (the buffers may hold more: padding, the pool).
+    pixels: u32,
     /// Per pixel: neighbours merged (low 16 bits) and reconnections rejected (high 16 bits).
     debug: wgpu::Buffer,
     world: Option<WorldCells>,
@@ -210,6 +212,7 @@ impl RestirGi {
         let (reuse, debug) = reuse_stage(ctx, renderer, stage, None)?;
         Ok(Self {
             reuse,
+            pixels: renderer.pixels(),
             debug,
             world: None,
         })
@@ -248,6 +251,7 @@ impl RestirGi {
         let pool = Pool::new(ctx, &renderer.shared, setup, &pool_buffers, &grid, history)?;
         Ok(Self {
             reuse,
+            pixels: renderer.pixels(),
             debug,
             world: Some(WorldCells {
                 grid,
@@ -306,13 +310,16 @@ impl RestirGi {
 
     /// The last frame's final reservoirs, per pixel.
     pub fn reservoirs(&self, ctx: &GpuContext) -> Result<Vec<GiReservoir>, GpuError> {
-        self.reuse.reservoirs(ctx)
+        let mut v: Vec<GiReservoir> = self.reuse.reservoirs(ctx)?;
+        v.truncate(self.pixels as usize);
+        Ok(v)
     }
 
     /// Per pixel of the last frame: (neighbours merged, reconnections rejected).
     pub fn reconnections(&self, ctx: &GpuContext) -> Result<Vec<(u32, u32)>, GpuError> {
         let v: Vec<u32> = buffers::read(ctx, &self.debug)?;
-        Ok(v.iter().map(|w| (w & 0xffff, w >> 16)).collect())
+        let pixels = &v[..v.len().min(self.pixels as usize)];
+        Ok(pixels.iter().map(|w| (w & 0xffff, w >> 16)).collect())
     }
     /// A debug view of the last frame (RGB per pixel): [`DebugView::M`], a heat map of
     /// log2(M) of the final reservoirs (blue M = 1 .. red M = 1023), or
