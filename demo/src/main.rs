@@ -158,6 +158,11 @@ struct CompareArgs {
     /// Negative control for tests: METHOD=FACTOR multiplies that method's indirect image.
     #[arg(long, hide = true, value_parser = parse_bias)]
     plant_bias: Vec<(String, f32)>,
+    /// Denoise every method's frames (SVGF after the method) and measure the denoised image
+    /// too (relMSE, FLIP, bias, frame-to-frame change), with the denoiser's knobs as key=value
+    /// joined by + (bare --denoise: the defaults).
+    #[arg(long, num_args = 0..=1, default_missing_value = "", value_name = "KNOBS")]
+    denoise: Option<String>,
     /// Do not write the reference EXRs into --out.
     #[arg(long)]
     no_exr: bool,
@@ -555,7 +560,8 @@ fn render(args: &RenderArgs) -> Result<()> {
     // The method spec, parsed once: checked here, built by render_method.
     let mut settings = None;
     if args.method != CPU_REFERENCE {
-        let s = restir_world::methods::parse_spec(&args.method)?;
+        let mut s = restir_world::methods::parse_spec(&args.method)?;
+        s.denoise = args.anim.denoise_config()?;
         s.check_paths(&args.paths.paths()?)?;
         args.anim.validate()?;
         s.check_camera(&camera).with_context(|| {
@@ -573,7 +579,8 @@ fn render(args: &RenderArgs) -> Result<()> {
         settings = Some(s);
     } else if args.anim.used() {
         anyhow::bail!(
-            "--animation and --debug-views are options of GPU methods, not cpu-reference"
+            "--animation, --debug-views and --denoise are options of GPU methods, not \
+             cpu-reference"
         );
     } else {
         let bytes = reference::reference_bytes(camera.width, camera.height);
@@ -649,6 +656,7 @@ fn render_into(
             );
             render_cmd::MethodRender {
                 images: out,
+                denoised: None,
                 debug_views: Vec::new(),
             }
         }
@@ -669,16 +677,19 @@ fn render_into(
     write_images(args, &format!("{scene_tag}-{method_tag}"), &images)
 }
 
-/// Writes the direct, indirect and combined images of a render as `TAG-KIND.exr` and `.png`
+/// Writes the direct, indirect and combined images of a render (and the denoised last frame) as `TAG-KIND.exr` and `.png`
 /// into `--out`, and its debug views as `TAG-VIEW.png`: every file or none (a failed write
 /// removes the ones before it).
 fn write_images(args: &RenderArgs, tag: &str, render: &render_cmd::MethodRender) -> Result<()> {
     let images = &render.images;
-    let sets = [
+    let mut sets = vec![
         ("direct", &images.direct),
         ("indirect", &images.indirect),
         ("combined", &images.combined),
     ];
+    if let Some(d) = &render.denoised {
+        sets.push(("denoised", d));
+    }
     let (mut files, mut bases) = (Vec::new(), Vec::new());
     for (kind, _) in &sets {
         // Appended, not `with_extension`: a stem with dots ("a.b") would lose its tail.
@@ -797,6 +808,14 @@ fn default_compare_methods(paths: &restir_world::sampling::Paths) -> Vec<String>
 
 fn compare_cmd(a: CompareArgs) -> Result<()> {
     let paths = a.paths.paths()?;
+    let denoise = a
+        .denoise
+        .as_deref()
+        .map(|k| {
+            restir_world::denoise::DenoiseConfig::parse(k)
+                .map_err(|e| anyhow::anyhow!("--denoise: {e}"))
+        })
+        .transpose()?;
     let methods = if a.methods.is_empty() {
         default_compare_methods(&paths)
     } else {
@@ -820,6 +839,7 @@ fn compare_cmd(a: CompareArgs) -> Result<()> {
         equal_time_to: a.equal_time_to,
         eval_every: a.eval_every,
         plant_bias: a.plant_bias,
+        denoise,
         write_exr: !a.no_exr,
         progress: !a.quiet,
     };

@@ -5,6 +5,7 @@
 use anyhow::Result;
 use clap::Args;
 use restir_world::GpuContext;
+use restir_world::denoise::DenoiseConfig;
 use restir_world::image_io::Image;
 use restir_world::methods::{
     FrameLoop, FrameMethod, MethodError, MethodSettings, Readback, run_frames,
@@ -34,12 +35,26 @@ pub struct AnimArgs {
     /// methods with a hash grid.
     #[arg(long)]
     debug_views: bool,
+    /// Also write the last frame denoised (TAG-denoised.exr/png; SVGF after the method), with
+    /// the denoiser's knobs as key=value joined by + (e.g. --denoise iterations=3+alpha=0.1;
+    /// bare --denoise: the defaults). With --debug-views, also its history length, variance
+    /// and each filter iteration.
+    #[arg(long, num_args = 0..=1, default_missing_value = "", value_name = "KNOBS")]
+    pub denoise: Option<String>,
 }
 
 impl AnimArgs {
     /// Whether a camera animation or debug views were asked for (GPU methods only).
     pub fn used(&self) -> bool {
-        self.animation != Motion::Static || self.debug_views
+        self.animation != Motion::Static || self.debug_views || self.denoise.is_some()
+    }
+
+    /// The denoiser's knobs from --denoise (`None`: not asked for).
+    pub fn denoise_config(&self) -> Result<Option<DenoiseConfig>> {
+        self.denoise
+            .as_deref()
+            .map(|k| DenoiseConfig::parse(k).map_err(|e| anyhow::anyhow!("--denoise: {e}")))
+            .transpose()
     }
 
     /// Checks the animation before any work.
@@ -89,6 +104,8 @@ impl AnimArgs {
 /// (each with its file name's suffix, e.g. `debug-m`), written together by the caller.
 pub struct MethodRender {
     pub images: Rendered,
+    /// The last frame denoised (combined), with --denoise.
+    pub denoised: Option<Image>,
     pub debug_views: Vec<(&'static str, Image)>,
 }
 
@@ -132,8 +149,13 @@ pub fn render_method(
         true => debug_views(&ctx, m.as_ref(), spec, camera)?,
         false => Vec::new(),
     };
+    let denoised = match m.read_denoised(&ctx)? {
+        Some(d) => Some(d.into_rendered()?.combined),
+        None => None,
+    };
     Ok(MethodRender {
         images: m.read(&ctx, Readback::Accumulated)?.into_rendered()?,
+        denoised,
         debug_views,
     })
 }
@@ -177,6 +199,8 @@ fn debug_views(
         (DebugView::CacheRadiance, "debug-cache-radiance"),
         (DebugView::CacheAge, "debug-cache-age"),
         (DebugView::CacheSamples, "debug-cache-samples"),
+        (DebugView::DenoiseHistory, "debug-denoise-history"),
+        (DebugView::DenoiseVariance, "debug-denoise-variance"),
     ] {
         // Each method draws the views it has.
         let Some(px) = m.debug_image(ctx, view)? else {
@@ -185,6 +209,23 @@ fn debug_views(
         let img = Image::from_pixels(camera.width, camera.height, px)
             .map_err(|e| anyhow::anyhow!("{spec}'s debug view {name}: {e}"))?;
         views.push((name, img));
+    }
+    const ITERATIONS: [&str; 1 + restir_world::denoise::MAX_ITERATIONS as usize] = [
+        "debug-denoise-iteration-0",
+        "debug-denoise-iteration-1",
+        "debug-denoise-iteration-2",
+        "debug-denoise-iteration-3",
+        "debug-denoise-iteration-4",
+        "debug-denoise-iteration-5",
+        "debug-denoise-iteration-6",
+        "debug-denoise-iteration-7",
+        "debug-denoise-iteration-8",
+    ];
+    // The denoiser's iterations: radiance, written as PNGs like the views (exposure 1).
+    for (k, px) in m.denoise_iterations(ctx)?.into_iter().flatten().enumerate() {
+        let img = Image::from_pixels(camera.width, camera.height, px)
+            .map_err(|e| anyhow::anyhow!("{spec}'s denoiser iteration {k}: {e}"))?;
+        views.push((ITERATIONS[k], img));
     }
     if views.is_empty() {
         eprintln!("warning: {spec} has no debug views");

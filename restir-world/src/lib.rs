@@ -19,11 +19,12 @@
 //!   world-space grid a stage gathers its items in), then the stages that replace the renderer's shading: [`world_restir`] (light at
 //!   the secondary vertex), [`restir_gi`] (the paths, resampled between pixels) and
 //!   [`restir_di`] (direct), independent of each other; [`cache`] (the radiance cache the
-//!   paths end in).
+//!   paths end in); [`denoise`] (SVGF after any method).
 //! - [`methods`]: the registry, which composes the stages into methods, the one frame loop
 //!   (`run_frames`) and readback; [`gpu_reference`]: converged GPU references.
 
 pub mod cache;
+pub mod denoise;
 pub mod framing;
 pub mod gpu;
 pub mod gpu_reference;
@@ -61,6 +62,7 @@ pub fn kernels() -> Vec<render::ComposedKernel> {
     k.extend(restir_gi::kernels());
     k.extend(restir_gi::world::kernels());
     k.extend(cache::kernels());
+    k.extend(denoise::kernels());
     k
 }
 

@@ -52,6 +52,14 @@ pub enum Planted {
     /// The radiance cache's update paths lose their tail (the radiance beyond their last
     /// vertex taken as 0): the cells learn only the light of `update-depth` vertices.
     CacheUpdateWithoutTail,
+    /// The denoiser's temporal blend keeps only 90% of the history's weight (the weights of
+    /// history and new frame no longer sum to one).
+    DenoiseHistoryWeight,
+    /// The denoiser takes last frame's pixels as history whatever surface they saw (no
+    /// disocclusion test).
+    DenoiseNoDisocclusion,
+    /// The denoiser's a-trous filter without its luminance edge-stopping weight.
+    DenoiseNoLuminanceStop,
 }
 
 impl Planted {
@@ -66,6 +74,9 @@ impl Planted {
             Self::MissingBounce => 5,
             Self::CacheUpdateWithoutTail => 6,
             Self::LightMisDoubled => 7,
+            Self::DenoiseHistoryWeight => 8,
+            Self::DenoiseNoDisocclusion => 9,
+            Self::DenoiseNoLuminanceStop => 10,
         }
     }
 
@@ -110,6 +121,9 @@ impl Planted {
             ("MISSING_BOUNCE", Self::MissingBounce),
             ("CACHE_UPDATE_WITHOUT_TAIL", Self::CacheUpdateWithoutTail),
             ("LIGHT_MIS_DOUBLED", Self::LightMisDoubled),
+            ("DENOISE_HISTORY_WEIGHT", Self::DenoiseHistoryWeight),
+            ("DENOISE_NO_DISOCCLUSION", Self::DenoiseNoDisocclusion),
+            ("DENOISE_NO_LUMINANCE_STOP", Self::DenoiseNoLuminanceStop),
         ];
         let mut s = format!(
             "// Planted defects (restir_world::plant): 0 and scales of 1 but in tests' controls.\n\
@@ -139,6 +153,9 @@ mod tests {
             Planted::MissingBounce,
             Planted::CacheUpdateWithoutTail,
             Planted::LightMisDoubled,
+            Planted::DenoiseHistoryWeight,
+            Planted::DenoiseNoDisocclusion,
+            Planted::DenoiseNoLuminanceStop,
         ];
         let mut ids: Vec<u32> = all.iter().map(|p| p.id()).collect();
         ids.sort_unstable();

@@ -14,7 +14,8 @@ use restir_world::scene::{Camera, Scene};
 
 use super::reference::{Reference, Refs};
 use super::report::{
-    CacheUse, Err2, FrameError, FrameRecord, ImageErrors, MethodRun, PerImage, Stage,
+    CacheUse, DenoisedErrors, Err2, FrameError, FrameRecord, ImageErrors, MethodRun, PerImage,
+    RunImages, Stage,
 };
 use super::{CameraMode, CompareOptions, Rgb, TIMING_WARMUP_FRAMES};
 
@@ -83,9 +84,11 @@ impl SceneRuns<'_> {
             paths: opts.paths,
             ..Default::default()
         };
-        let mut m = run
-            .settings
-            .build_with(ctx, self.scene, &self.base, &options)?;
+        let settings = MethodSettings {
+            denoise: opts.denoise,
+            ..*run.settings
+        };
+        let mut m = settings.build_with(ctx, self.scene, &self.base, &options)?;
         let pixels = (self.base.width * self.base.height) as usize;
         let static_camera = opts.camera == CameraMode::Static;
         let mut tally = Tally::new(static_camera.then(|| Accumulator::new(pixels)));
@@ -111,11 +114,19 @@ impl SceneRuns<'_> {
                 ..record
             });
             let images = method_images(m.read(ctx, Readback::Accumulated)?, run.bias);
+            let denoised = m.read_denoised(ctx)?.map(|d| d.combined());
             let overflows = m.grid_overflows(ctx)?;
             if let Some(c) = m.cache_stats(ctx)? {
                 tally.cache = Some(CacheUse::add(tally.cache, &c));
             }
-            tally.record(s.record, images, self.refs.get(s.record), times, overflows)?;
+            let frame = Frame {
+                index: s.record,
+                images,
+                denoised,
+                times,
+                grid_overflows: overflows,
+            };
+            tally.record(frame, self.refs.get(s.record))?;
             self.bar.inc(1);
             Ok(())
         })?;
@@ -195,6 +206,29 @@ impl Accumulator {
     }
 }
 
+/// One frame of a run as read back.
+struct Frame {
+    index: u32,
+    images: PerImage<Rgb>,
+    /// The frame denoised (combined), with `--denoise`.
+    denoised: Option<Rgb>,
+    times: Option<PassTimes>,
+    grid_overflows: Option<u32>,
+}
+
+/// The denoised frames of a run: their errors and stability.
+#[derive(Default)]
+struct DenoisedTally {
+    /// Per channel: sums of the denoised and the reference pixels over the evaluated frames.
+    sums: Option<[[f64; 3]; 2]>,
+    /// The last evaluated frame: its index, denoised image and raw combined image, and its
+    /// reference's combined image.
+    last: Option<(u32, Rgb, Rgb, Rgb)>,
+    /// Per evaluated frame whose frame before was evaluated too: the denoised and the raw
+    /// frame-to-frame change against the reference's.
+    changes: Vec<(f64, f64)>,
+}
+
 /// What a run gathers frame by frame.
 struct Tally {
     records: Vec<FrameRecord>,
@@ -210,6 +244,22 @@ struct Tally {
     last_eval: Option<(u32, PerImage<Rgb>)>,
     cache: Option<CacheUse>,
     reuse_bytes_per_pixel: Option<f64>,
+    denoised: DenoisedTally,
+}
+
+/// Mean over pixels and channels of ((a - a_before) - (r - r_before))^2 / (r^2 + 0.01): the
+/// change of an image from one frame to the next against its reference's change.
+fn change_error(a: &Rgb, a_before: &Rgb, r: &Rgb, r_before: &Rgb) -> f64 {
+    let n = (a.len() * 3).max(1) as f64;
+    let mut sum = 0.0;
+    for (((p, pb), q), qb) in a.iter().zip(a_before).zip(r).zip(r_before) {
+        for c in 0..3 {
+            let d = f64::from(p[c] - pb[c]) - f64::from(q[c] - qb[c]);
+            let r = f64::from(q[c]);
+            sum += d * d / (r * r + 0.01);
+        }
+    }
+    sum / n
 }
 
 impl Tally {
@@ -223,18 +273,23 @@ impl Tally {
             last_eval: None,
             cache: None,
             reuse_bytes_per_pixel: None,
+            denoised: DenoisedTally::default(),
         }
     }
 
-    /// Records frame `frame`: its times, and its errors when it has a `reference`.
-    fn record(
-        &mut self,
-        frame: u32,
-        images: PerImage<Rgb>,
-        reference: Option<&Reference>,
-        times: Option<PassTimes>,
-        grid_overflows: Option<u32>,
-    ) -> Result<()> {
+    /// Records a frame: its times, and its errors when it has a `reference`.
+    fn record(&mut self, f: Frame, reference: Option<&Reference>) -> Result<()> {
+        let Frame {
+            index: frame,
+            images,
+            denoised,
+            times,
+            grid_overflows,
+        } = f;
+        let denoised_error = match (&denoised, reference) {
+            (Some(d), Some(r)) => Some(self.evaluate_denoised(frame, d, &images.combined, r)?),
+            _ => None,
+        };
         let gpu_ms = times.as_ref().map(PassTimes::total_ms);
         self.cumulative_ms += gpu_ms.unwrap_or(0.0);
         if let Some(acc) = &mut self.accumulated {
@@ -255,6 +310,7 @@ impl Tally {
                 .as_ref()
                 .map_or_else(Vec::new, |t| Stage::list(t.passes.clone())),
             images: errors,
+            denoised: denoised_error,
             grid_overflows,
         });
         self.times.push(times);
@@ -284,6 +340,65 @@ impl Tally {
         })
     }
 
+    /// The denoised frame `frame` (`raw`: its combined image) against `r`: its error; adds to
+    /// the bias sums and, when the frame before was evaluated, the frame-to-frame changes.
+    fn evaluate_denoised(
+        &mut self,
+        frame: u32,
+        denoised: &Rgb,
+        raw: &Rgb,
+        r: &Reference,
+    ) -> Result<FrameError> {
+        let t = &mut self.denoised;
+        add_channel_sums(&mut t.sums, denoised, &r.combined);
+        if let Some((before, d0, raw0, r0)) = &t.last
+            && before + 1 == frame
+        {
+            t.changes.push((
+                change_error(denoised, d0, &r.combined, r0),
+                change_error(raw, raw0, &r.combined, r0),
+            ));
+        }
+        t.last = Some((frame, denoised.clone(), raw.clone(), r.combined.clone()));
+        Ok(FrameError {
+            error: metrics::errors(denoised, &r.combined)?.into(),
+            accumulated_rel_mse: None,
+        })
+    }
+
+    /// The denoised frames' errors over the run (as [`Self::image_errors`]' combined image's).
+    fn denoised_errors(&self, refs: &Refs) -> Result<Option<DenoisedErrors>> {
+        let t = &self.denoised;
+        let Some((frame, image, _, _)) = &t.last else {
+            return Ok(None);
+        };
+        let frames = self.records.len() as u32;
+        let errors: Vec<Err2> = self
+            .records
+            .iter()
+            .filter(|r| r.frame >= frames / 2 || frames == 1)
+            .filter_map(|r| r.denoised.map(|e| e.error))
+            .collect();
+        let mut e = ImageErrors {
+            frame: Err2::mean(&errors),
+            bias: t.sums.map(channel_ratio),
+            ..ImageErrors::default()
+        };
+        if let Some(r) = refs.get(*frame) {
+            let exposure = metrics::auto_exposure(&r.combined);
+            e.frame_flip = Some(metrics::flip(image, &r.combined, r.width, r.height, exposure)?.0);
+        }
+        let n = t.changes.len() as f64;
+        let mean = |pick: fn(&(f64, f64)) -> f64| {
+            (n > 0.0).then(|| t.changes.iter().map(pick).sum::<f64>() / n)
+        };
+        Ok(Some(DenoisedErrors {
+            errors: e,
+            temporal_change: mean(|c| c.0),
+            raw_temporal_change: mean(|c| c.1),
+        }))
+    }
+
     /// The run's report and its last evaluated combined image.
     fn finish(self, run: &RunSpec, refs: &Refs) -> Result<Finished> {
         let frames = self.records.len() as u32;
@@ -305,7 +420,10 @@ impl Tally {
             max_grid_overflows: self.records.iter().filter_map(|r| r.grid_overflows).max(),
             cache: self.cache,
             reuse_bytes_per_pixel: self.reuse_bytes_per_pixel,
-            images: self.image_errors(refs)?,
+            images: RunImages {
+                raw: self.image_errors(refs)?,
+                denoised: self.denoised_errors(refs)?,
+            },
             per_frame: self.records,
         };
         Ok(Finished {

@@ -50,6 +50,8 @@ pub struct CompareOptions {
     pub equal_time_to: Option<String>,
     pub eval_every: u32,
     pub plant_bias: Vec<(String, f32)>,
+    /// The denoiser after every method (`--denoise`): its frames measured too.
+    pub denoise: Option<restir_world::denoise::DenoiseConfig>,
     pub write_exr: bool,
     pub progress: bool,
 }

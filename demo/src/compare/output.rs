@@ -8,7 +8,7 @@ use restir_world::image_io::{self, tone_map};
 use restir_world::metrics;
 
 use super::reference::Reference;
-use super::report::{EqualTime, Err2, ImageKind, MethodRun, Report, SceneReport};
+use super::report::{DenoisedErrors, EqualTime, Err2, ImageKind, MethodRun, Report, SceneReport};
 use super::{Rgb, TIMING_WARMUP_FRAMES, plot};
 
 /// JPEG quality of the strip image: the encoder keeps full-resolution colour, so two 256-pixel
@@ -280,6 +280,7 @@ fn write_scene(s: &mut String, sc: &SceneReport) {
     for kind in ImageKind::ALL {
         write_errors(s, &sc.methods, kind);
     }
+    write_denoised(s, &sc.methods);
     if let Some(eq) = &sc.equal_time {
         write_equal_time(s, eq, &sc.methods);
     }
@@ -347,6 +348,81 @@ fn write_errors(s: &mut String, methods: &[MethodRun], kind: ImageKind) {
         ]
     });
     table(s, &header, rows);
+}
+
+/// The denoised frames of every method run with `--denoise`, and which method gives the best
+/// denoised image per unit of GPU time.
+fn write_denoised(s: &mut String, methods: &[MethodRun]) {
+    let runs: Vec<(&MethodRun, &DenoisedErrors)> = methods
+        .iter()
+        .filter_map(|m| Some((m, m.images.denoised.as_ref()?)))
+        .collect();
+    if runs.is_empty() {
+        return;
+    }
+    let _ = writeln!(
+        s,
+        "denoised image (the combined frame after the denoiser; frame times include its \
+         `denoise` span):\n"
+    );
+    let header = strings(&[
+        "method",
+        "frame relMSE (trimmed)",
+        "raw/denoised frame relMSE",
+        "frame FLIP (raw)",
+        "bias (mean / reference, RGB)",
+        "frame-to-frame change, denoised (raw)",
+        "denoise ms/frame (share)",
+        "efficiency 1/(relMSE x ms) (trimmed)",
+    ]);
+    let efficiency = |m: &MethodRun, e: &DenoisedErrors, trimmed: bool| -> Option<f64> {
+        let f = e.errors.frame?;
+        let rel = if trimmed {
+            f.rel_mse_trimmed
+        } else {
+            f.rel_mse
+        };
+        Some(1.0 / (rel * m.ms_per_frame_median?))
+    };
+    let rows = runs.iter().map(|(m, e)| {
+        let raw = m.images.combined.frame.map(|f| f.rel_mse);
+        let ratio = raw.zip(e.errors.frame).map(|(r, d)| r / d.rel_mse);
+        let denoise_ms = m
+            .ms_per_frame_by_stage_median
+            .iter()
+            .find(|st| st.name == "denoise")
+            .map(|st| st.ms);
+        let share = denoise_ms
+            .zip(m.ms_per_frame_median)
+            .map_or_else(String::new, |(d, t)| format!(" ({:.0}%)", 100.0 * d / t));
+        vec![
+            method_name(m),
+            rel_trimmed(e.errors.frame),
+            sci(ratio),
+            format!(
+                "{} ({})",
+                sci(e.errors.frame_flip),
+                sci(m.images.combined.frame_flip)
+            ),
+            rgb(e.errors.bias),
+            pair(e.temporal_change, e.raw_temporal_change),
+            format!("{}{share}", sci(denoise_ms)),
+            pair(efficiency(m, e, false), efficiency(m, e, true)),
+        ]
+    });
+    table(s, &header, rows);
+    let best = runs
+        .iter()
+        .filter_map(|(m, e)| Some((m, efficiency(m, e, false)?)))
+        .max_by(|a, b| a.1.total_cmp(&b.1));
+    if let Some((m, eff)) = best {
+        let _ = writeln!(
+            s,
+            "Best denoised image per unit of GPU time: `{}` (efficiency {}).\n",
+            m.method,
+            sci(Some(eff))
+        );
+    }
 }
 
 fn write_equal_time(s: &mut String, eq: &EqualTime, methods: &[MethodRun]) {

@@ -126,7 +126,9 @@ pub fn make_references(
 }
 
 /// The frames measured against a reference: frame 0 for a static camera (its reference serves
-/// every frame), else every `--eval-every`-th frame and the last.
+/// every frame), else every `--eval-every`-th frame and the last, and with `--denoise` the
+/// frame before each of those (the denoised image's frame-to-frame change is measured against
+/// the reference's own).
 fn evaluated_frames(opts: &CompareOptions) -> Vec<u32> {
     match opts.camera {
         CameraMode::Static => vec![0],
@@ -135,6 +137,12 @@ fn evaluated_frames(opts: &CompareOptions) -> Vec<u32> {
             let mut v: Vec<u32> = (0..opts.frames).filter(|f| (f + 1) % every == 0).collect();
             if v.last() != Some(&(opts.frames - 1)) {
                 v.push(opts.frames - 1);
+            }
+            if opts.denoise.is_some() {
+                let before: Vec<u32> = v.iter().filter_map(|f| f.checked_sub(1)).collect();
+                v.extend(before);
+                v.sort_unstable();
+                v.dedup();
             }
             v
         }

@@ -147,6 +147,9 @@ pub struct FrameRecord {
     /// between evaluation frames; direct and indirect without an indirect reference). The
     /// direct reference is the reference's combined image minus its indirect one.
     pub images: PerImage<Option<FrameError>>,
+    /// The denoised frame's error against the combined reference (`--denoise`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub denoised: Option<FrameError>,
     /// Vertices left out of this frame's hash grid (methods with a grid).
     pub grid_overflows: Option<u32>,
 }
@@ -193,8 +196,41 @@ pub struct MethodRun {
     /// Bytes per pixel of the buffers its path-resampling stage keeps (restir-gi,
     /// world-restir-gi: reservoirs, history, grid and pool).
     pub reuse_bytes_per_pixel: Option<f64>,
-    pub images: PerImage<ImageErrors>,
+    pub images: RunImages,
     pub per_frame: Vec<FrameRecord>,
+}
+
+/// A run's errors per image: direct, indirect, combined and (`--denoise`) the denoised
+/// frames, each with the same fields.
+#[derive(Debug, Clone, Serialize)]
+pub struct RunImages {
+    #[serde(flatten)]
+    pub raw: PerImage<ImageErrors>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub denoised: Option<DenoisedErrors>,
+}
+
+impl std::ops::Deref for RunImages {
+    type Target = PerImage<ImageErrors>;
+    fn deref(&self) -> &Self::Target {
+        &self.raw
+    }
+}
+
+/// The denoised frames' errors (the combined image denoised, against the combined
+/// reference; `accumulated` is not measured: a denoised frame is shown, not averaged) and
+/// their temporal stability.
+#[derive(Debug, Clone, Copy, Default, Serialize)]
+pub struct DenoisedErrors {
+    #[serde(flatten)]
+    pub errors: ImageErrors,
+    /// The frame-to-frame change of the denoised image against the reference's own change:
+    /// mean over pixels and channels of ((D_t - D_t-1) - (R_t - R_t-1))^2 / (R_t^2 + 0.01),
+    /// averaged over the evaluated frames t whose frame before has a reference too (lower:
+    /// steadier; 0: it changes exactly as the reference does).
+    pub temporal_change: Option<f64>,
+    /// The same of the raw combined frames, measured in the same run.
+    pub raw_temporal_change: Option<f64>,
 }
 
 /// A radiance cache over a run: its table and the most it used.
@@ -224,7 +260,7 @@ impl CacheUse {
 impl MethodRun {
     /// The mean per-frame error of each image.
     pub fn frame_errors(&self) -> PerImage<Option<Err2>> {
-        self.images.map(|e| e.frame)
+        self.images.raw.map(|e| e.frame)
     }
 }
 

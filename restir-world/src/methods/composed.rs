@@ -2,8 +2,9 @@
 //! one order every method shares.
 
 use super::plan::{FramePlan, Step};
-use super::{FrameMethod, MethodError, MethodSettings};
+use super::{FrameImages, FrameMethod, MethodError, MethodSettings};
 use crate::cache::{CacheStats, RadianceCache};
+use crate::denoise::Denoiser;
 use crate::gpu::{FrameEncoder, GpuContext};
 use crate::light_tiles::LightTiles;
 use crate::render::{DebugView, RenderOptions, Renderer};
@@ -24,6 +25,8 @@ pub struct Composed {
     gi: Option<RestirGi>,
     di: Option<RestirDi>,
     cache: Option<RadianceCache>,
+    /// After every step of the plan, when the settings ask for it.
+    denoiser: Option<Denoiser>,
 }
 
 impl Composed {
@@ -79,6 +82,10 @@ impl Composed {
             Some(c) => Some(RadianceCache::new(ctx, &renderer, c)?),
             None => None,
         };
+        let denoiser = match &settings.denoise {
+            Some(d) => Some(Denoiser::new(ctx, &renderer, d)?),
+            None => None,
+        };
         Ok(Self {
             renderer,
             plan,
@@ -87,6 +94,7 @@ impl Composed {
             gi,
             di,
             cache,
+            denoiser,
         })
     }
 
@@ -155,6 +163,11 @@ impl Composed {
         &self.plan
     }
 
+    /// The denoiser, when the method has one.
+    pub fn denoiser(&self) -> Option<&Denoiser> {
+        self.denoiser.as_ref()
+    }
+
     /// The light tiles, when a stage draws from them.
     pub fn tiles(&self) -> Option<&LightTiles> {
         self.tiles.as_ref()
@@ -198,6 +211,9 @@ impl FrameMethod for Composed {
                 Step::Accumulate => r.encode_accumulate(f),
             }
         }
+        if let Some(d) = &mut self.denoiser {
+            d.encode(f, r);
+        }
         Ok(())
     }
 
@@ -236,11 +252,33 @@ impl FrameMethod for Composed {
         }
     }
 
+    fn read_denoised(&self, ctx: &GpuContext) -> Result<Option<FrameImages>, MethodError> {
+        match &self.denoiser {
+            Some(d) => Ok(Some(d.read(ctx, self.renderer.camera())?)),
+            None => Ok(None),
+        }
+    }
+
+    fn denoise_iterations(
+        &self,
+        ctx: &GpuContext,
+    ) -> Result<Option<Vec<Vec<[f32; 3]>>>, MethodError> {
+        match &self.denoiser {
+            Some(d) => Ok(Some(d.iteration_images(ctx, &self.renderer)?)),
+            None => Ok(None),
+        }
+    }
+
     fn debug_image(
         &self,
         ctx: &GpuContext,
         view: DebugView,
     ) -> Result<Option<Vec<[f32; 3]>>, MethodError> {
+        if let Some(d) = &self.denoiser {
+            if let Some(image) = d.debug_image(ctx, view)? {
+                return Ok(Some(image));
+            }
+        }
         if let Some(c) = &self.cache {
             if let Some(image) = c.debug_image(ctx, view)? {
                 return Ok(Some(image));

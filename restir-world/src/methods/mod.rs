@@ -77,6 +77,18 @@ pub trait FrameMethod: fmt::Debug {
     fn cache_stats(&self, _ctx: &GpuContext) -> Result<Option<CacheStats>, MethodError> {
         Ok(None)
     }
+    /// The last frame denoised, for methods built with a denoiser.
+    fn read_denoised(&self, _ctx: &GpuContext) -> Result<Option<FrameImages>, MethodError> {
+        Ok(None)
+    }
+    /// The last frame after each of the denoiser's filter iterations (0: before the first),
+    /// combined, for methods built with a denoiser.
+    fn denoise_iterations(
+        &self,
+        _ctx: &GpuContext,
+    ) -> Result<Option<Vec<Vec<[f32; 3]>>>, MethodError> {
+        Ok(None)
+    }
     /// A debug view of the last frame (RGB per pixel), for methods with a hash grid.
     fn debug_image(
         &self,

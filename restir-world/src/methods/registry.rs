@@ -7,6 +7,7 @@ use std::fmt;
 use super::plan::{FramePlan, Step};
 use super::{Composed, FrameMethod, MethodError};
 use crate::cache::{self, CacheConfig, CacheError};
+use crate::denoise::DenoiseConfig;
 use crate::gpu::GpuContext;
 use crate::knobs::{Knob, Knobs, Variant, parse_config};
 use crate::render::{self, RenderOptions};
@@ -123,6 +124,7 @@ impl MethodEntry {
             wgi: self.world_restir_gi.then(WorldRestirGiConfig::default),
             di: self.restir_di.then(RestirDiConfig::default),
             cache: self.cache.then(CacheConfig::default),
+            denoise: None,
         };
         match (self.variant_of, variant) {
             (VariantOf::Nothing, None) => {}
@@ -176,6 +178,8 @@ pub struct MethodSettings {
     pub wgi: Option<WorldRestirGiConfig>,
     pub di: Option<RestirDiConfig>,
     pub cache: Option<CacheConfig>,
+    /// The denoiser after the method's frames (not part of its spec: the tools' `--denoise`).
+    pub denoise: Option<DenoiseConfig>,
 }
 
 impl PartialEq for MethodSettings {
@@ -190,6 +194,7 @@ impl PartialEq for MethodSettings {
                     other.cache,
                 )
             && self.wgi == other.wgi
+            && self.denoise == other.denoise
     }
 }
 

@@ -21,9 +21,18 @@ pub enum DebugView {
     CacheAge = 5,
     /// The cell's sample count (heat map of log2 up to `history`).
     CacheSamples = 6,
+    /// The denoiser's history length per pixel (heat map up to 1 / `alpha` frames).
+    DenoiseHistory = 7,
+    /// The denoiser's luminance variance per pixel (heat map of log10, 1e-4 .. 1e2).
+    DenoiseVariance = 8,
 }
 
 impl DebugView {
+    /// Whether the denoiser draws this view.
+    pub fn is_denoise_view(self) -> bool {
+        matches!(self, Self::DenoiseHistory | Self::DenoiseVariance)
+    }
+
     /// Whether the radiance cache draws this view.
     pub fn is_cache_view(self) -> bool {
         matches!(
