@@ -106,6 +106,15 @@ fn dn_same_surface(g: GVertex, s: DnState, eye: vec3<f32>) -> bool {
     return near && dot(g.shading, dn_unpack_normal(s.normal)) >= denoise_params.knobs.normal_threshold;
 }
 
+// Pixel (x, y) of this frame's image, or RENDER_NO_PIXEL outside it.
+fn dn_pixel_at(x: i32, y: i32) -> u32 {
+    let cam = render_params.camera;
+    if x < 0 || y < 0 || x >= i32(cam.width) || y >= i32(cam.height) {
+        return RENDER_NO_PIXEL;
+    }
+    return u32(y) * cam.width + u32(x);
+}
+
 // The continuous pixel coordinates ((0, 0) the top-left corner) at which camera cam sees p, or
 // (-1, -1) when p is behind it.
 fn dn_project(cam: CameraGpu, p: vec3<f32>) -> vec2<f32> {
@@ -183,18 +192,15 @@ fn dn_reproject(i: u32, g: GVertex) -> DnHistory {
 // History h (both signals) clamped to the box of this frame's 3x3 neighbourhood around pixel
 // (x, y): mean -/+ clamp_sigma standard deviations, per channel, over the pixels that hit.
 fn dn_clamp(x: i32, y: i32, h: DnPair) -> DnPair {
-    let cam = render_params.camera;
     var m1 = array<vec3<f32>, 2>();
     var m2 = array<vec3<f32>, 2>();
     var n = 0.0;
     for (var dy = -1; dy <= 1; dy++) {
         for (var dx = -1; dx <= 1; dx++) {
-            let qx = x + dx;
-            let qy = y + dy;
-            if qx < 0 || qy < 0 || qx >= i32(cam.width) || qy >= i32(cam.height) {
+            let j = dn_pixel_at(x + dx, y + dy);
+            if j == RENDER_NO_PIXEL {
                 continue;
             }
-            let j = u32(qy) * cam.width + u32(qx);
             if render_gbuffer[j].prim == BVH_NO_HIT {
                 continue;
             }
@@ -218,12 +224,9 @@ fn dn_clamp(x: i32, y: i32, h: DnPair) -> DnPair {
 }
 
 @compute @workgroup_size(WORKGROUP_SIZE)
-fn denoise_temporal(@builtin(global_invocation_id) gid: vec3<u32>,
-                    @builtin(num_workgroups) nwg: vec3<u32>) {
-    let i = gid.x + gid.y * nwg.x * WORKGROUP_SIZE;
-    if i >= render_params.pixel_count {
-        return;
-    }
+fn denoise_temporal(id: Invocation) {
+    let i = item_index(id);
+    if i >= render_params.pixel_count { return; }
     let g = render_gbuffer[i];
     var state: DnState;
     if g.prim == BVH_NO_HIT {
@@ -288,12 +291,9 @@ fn dn_pixel_size(depth: f32) -> f32 {
 const DN_SPLINE = array<f32, 2>(0.5, 0.25);
 
 @compute @workgroup_size(WORKGROUP_SIZE)
-fn denoise_variance(@builtin(global_invocation_id) gid: vec3<u32>,
-                    @builtin(num_workgroups) nwg: vec3<u32>) {
-    let i = gid.x + gid.y * nwg.x * WORKGROUP_SIZE;
-    if i >= render_params.pixel_count {
-        return;
-    }
+fn denoise_variance(id: Invocation) {
+    let i = item_index(id);
+    if i >= render_params.pixel_count { return; }
     let s = dn_state[i];
     var out = dn_src[i];
     if s.normal == DN_NO_SURFACE {
@@ -312,12 +312,10 @@ fn denoise_variance(@builtin(global_invocation_id) gid: vec3<u32>,
         var wsum = 0.0;
         for (var dy = -3; dy <= 3; dy++) {
             for (var dx = -3; dx <= 3; dx++) {
-                let qx = x + dx;
-                let qy = y + dy;
-                if qx < 0 || qy < 0 || qx >= i32(cam.width) || qy >= i32(cam.height) {
+                let j = dn_pixel_at(x + dx, y + dy);
+                if j == RENDER_NO_PIXEL {
                     continue;
                 }
-                let j = u32(qy) * cam.width + u32(qx);
                 let d = length(vec2<f32>(f32(dx), f32(dy)));
                 let w = dn_geometry_weight(g.position, g.normal, g.shading, j, pixel, d);
                 sum += w * dn_state[j].moments;
@@ -336,17 +334,15 @@ fn denoise_variance(@builtin(global_invocation_id) gid: vec3<u32>,
 
 // The 3x3 Gaussian of the variance of both signals around (x, y): the luminance weight's scale.
 fn dn_prefiltered_variance(x: i32, y: i32) -> vec2<f32> {
-    let cam = render_params.camera;
     var v = vec2<f32>(0.0);
     var wsum = 0.0;
     for (var dy = -1; dy <= 1; dy++) {
         for (var dx = -1; dx <= 1; dx++) {
-            let qx = x + dx;
-            let qy = y + dy;
-            if qx < 0 || qy < 0 || qx >= i32(cam.width) || qy >= i32(cam.height) {
+            let j = dn_pixel_at(x + dx, y + dy);
+            if j == RENDER_NO_PIXEL {
                 continue;
             }
-            let c = dn_src[u32(qy) * cam.width + u32(qx)];
+            let c = dn_src[j];
             let w = select(0.5, 1.0, dx == 0) * select(0.5, 1.0, dy == 0);
             v += w * vec2<f32>(c.direct.w, c.indirect.w);
             wsum += w;
@@ -356,12 +352,9 @@ fn dn_prefiltered_variance(x: i32, y: i32) -> vec2<f32> {
 }
 
 @compute @workgroup_size(WORKGROUP_SIZE)
-fn denoise_atrous(@builtin(global_invocation_id) gid: vec3<u32>,
-                  @builtin(num_workgroups) nwg: vec3<u32>) {
-    let i = gid.x + gid.y * nwg.x * WORKGROUP_SIZE;
-    if i >= render_params.pixel_count {
-        return;
-    }
+fn denoise_atrous(id: Invocation) {
+    let i = item_index(id);
+    if i >= render_params.pixel_count { return; }
     let c = dn_src[i];
     let s = dn_state[i];
     var out = c;
@@ -392,12 +385,10 @@ fn denoise_atrous(@builtin(global_invocation_id) gid: vec3<u32>,
         var w_i = 0.0;
         for (var dy = -1; dy <= 1; dy++) {
             for (var dx = -1; dx <= 1; dx++) {
-                let qx = x + dx * step;
-                let qy = y + dy * step;
-                if qx < 0 || qy < 0 || qx >= i32(cam.width) || qy >= i32(cam.height) {
+                let j = dn_pixel_at(x + dx * step, y + dy * step);
+                if j == RENDER_NO_PIXEL {
                     continue;
                 }
-                let j = u32(qy) * cam.width + u32(qx);
                 var e_geometry = 0.0;
                 if j != i {
                     let packed = dn_state[j].normal;
@@ -436,12 +427,9 @@ fn denoise_atrous(@builtin(global_invocation_id) gid: vec3<u32>,
 }
 
 @compute @workgroup_size(WORKGROUP_SIZE)
-fn denoise_modulate(@builtin(global_invocation_id) gid: vec3<u32>,
-                    @builtin(num_workgroups) nwg: vec3<u32>) {
-    let i = gid.x + gid.y * nwg.x * WORKGROUP_SIZE;
-    if i >= render_params.pixel_count {
-        return;
-    }
+fn denoise_modulate(id: Invocation) {
+    let i = item_index(id);
+    if i >= render_params.pixel_count { return; }
     let g = render_gbuffer[i];
     var out: DnPair;
     if g.prim == BVH_NO_HIT {
