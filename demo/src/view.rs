@@ -16,7 +16,8 @@ use glam::{Quat, Vec3};
 use restir_world::GpuContext;
 use restir_world::gpu::PassTimes;
 use restir_world::image_io::{self, Image};
-use restir_world::knobs::KnobKind;
+use restir_world::denoise::DenoiseConfig;
+use restir_world::knobs::{Knob, KnobKind, Knobs};
 use restir_world::methods::{
     self, FrameLoop, FrameMethod, MethodError, MethodSettings, Readback, run_frames,
 };
@@ -56,9 +57,13 @@ pub struct ViewArgs {
     /// Exposure multiplier of the shown image and of screenshot PNGs (EXRs stay linear).
     #[arg(long, default_value_t = 1.0)]
     exposure: f32,
-    /// The image shown.
-    #[arg(long, value_enum, default_value_t = Shown::Combined)]
+    /// The image shown (default: the last frame denoised; `combined` is the accumulation).
+    #[arg(long, value_enum, default_value_t = Shown::Denoised)]
     show: Shown,
+    /// The denoiser after the method (SVGF; on by default): its knobs as key=value joined by
+    /// + (e.g. iterations=3+alpha=0.1), or `off`. The window switches it and edits its knobs.
+    #[arg(long, default_value = "", value_name = "KNOBS|off")]
+    denoise: String,
     /// Exit after rendering N frames (for tests and measurements).
     #[arg(long)]
     exit_after_frames: Option<u32>,
@@ -79,6 +84,8 @@ pub struct ViewArgs {
 /// What the window shows.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
 pub enum Shown {
+    /// The last frame after the denoiser (the accumulated combined image with it off).
+    Denoised,
     Combined,
     Direct,
     Indirect,
@@ -96,11 +103,16 @@ pub enum Shown {
     CacheAge,
     /// Debug view: the radiance cache's cells by sample count (+cache methods).
     CacheSamples,
+    /// Debug view: the denoiser's history length per pixel.
+    DenoiseHistory,
+    /// Debug view: the denoiser's luminance variance per pixel.
+    DenoiseVariance,
 }
 
 impl Shown {
-    const ALL: [(Shown, &'static str); 10] = [
-        (Shown::Combined, "combined"),
+    const ALL: [(Shown, &'static str); 13] = [
+        (Shown::Denoised, "denoised (last frame)"),
+        (Shown::Combined, "combined (accumulated)"),
         (Shown::Direct, "direct"),
         (Shown::Indirect, "indirect"),
         (Shown::Cells, "debug: cells"),
@@ -110,6 +122,8 @@ impl Shown {
         (Shown::CacheRadiance, "debug: cache radiance"),
         (Shown::CacheAge, "debug: cache age"),
         (Shown::CacheSamples, "debug: cache samples"),
+        (Shown::DenoiseHistory, "debug: denoiser history length"),
+        (Shown::DenoiseVariance, "debug: denoiser variance"),
     ];
 
     fn debug(self) -> Option<DebugView> {
@@ -119,9 +133,21 @@ impl Shown {
             Shown::Overflow => Some(DebugView::Overflow),
             Shown::Rejected => Some(DebugView::Rejected),
             Shown::CacheRadiance => Some(DebugView::CacheRadiance),
+            Shown::DenoiseHistory => Some(DebugView::DenoiseHistory),
+            Shown::DenoiseVariance => Some(DebugView::DenoiseVariance),
             Shown::CacheAge => Some(DebugView::CacheAge),
             Shown::CacheSamples => Some(DebugView::CacheSamples),
             _ => None,
+        }
+    }
+
+    /// Whether the method of `info` draws it: the denoiser's views with the denoiser on, the
+    /// other debug views with world-restir's grid.
+    fn available(self, info: &Info) -> bool {
+        match self.debug() {
+            Some(v) if v.is_denoise_view() => info.denoise,
+            Some(_) => info.has_debug,
+            None => true,
         }
     }
 
@@ -237,7 +263,11 @@ fn check(args: ViewArgs, created: &mut Vec<PathBuf>) -> Result<Setup> {
     if args.camera_path != Motion::Static && args.camera_path_frames < 2 {
         anyhow::bail!("--camera-path-frames must be at least 2 (frame 0 is the start)");
     }
-    let settings = methods::parse_spec(&args.method)?;
+    let mut settings = methods::parse_spec(&args.method)?;
+    settings.denoise = match args.denoise.as_str() {
+        "off" => None,
+        k => Some(DenoiseConfig::parse(k).map_err(|e| anyhow::anyhow!("--denoise: {e}"))?),
+    };
     let paths = args.paths.paths()?;
     let screenshot = args
         .screenshot
@@ -365,6 +395,10 @@ struct Controls {
     knob_text: Vec<String>,
     /// The depth of the paths (bounces, MIS).
     paths: Paths,
+    /// The denoiser after the method (`None`: off); every build takes it.
+    denoise: Option<DenoiseConfig>,
+    /// The denoiser's knob values being typed (its KNOBS order).
+    denoise_text: Vec<String>,
 }
 
 /// What the last overlay pass asked for.
@@ -500,6 +534,8 @@ impl Viewer {
             spec_text: setup.spec.clone(),
             knob_text: knob_texts(&setup.settings),
             paths: setup.paths,
+            denoise: setup.settings.denoise,
+            denoise_text: denoise_texts(setup.settings.denoise),
         };
         Ok(Self {
             window,
@@ -610,6 +646,10 @@ impl Viewer {
     /// Builds `settings` at the current scale; on failure keeps the method it had and says
     /// why in the overlay.
     fn rebuild(&mut self, settings: MethodSettings, camera: Camera) -> Result<()> {
+        let settings = MethodSettings {
+            denoise: self.controls.denoise,
+            ..settings
+        };
         let (width, height) = self.size_for_scale();
         let camera = Camera {
             width,
@@ -629,6 +669,7 @@ impl Viewer {
                 self.scale = self.controls.scale;
                 self.camera = camera;
                 self.controls.knob_text = knob_texts(&settings);
+                self.controls.denoise_text = denoise_texts(settings.denoise);
                 self.controls.spec_text = settings.spec();
                 let frames = self.stats.frames;
                 self.stats = Stats {
@@ -639,6 +680,8 @@ impl Viewer {
             }
             Err(e) => {
                 self.controls.knob_text = knob_texts(&self.settings);
+                self.controls.denoise = self.settings.denoise;
+                self.controls.denoise_text = denoise_texts(self.settings.denoise);
                 self.controls.paths = self.paths;
                 self.controls.scale = self.scale;
                 self.stats.message = Some(format!("not applied: {e}"));
@@ -700,7 +743,14 @@ impl Viewer {
         let (pixels, exposure) = match debug {
             Some(px) => (px, 1.0),
             None => {
-                let images = self.method.read(&self.ctx, Readback::Accumulated)?;
+                let denoised = match self.controls.shown {
+                    Shown::Denoised => self.method.read_denoised(&self.ctx)?,
+                    _ => None,
+                };
+                let images = match denoised {
+                    Some(d) => d,
+                    None => self.method.read(&self.ctx, Readback::Accumulated)?,
+                };
                 let px = match self.controls.shown {
                     Shown::Direct => images.direct,
                     Shown::Indirect => images.indirect,
@@ -741,6 +791,7 @@ impl Viewer {
             speed: self.setup.speed,
             dt,
             has_debug: self.settings.world.is_some(),
+            denoise: self.settings.denoise.is_some(),
             render_cmd: self.render_command(),
         };
         let texture = self.texture.as_ref().map(|t| t.id());
@@ -824,7 +875,7 @@ impl Viewer {
         let v = |v: Vec3| format!("{},{},{}", v.x, v.y, v.z);
         format!(
             "restir-demo render --scene {} --method {} --size {}x{} --seed {} --bounces {} \
-             --roulette-from {} --mis {} --frames {} --eye {} --target {} --up {} --fov {}",
+             --roulette-from {} --mis {} --frames {} --eye {} --target {} --up {} --fov {}{}",
             self.setup.scene_name,
             self.settings.spec(),
             c.width,
@@ -837,7 +888,11 @@ impl Viewer {
             v(c.eye),
             v(c.target),
             v(c.up),
-            c.vfov_deg
+            c.vfov_deg,
+            match self.settings.denoise {
+                Some(d) => format!(" --denoise {}", d.knobs_spec()).trim_end().to_owned(),
+                None => String::new(),
+            }
         )
     }
 
@@ -1041,6 +1096,8 @@ struct Info {
     speed: f32,
     dt: f32,
     has_debug: bool,
+    /// Whether the method runs with the denoiser.
+    denoise: bool,
     render_cmd: String,
 }
 
@@ -1060,6 +1117,20 @@ fn method_specs() -> Vec<String> {
 /// The editable texts of the method's knobs, in order.
 fn knob_texts(settings: &MethodSettings) -> Vec<String> {
     settings.knobs().into_iter().map(|(_, v)| v).collect()
+}
+
+/// The denoiser's knobs and their values (its defaults' when it is off).
+fn denoise_knobs(d: Option<DenoiseConfig>) -> Vec<(Knob, String)> {
+    let d = d.unwrap_or_default();
+    DenoiseConfig::KNOBS
+        .iter()
+        .map(|k| (*k, d.get(k.name).unwrap_or_default()))
+        .collect()
+}
+
+/// The editable texts of the denoiser's knobs, in order.
+fn denoise_texts(d: Option<DenoiseConfig>) -> Vec<String> {
+    denoise_knobs(d).into_iter().map(|(_, v)| v).collect()
 }
 
 fn overlay(
@@ -1124,6 +1195,8 @@ fn controls_ui(ui: &mut egui::Ui, info: &Info, c: &mut Controls, s: &Stats, a: &
     times_ui(ui, info, s);
     ui.separator();
     method_ui(ui, info, c, a);
+    ui.separator();
+    denoise_ui(ui, c, a);
     ui.separator();
     image_ui(ui, info, c, a);
     ui.separator();
@@ -1220,13 +1293,13 @@ fn image_ui(ui: &mut egui::Ui, info: &Info, c: &mut Controls, a: &mut Actions) {
         .selected_text(c.shown.label())
         .show_ui(ui, |ui| {
             for (shown, label) in Shown::ALL {
-                if shown.debug().is_some() && !info.has_debug {
+                if !shown.available(info) {
                     continue;
                 }
                 ui.selectable_value(&mut c.shown, shown, label);
             }
         });
-    if c.shown.debug().is_some() && !info.has_debug {
+    if !c.shown.available(info) {
         c.shown = Shown::Combined;
     }
     ui.add(
@@ -1262,12 +1335,60 @@ fn image_ui(ui: &mut egui::Ui, info: &Info, c: &mut Controls, a: &mut Actions) {
     });
 }
 
-/// One row per knob of the method's variant: switches as checkboxes, choices as lists, the
-/// rest as text that the knob's parser takes when Enter is pressed (`c.knob_text`).
+/// The method's knobs ([`knob_rows`]): an edit rebuilds the method with it.
 fn knobs_ui(ui: &mut egui::Ui, settings: &MethodSettings, c: &mut Controls, a: &mut Actions) {
-    egui::Grid::new("knobs").show(ui, |ui| {
-        for (i, (knob, current)) in settings.knobs().into_iter().enumerate() {
-            let Some(text) = c.knob_text.get_mut(i) else {
+    if let Some((knob, value, text)) = knob_rows(ui, "knobs", settings.knobs(), &mut c.knob_text)
+    {
+        match settings.with_knob(knob.name, &value) {
+            Ok(next) => a.settings = Some(next),
+            Err(e) => c.knob_text[text] = format!("{value} ({e})"),
+        }
+    }
+}
+
+/// The denoiser's switch and knobs: an edit rebuilds the method with it.
+fn denoise_ui(ui: &mut egui::Ui, c: &mut Controls, a: &mut Actions) {
+    let mut on = c.denoise.is_some();
+    if ui.checkbox(&mut on, "denoiser (SVGF)").changed() {
+        c.denoise = on.then(DenoiseConfig::default);
+        if on {
+            c.shown = Shown::Denoised;
+        }
+        a.rebuild = true;
+    }
+    let Some(d) = c.denoise else {
+        return;
+    };
+    egui::CollapsingHeader::new("denoiser knobs").show(ui, |ui| {
+        let edit = knob_rows(ui, "denoise", denoise_knobs(Some(d)), &mut c.denoise_text);
+        if let Some((knob, value, text)) = edit {
+            let mut next = d;
+            match next.set(knob.name, &value).and_then(|_| {
+                next.validate().map_err(|e| e.to_string())
+            }) {
+                Ok(()) => {
+                    c.denoise = Some(next);
+                    a.rebuild = true;
+                }
+                Err(e) => c.denoise_text[text] = format!("{value} ({e})"),
+            }
+        }
+    });
+}
+
+/// One row per knob: switches as checkboxes, choices as lists, the rest as text (`texts`, in
+/// the knobs' order) that is taken when Enter is pressed. Returns the edited knob, its new
+/// value and its index in `texts`.
+fn knob_rows(
+    ui: &mut egui::Ui,
+    id: &str,
+    knobs: Vec<(Knob, String)>,
+    texts: &mut [String],
+) -> Option<(Knob, String, usize)> {
+    let mut edited = None;
+    egui::Grid::new(id).show(ui, |ui| {
+        for (i, (knob, current)) in knobs.into_iter().enumerate() {
+            let Some(text) = texts.get_mut(i) else {
                 continue;
             };
             ui.label(knob.name).on_hover_text(knob.doc.trim());
@@ -1299,13 +1420,11 @@ fn knobs_ui(ui: &mut egui::Ui, settings: &MethodSettings, c: &mut Controls, a: &
             }
             ui.end_row();
             if let Some(value) = apply {
-                match settings.with_knob(knob.name, &value) {
-                    Ok(next) => a.settings = Some(next),
-                    Err(e) => *text = format!("{value} ({e})"),
-                }
+                edited = Some((knob, value, i));
             }
         }
     });
+    edited
 }
 
 /// One line on the radiance cache's use: cells in use of the table, bytes, overflows.

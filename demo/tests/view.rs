@@ -1,7 +1,7 @@
 //! `restir-demo view` in a real window: an X server (Xvfb through `xvfb-run`, which `cargo xtask
 //! test` installs when missing) and the adapter the other GPU tests use (lavapipe in CI). The
-//! window's screenshot must equal the offline `render` of the same camera, method, seed and
-//! size; a scripted camera path must move the camera and restart the accumulation; without a
+//! window's screenshot (the last frame denoised, as shown by default) must equal the offline
+//! `render --denoise` of the same camera, method, seed and size; a scripted camera path must move the camera and restart the accumulation; without a
 //! display the command must fail with a clear message.
 
 use std::path::{Path, PathBuf};
@@ -162,21 +162,23 @@ fn screenshot_equals_the_offline_render() {
             "spatial",
             "shade",
             "accumulate",
+            "denoise",
         ] {
             let named = |before: &str| stdout.contains(&format!("{before}{span}="));
             assert!(named(" ") || named("("), "{span}: {stdout}");
         }
     }
     let view_exr = read_exr(&dir.join("shot.exr")).unwrap();
+    // The window shows the last frame denoised: `render --denoise`'s denoised image.
     let mut args = common.to_vec();
-    args.extend(["--frames", "30"]);
+    args.extend(["--frames", "30", "--denoise"]);
     render(&dir.join("render"), &args);
-    let offline = read_exr(&dir.join("render/cornell-world-restir-combined.exr")).unwrap();
+    let offline = read_exr(&dir.join("render/cornell-world-restir-denoised.exr")).unwrap();
     same_image(&view_exr, &offline).unwrap();
     assert!(view_exr.mean()[0] > 0.01, "the screenshot is black");
     // The PNG is the shown image: the offline PNG's bytes at the same exposure.
     let png = image::open(&shot).unwrap().to_rgb8();
-    let offline_png = image::open(dir.join("render/cornell-world-restir-combined.png"))
+    let offline_png = image::open(dir.join("render/cornell-world-restir-denoised.png"))
         .unwrap()
         .to_rgb8();
     assert_eq!(png.dimensions(), offline_png.dimensions());
@@ -190,15 +192,15 @@ fn screenshot_equals_the_offline_render() {
     // Negative control: another seed is another image, and the check says so.
     let mut args = common.to_vec();
     args[7] = "4"; // --seed
-    args.extend(["--frames", "30"]);
+    args.extend(["--frames", "30", "--denoise"]);
     render(&dir.join("other-seed"), &args);
-    let other = read_exr(&dir.join("other-seed/cornell-world-restir-combined.exr")).unwrap();
+    let other = read_exr(&dir.join("other-seed/cornell-world-restir-denoised.exr")).unwrap();
     assert!(same_image(&view_exr, &other).is_err());
     // And one frame fewer is another image too.
     let mut args = common.to_vec();
-    args.extend(["--frames", "29"]);
+    args.extend(["--frames", "29", "--denoise"]);
     render(&dir.join("fewer"), &args);
-    let fewer = read_exr(&dir.join("fewer/cornell-world-restir-combined.exr")).unwrap();
+    let fewer = read_exr(&dir.join("fewer/cornell-world-restir-denoised.exr")).unwrap();
     assert!(same_image(&view_exr, &fewer).is_err());
     std::fs::remove_dir_all(&dir).unwrap();
 }
