@@ -14,9 +14,9 @@ use std::time::Instant;
 use anyhow::{Context as _, Result};
 use glam::{Quat, Vec3};
 use restir_world::GpuContext;
+use restir_world::denoise::DenoiseConfig;
 use restir_world::gpu::PassTimes;
 use restir_world::image_io::{self, Image};
-use restir_world::denoise::DenoiseConfig;
 use restir_world::knobs::{Knob, KnobKind, Knobs};
 use restir_world::methods::{
     self, FrameLoop, FrameMethod, MethodError, MethodSettings, Readback, run_frames,
@@ -890,7 +890,9 @@ impl Viewer {
             v(c.up),
             c.vfov_deg,
             match self.settings.denoise {
-                Some(d) => format!(" --denoise {}", d.knobs_spec()).trim_end().to_owned(),
+                Some(d) => format!(" --denoise {}", d.knobs_spec())
+                    .trim_end()
+                    .to_owned(),
                 None => String::new(),
             }
         )
@@ -1337,8 +1339,7 @@ fn image_ui(ui: &mut egui::Ui, info: &Info, c: &mut Controls, a: &mut Actions) {
 
 /// The method's knobs ([`knob_rows`]): an edit rebuilds the method with it.
 fn knobs_ui(ui: &mut egui::Ui, settings: &MethodSettings, c: &mut Controls, a: &mut Actions) {
-    if let Some((knob, value, text)) = knob_rows(ui, "knobs", settings.knobs(), &mut c.knob_text)
-    {
+    if let Some((knob, value, text)) = knob_rows(ui, "knobs", settings.knobs(), &mut c.knob_text) {
         match settings.with_knob(knob.name, &value) {
             Ok(next) => a.settings = Some(next),
             Err(e) => c.knob_text[text] = format!("{value} ({e})"),
@@ -1363,9 +1364,10 @@ fn denoise_ui(ui: &mut egui::Ui, c: &mut Controls, a: &mut Actions) {
         let edit = knob_rows(ui, "denoise", denoise_knobs(Some(d)), &mut c.denoise_text);
         if let Some((knob, value, text)) = edit {
             let mut next = d;
-            match next.set(knob.name, &value).and_then(|_| {
-                next.validate().map_err(|e| e.to_string())
-            }) {
+            match next
+                .set(knob.name, &value)
+                .and_then(|_| next.validate().map_err(|e| e.to_string()))
+            {
                 Ok(()) => {
                     c.denoise = Some(next);
                     a.rebuild = true;
