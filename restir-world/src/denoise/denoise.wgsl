@@ -115,19 +115,6 @@ fn dn_pixel_at(x: i32, y: i32) -> u32 {
     return u32(y) * cam.width + u32(x);
 }
 
-// The continuous pixel coordinates ((0, 0) the top-left corner) at which camera cam sees p, or
-// (-1, -1) when p is behind it.
-fn dn_project(cam: CameraGpu, p: vec3<f32>) -> vec2<f32> {
-    let d = p - cam.eye;
-    let z = dot(d, cam.forward);
-    if !(z > 1e-6) {
-        return vec2<f32>(-1.0);
-    }
-    let sx = dot(d, cam.right) / (z * dot(cam.right, cam.right));
-    let sy = dot(d, cam.up) / (z * dot(cam.up, cam.up));
-    return vec2<f32>((sx + 1.0) * 0.5 * f32(cam.width), (1.0 - sy) * 0.5 * f32(cam.height));
-}
-
 // Last frame's history at g: the bilinear blend of the (up to) four pixels around g's
 // projection through last frame's camera that saw the same surface. w: the weight found (0:
 // none, a disocclusion or no history).
@@ -149,13 +136,13 @@ fn dn_reproject(i: u32, g: GVertex) -> DnHistory {
     // pixel's own history (a jittered point's bilinear taps would blur it every frame).
     let now = render_params.camera;
     let centre = vec2<f32>(f32(i % now.width), f32(i / now.width)) + vec2<f32>(0.5);
-    let before = dn_project(cam, g.position);
+    let before = render_project_xy(cam, g.position);
     // Also rejects NaN and points behind last frame's camera (-1, -1) or outside its image.
     if !(before.x >= 0.0 && before.y >= 0.0 && before.x <= f32(cam.width)
          && before.y <= f32(cam.height)) {
         return h;
     }
-    let xy = centre + before - dn_project(now, g.position) - vec2<f32>(0.5);
+    let xy = centre + before - render_project_xy(now, g.position) - vec2<f32>(0.5);
     let base = floor(xy);
     let f = xy - base;
     for (var t = 0u; t < 4u; t++) {

@@ -507,18 +507,25 @@ fn render_direct_from_stored(g: GVertex, res: StoredReservoir, secondary: GVerte
 // Screen-space reuse (restir-di, restir-gi): the pixel that sees a point, the similarity of two
 // pixels' vertices, and a neighbour drawn in a disc.
 
-// The pixel whose camera ray through `cam` sees the point p, or RENDER_NO_PIXEL when p is
-// behind the camera or outside the image.
-fn render_project(cam: CameraGpu, p: vec3<f32>) -> u32 {
+// The continuous image coordinates ((0, 0) the top-left corner, pixel centres at + 0.5) at which
+// camera `cam` sees the point p, or (-1, -1) when p is behind it.
+fn render_project_xy(cam: CameraGpu, p: vec3<f32>) -> vec2<f32> {
     let d = p - cam.eye;
     let z = dot(d, cam.forward);
     if !(z > 1e-6) {
-        return RENDER_NO_PIXEL;
+        return vec2<f32>(-1.0);
     }
     let sx = dot(d, cam.right) / (z * dot(cam.right, cam.right));
     let sy = dot(d, cam.up) / (z * dot(cam.up, cam.up));
-    let x = (sx + 1.0) * 0.5 * f32(cam.width);
-    let y = (1.0 - sy) * 0.5 * f32(cam.height);
+    return vec2<f32>((sx + 1.0) * 0.5 * f32(cam.width), (1.0 - sy) * 0.5 * f32(cam.height));
+}
+
+// The pixel whose camera ray through `cam` sees the point p, or RENDER_NO_PIXEL when p is
+// behind the camera or outside the image.
+fn render_project(cam: CameraGpu, p: vec3<f32>) -> u32 {
+    let xy = render_project_xy(cam, p);
+    let x = xy.x;
+    let y = xy.y;
     // Also rejects NaN.
     if !(x >= 0.0 && x < f32(cam.width) && y >= 0.0 && y < f32(cam.height)) {
         return RENDER_NO_PIXEL;
