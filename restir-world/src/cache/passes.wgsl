@@ -22,7 +22,7 @@ fn cache_update(id: Invocation) {
     // From the pixel's secondary vertex, not its primary: the paths read the cache at
     // vertices a diffuse bounce reached, and a cell's mean is the mean over where its samples
     // fell (from the camera, a lamp hides the bright wall behind it; from a bounce, it does not).
-    var v = render_secondary[i];
+    var v = render_unpack_vertex(render_secondary[i]);
     if render_gbuffer[i].prim == BVH_NO_HIT || v.prim == BVH_NO_HIT {
         for (var j = 0u; j < CACHE_MAX_UPDATE_DEPTH; j++) {
             cache_update_samples[k * CACHE_MAX_UPDATE_DEPTH + j] = CacheSample(vec3<f32>(0.0), HASH_REJECTED);
@@ -221,7 +221,7 @@ fn cache_debug(id: Invocation) {
     let i = item_index(id);
     if i >= render_params.pixel_count { return; }
     var c = vec3<f32>(0.0);
-    let g = render_gbuffer[i];
+    let g = render_unpack_vertex(render_gbuffer[i]);
     if g.prim != BVH_NO_HIT {
         let slot = cache_find(g);
         if hash_is_slot(slot) {

@@ -191,7 +191,7 @@ fn dn_clamp(x: i32, y: i32, h: DnPair) -> DnPair {
             if render_gbuffer[j].prim == BVH_NO_HIT {
                 continue;
             }
-            let c = dn_input(j, render_gbuffer[j].albedo, render_gbuffer[j].emission);
+            let c = dn_input(j, render_unpack_vertex(render_gbuffer[j]).albedo, render_unpack_vertex(render_gbuffer[j]).emission);
             m1[0] += c[0];
             m2[0] += c[0] * c[0];
             m1[1] += c[1];
@@ -214,7 +214,7 @@ fn dn_clamp(x: i32, y: i32, h: DnPair) -> DnPair {
 fn denoise_temporal(id: Invocation) {
     let i = item_index(id);
     if i >= render_params.pixel_count { return; }
-    let g = render_gbuffer[i];
+    let g = render_unpack_vertex(render_gbuffer[i]);
     var state: DnState;
     if g.prim == BVH_NO_HIT {
         state.normal = DN_NO_SURFACE;
@@ -290,7 +290,7 @@ fn denoise_variance(id: Invocation) {
     var m = s.moments;
     if s.length < 4.0 {
         // Too short a history for its own moments: those of the same surface around it.
-        let g = render_gbuffer[i];
+        let g = render_unpack_vertex(render_gbuffer[i]);
         let cam = render_params.camera;
         let pixel = dn_pixel_size(dot(g.position - cam.eye, cam.forward));
         let x = i32(i % cam.width);
@@ -346,7 +346,7 @@ fn denoise_atrous(id: Invocation) {
     let s = dn_state[i];
     var out = c;
     if s.normal != DN_NO_SURFACE {
-        let g = render_gbuffer[i];
+        let g = render_unpack_vertex(render_gbuffer[i]);
         let cam = render_params.camera;
         let pixel = dn_pixel_size(dot(g.position - cam.eye, cam.forward));
         let x = i32(i % cam.width);
@@ -417,7 +417,7 @@ fn denoise_atrous(id: Invocation) {
 fn denoise_modulate(id: Invocation) {
     let i = item_index(id);
     if i >= render_params.pixel_count { return; }
-    let g = render_gbuffer[i];
+    let g = render_unpack_vertex(render_gbuffer[i]);
     var out: DnPair;
     if g.prim == BVH_NO_HIT {
         // What the camera ray saw (the environment): nothing to filter.

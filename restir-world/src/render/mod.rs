@@ -310,6 +310,11 @@ impl Renderer {
         Ok(())
     }
 
+    /// Bytes of its per-pixel buffers (the scene's excluded).
+    pub fn bytes(&self) -> u64 {
+        self.buffers.pixel_bytes()
+    }
+
     /// Pixels per frame.
     pub fn pixels(&self) -> u32 {
         self.shared.pixels

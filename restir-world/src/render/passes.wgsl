@@ -15,7 +15,7 @@ fn render_primary(id: Invocation) {
     ray.tmin = 0.0;
     ray.dir = camera_ray_dir(render_params.camera, vec2<u32>(i % w, i / w), jitter);
     ray.tmax = RENDER_T_MAX;
-    render_gbuffer[i] = render_surface(ray.dir, trace_closest(ray));
+    render_gbuffer[i] = render_pack_vertex(render_surface(ray.dir, trace_closest(ray)));
 }
 
 // One GI ray from each primary hit, cosine-weighted about the shading normal -> secondary
@@ -24,15 +24,15 @@ fn render_primary(id: Invocation) {
 fn render_gi(id: Invocation) {
     let i = item_index(id);
     if i >= render_params.pixel_count { return; }
-    let g = render_gbuffer[i];
+    let g = render_unpack_vertex(render_gbuffer[i]);
     if g.prim == BVH_NO_HIT {
         var none: GVertex;
         none.prim = BVH_NO_HIT;
-        render_secondary[i] = none;
+        render_secondary[i] = render_pack_vertex(none);
         return;
     }
     var rng = render_rng(i, STREAM_GI);
-    render_secondary[i] = render_path_step(g, &rng);
+    render_secondary[i] = render_pack_vertex(render_path_step(g, &rng));
 }
 
 // Direct light at the primary vertex: emission seen + NEE (a camera ray that missed sees the
@@ -42,13 +42,13 @@ fn render_gi(id: Invocation) {
 fn render_shade_direct(id: Invocation) {
     let i = item_index(id);
     if i >= render_params.pixel_count { return; }
-    let g = render_gbuffer[i];
+    let g = render_unpack_vertex(render_gbuffer[i]);
     var c = g.emission;
     if g.prim != BVH_NO_HIT {
         var rng = render_rng(i, STREAM_DIRECT);
         c = g.emission + render_nee(g, &rng);
         if render_params.mis != 0u {
-            c += g.albedo * render_hit_emission(g, render_secondary[i]);
+            c += g.albedo * render_hit_emission(g, render_unpack_vertex(render_secondary[i]));
         }
     }
     render_direct_frame[i] = vec4<f32>(c, 1.0);
@@ -61,8 +61,8 @@ fn render_shade_direct(id: Invocation) {
 fn render_shade_indirect(id: Invocation) {
     let i = item_index(id);
     if i >= render_params.pixel_count { return; }
-    let g = render_gbuffer[i];
-    let s = render_secondary[i];
+    let g = render_unpack_vertex(render_gbuffer[i]);
+    let s = render_unpack_vertex(render_secondary[i]);
     var light = PathLight(vec3<f32>(0.0), vec3<f32>(0.0));
     if g.prim != BVH_NO_HIT && s.prim != BVH_NO_HIT {
         var rng = render_rng(i, STREAM_INDIRECT);

@@ -35,8 +35,8 @@ fn render_path_spread(v: GVertex, w: GVertex, dir: vec3<f32>) -> f32 {
 // bounce's hits. A vertex whose cached radiance path_cache_radiance gives ends the path: that
 // radiance stands for its light estimate and every bounce beyond it.
 fn render_path_pixel(i: u32) {
-    let g = render_gbuffer[i];
-    var v = render_secondary[i];
+    let g = render_unpack_vertex(render_gbuffer[i]);
+    var v = render_unpack_vertex(render_secondary[i]);
     if g.prim == BVH_NO_HIT || v.prim == BVH_NO_HIT {
         return;
     }

@@ -20,23 +20,22 @@ pub struct StoredReservoir {
     pub m: u32,
 }
 
-/// WGSL `GVertex`.
+/// WGSL `PackedVertex`: a `GVertex` as the G-buffer and the histories store it, 64 bytes without
+/// padding (a 1920x1080 frame's vertices fit one 128 MiB storage binding).
 #[repr(C)]
 #[derive(Debug, Clone, Copy, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
 pub struct GVertex {
     pub position: [f32; 3],
     pub prim: u32,
     pub normal: [f32; 3],
-    pub _pad0: u32,
     pub albedo: [f32; 3],
-    pub _pad1: u32,
     pub emission: [f32; 3],
-    pub _pad2: u32,
     /// Unit shading normal (interpolated vertex normals, on the side of `normal`; equal to
     /// `normal` for a triangle without them).
     pub shading: [f32; 3],
-    pub _pad3: u32,
 }
+
+const _: () = assert!(size_of::<GVertex>() == 64);
 
 /// [`TriangleAttributes::flags`]: the vertex normals are set.
 pub const ATTR_NORMALS: u32 = 1;

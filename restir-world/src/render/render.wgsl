@@ -33,13 +33,40 @@ struct GVertex {
     position: vec3<f32>,
     prim: u32,
     normal: vec3<f32>,
-    _pad0: u32,
     albedo: vec3<f32>,
-    _pad1: u32,
     emission: vec3<f32>,
-    _pad2: u32,
     shading: vec3<f32>,
-    _pad3: u32,
+}
+
+// A GVertex as buffers store it (the G-buffer, the secondary vertices, the histories; Rust:
+// render::GVertex): 64 bytes without padding, so that a 1920x1080 frame's vertices fit one
+// 128 MiB storage binding (a vec3's 16-byte alignment made it 80).
+struct PackedVertex {
+    position: array<f32, 3>,
+    prim: u32,
+    normal: array<f32, 3>,
+    albedo: array<f32, 3>,
+    emission: array<f32, 3>,
+    shading: array<f32, 3>,
+}
+
+fn render_vec3(a: array<f32, 3>) -> vec3<f32> {
+    return vec3<f32>(a[0], a[1], a[2]);
+}
+
+fn render_array3(v: vec3<f32>) -> array<f32, 3> {
+    return array<f32, 3>(v.x, v.y, v.z);
+}
+
+fn render_unpack_vertex(p: PackedVertex) -> GVertex {
+    return GVertex(render_vec3(p.position), p.prim, render_vec3(p.normal), render_vec3(p.albedo),
+                   render_vec3(p.emission), render_vec3(p.shading));
+}
+
+fn render_pack_vertex(v: GVertex) -> PackedVertex {
+    return PackedVertex(render_array3(v.position), v.prim, render_array3(v.normal),
+                        render_array3(v.albedo), render_array3(v.emission),
+                        render_array3(v.shading));
 }
 
 // Per scene triangle: vertex normals (flags & 1) and texture coordinates (flags & 2)

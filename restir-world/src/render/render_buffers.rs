@@ -62,6 +62,22 @@ impl RenderBuffers {
         }
     }
 
+    /// Bytes of the per-pixel buffers (vertices, this frame's light, the accumulation).
+    pub(super) fn pixel_bytes(&self) -> u64 {
+        [
+            &self.gbuffer,
+            &self.secondary,
+            &self.direct_frame,
+            &self.indirect_frame,
+            &self.path_radiance,
+            &self.accum_direct,
+            &self.accum_indirect,
+        ]
+        .map(wgpu::Buffer::size)
+        .iter()
+        .sum()
+    }
+
     /// The buffers of [`bindings`], by name.
     pub(super) fn resources(&self) -> [(&'static str, Resource<'_>); 13] {
         [

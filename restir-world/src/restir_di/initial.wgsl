@@ -9,7 +9,7 @@ fn screen_initial(id: Invocation) {
     let i = item_index(id);
     if i >= render_params.pixel_count { return; }
     var out: StoredReservoir;
-    let g = render_gbuffer[i];
+    let g = render_unpack_vertex(render_gbuffer[i]);
     di_estimate[i] = 0.0;
     if g.prim == BVH_NO_HIT {
         screen_out[i] = out;

@@ -7,7 +7,7 @@
 fn screen_shade(id: Invocation) {
     let i = item_index(id);
     if i >= render_params.pixel_count { return; }
-    let c = render_direct_from_stored(render_gbuffer[i], screen_final[i], render_secondary[i],
+    let c = render_direct_from_stored(render_unpack_vertex(render_gbuffer[i]), screen_final[i], render_unpack_vertex(render_secondary[i]),
                                       di_estimate[i]);
     render_direct_frame[i] = vec4<f32>(c, 1.0);
 }

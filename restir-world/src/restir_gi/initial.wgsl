@@ -8,13 +8,13 @@ fn screen_initial(id: Invocation) {
     let i = item_index(id);
     if i >= render_params.pixel_count { return; }
     gi_debug[i] = 0u;
-    let g = render_gbuffer[i];
+    let g = render_unpack_vertex(render_gbuffer[i]);
     var out: GiReservoir;
     if g.prim == BVH_NO_HIT {
         screen_out[i] = out;
         return;
     }
-    let x2 = render_secondary[i];
+    let x2 = render_unpack_vertex(render_secondary[i]);
     var sample: GiSample;
     var packed = PackedReservoir(0.0, 1u);
     if x2.prim != BVH_NO_HIT {

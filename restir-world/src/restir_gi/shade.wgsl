@@ -8,7 +8,7 @@
 fn screen_shade(id: Invocation) {
     let i = item_index(id);
     if i >= render_params.pixel_count { return; }
-    let g = render_gbuffer[i];
+    let g = render_unpack_vertex(render_gbuffer[i]);
     let r = screen_final[i];
     var c = vec3<f32>(0.0);
     if g.prim != BVH_NO_HIT && gi_has_sample(r) {

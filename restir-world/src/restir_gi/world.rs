@@ -172,7 +172,7 @@ pub fn grid_item_count(pixels: u32) -> u32 {
 
 /// What the grid's items read of the pool: its records' vertices and its count.
 const ITEM_BINDINGS: &[Buffer] = &[
-    ("wgi_pool_vertices", "array<GVertex>", Access::Read),
+    ("wgi_pool_vertices", "array<PackedVertex>", Access::Read),
     ("wgi_pool_count", "array<u32>", Access::Read),
 ];
 
@@ -230,6 +230,7 @@ const SCATTER: KernelDef = KernelDef::new(
         ("wgi_positions", "array<u32>", Access::Read),
         ("wgi_history_reservoirs", "array<u32>", Access::Read),
         ("wgi_history_vertices", "array<u32>", Access::Read),
+        ("wgi_history_pool_vertices", "array<u32>", Access::Read),
         ("wgi_pool_reservoirs", "array<u32>", Access::ReadWrite),
         ("wgi_pool_vertices", "array<u32>", Access::ReadWrite),
         ("wgi_pool_age", "array<u32>", Access::ReadWrite),
@@ -336,7 +337,7 @@ impl Pool {
         (pixels, max_age, reservoir_size): (u32, u32, usize),
         buffers: &PoolBuffers,
         grid: &WorldGrid,
-        history: (&wgpu::Buffer, &wgpu::Buffer),
+        history: screen_reuse::History<'_>,
     ) -> Result<Self, ScreenReuseError> {
         let device = &ctx.device;
         let items = grid_item_count(pixels);
@@ -384,8 +385,9 @@ impl Pool {
             ("wgi_history_age", (&history_age).into()),
             ("wgi_flags", (&flags).into()),
             ("wgi_positions", (&positions).into()),
-            ("wgi_history_reservoirs", history.0.into()),
-            ("wgi_history_vertices", history.1.into()),
+            ("wgi_history_reservoirs", history.reservoirs.into()),
+            ("wgi_history_vertices", history.vertices.into()),
+            ("wgi_history_pool_vertices", history.pool_vertices.into()),
             ("wgi_pool_reservoirs", (&buffers.reservoirs).into()),
             ("wgi_pool_vertices", (&buffers.vertices).into()),
             ("wgi_pool_age", (&buffers.age).into()),
@@ -416,19 +418,15 @@ impl Pool {
         f: &mut FrameEncoder,
         parity: usize,
         buffers: &PoolBuffers,
-        history: (&wgpu::Buffer, &wgpu::Buffer),
+        history: screen_reuse::History<'_>,
     ) -> Result<(), ScreenReuseError> {
         let px = u64::from(self.pixels);
         f.copy_to(
             &buffers.reservoirs,
-            history.0,
+            history.reservoirs,
             px * self.reservoir_size as u64,
         );
-        f.copy_to(
-            &buffers.vertices,
-            history.1,
-            px * size_of::<GVertex>() as u64,
-        );
+        f.copy(&buffers.vertices, history.pool_vertices);
         f.copy(&buffers.age, &self.history_age);
         f.dispatch(&self.flag[parity]);
         self.scan.encode(f.raw(), &self.scan_binding)?;

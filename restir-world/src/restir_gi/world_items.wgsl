@@ -8,12 +8,12 @@ fn grid_item(i: u32) -> GridItem {
     var v: GVertex;
     let pixels = render_params.pixel_count;
     if i < pixels {
-        v = render_gbuffer[i];
+        v = render_unpack_vertex(render_gbuffer[i]);
         item.present = v.prim != BVH_NO_HIT;
     } else {
         item.present = i - pixels < wgi_pool_count[0];
         if item.present {
-            v = wgi_pool_vertices[i - pixels];
+            v = render_unpack_vertex(wgi_pool_vertices[i - pixels]);
         }
     }
     if item.present {

@@ -13,7 +13,9 @@
 //   the pool's order, and the next grid's lists, do not depend on the order threads ran in.
 // - wgi_pool_scatter: each kept record to its position (those past the capacity are dropped);
 //   the last item writes the count kept and the count wanted.
-// Records are copied as raw words (a reservoir of reservoir_words u32, a vertex of 20).
+// Records are copied as raw words (a reservoir of reservoir_words u32, a vertex of 16); the
+// history's vertices are in two buffers, the pixels' (wgi_history_vertices) and the pool's
+// (wgi_history_pool_vertices), so that each fits one storage binding at 1920x1080.
 
 struct WgiPoolParams {
     pixels: u32,
@@ -26,7 +28,7 @@ struct WgiPoolParams {
     _pad2: u32,
 }
 
-const WGI_VERTEX_WORDS: u32 = 20u;
+const WGI_VERTEX_WORDS: u32 = 16u;
 
 fn wgi_record_age(i: u32) -> u32 {
     if i < wgi_pool_params.pixels {

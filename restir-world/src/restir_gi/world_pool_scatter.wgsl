@@ -20,7 +20,13 @@ fn wgi_pool_scatter(id: Invocation) {
         wgi_pool_reservoirs[k * p.reservoir_words + w] = wgi_history_reservoirs[i * p.reservoir_words + w];
     }
     for (var w = 0u; w < WGI_VERTEX_WORDS; w++) {
-        wgi_pool_vertices[k * WGI_VERTEX_WORDS + w] = wgi_history_vertices[i * WGI_VERTEX_WORDS + w];
+        var word: u32;
+        if i < p.pixels {
+            word = wgi_history_vertices[i * WGI_VERTEX_WORDS + w];
+        } else {
+            word = wgi_history_pool_vertices[(i - p.pixels) * WGI_VERTEX_WORDS + w];
+        }
+        wgi_pool_vertices[k * WGI_VERTEX_WORDS + w] = word;
     }
     wgi_pool_age[k] = wgi_record_age(i);
 }

@@ -46,7 +46,10 @@ pub const MAX_SPATIAL_K: u32 = 16;
 /// The frame's parameters, bound by each kernel of a stage.
 pub const PARAMS: Buffer = ("screen_params", "ScreenParams", Access::Uniform);
 /// Last frame's G-buffer, bound by the reuse kernel.
-pub const PREV_GBUFFER: Buffer = ("screen_prev_gbuffer", "array<GVertex>", Access::Read);
+pub const PREV_GBUFFER: Buffer = ("screen_prev_gbuffer", "array<PackedVertex>", Access::Read);
+/// The vertices of a stage's pool's records in the history (after the pixels'), apart from the
+/// pixels' so that each fits one storage binding at 1920x1080.
+pub const PREV_POOL: Buffer = ("screen_prev_pool", "array<PackedVertex>", Access::Read);
 
 /// Errors of a screen-space reuse stage.
 #[derive(Debug, thiserror::Error)]
@@ -144,7 +147,7 @@ impl ScreenStage {
             Kernel::Initial => set.buffer("screen_out", self.reservoirs, Access::ReadWrite),
             Kernel::Reuse => render::reuse_io(self.reservoirs)
                 .iter()
-                .chain([&PREV_GBUFFER])
+                .chain([&PREV_GBUFFER, &PREV_POOL])
                 .fold(set, |set, &(name, ty, access)| set.buffer(name, ty, access)),
             Kernel::Shade => set.buffer("screen_final", self.reservoirs, Access::Read),
         };
@@ -240,12 +243,25 @@ pub fn params_layout(knob_words: usize) -> (usize, [(&'static str, usize); 6]) {
 
 /// A stage's reservoir buffers: this frame's pair (the passes write one from the other), last
 /// frame's final reservoirs and last frame's G-buffer (the temporal pass's history; a stage's
-/// pool of older records after the pixels' when it keeps one).
+/// pool of older records after the pixels' when it keeps one: their reservoirs after the
+/// pixels', their vertices in `prev_pool`).
 #[derive(Debug)]
 struct ReuseBuffers {
     reservoirs: [wgpu::Buffer; 2],
     prev_reservoirs: wgpu::Buffer,
     prev_gbuffer: wgpu::Buffer,
+    prev_pool: wgpu::Buffer,
+}
+
+/// The temporal pass's sources, record by record: last frame's pixels, then a stage's pool.
+#[derive(Debug, Clone, Copy)]
+pub struct History<'a> {
+    /// Every record's reservoir.
+    pub reservoirs: &'a wgpu::Buffer,
+    /// The pixels' vertices (last frame's G-buffer).
+    pub vertices: &'a wgpu::Buffer,
+    /// The pool's records' vertices (one unused record when the stage keeps no pool).
+    pub pool_vertices: &'a wgpu::Buffer,
 }
 
 impl ReuseBuffers {
@@ -262,14 +278,17 @@ impl ReuseBuffers {
         let history = px + u64::from(pool);
         let bytes = px * reservoir_size as u64;
         let history_bytes = history * reservoir_size as u64;
-        let vertex_bytes = history * size_of::<GVertex>() as u64;
+        let vertex_bytes = px * size_of::<GVertex>() as u64;
+        let pool_bytes = u64::from(pool.max(1)) * size_of::<GVertex>() as u64;
         ctx.check_binding_size(&format!("the {stage} reservoirs"), history_bytes)?;
         ctx.check_binding_size(&format!("the {stage} history's vertices"), vertex_bytes)?;
+        ctx.check_binding_size(&format!("the {stage} pool's vertices"), pool_bytes)?;
         let zeroed = |label: String, size| buffers::storage_zeroed(&ctx.device, &label, size);
         Ok(Self {
             reservoirs: [0, 1].map(|p| zeroed(format!("{stage} reservoirs {p}"), bytes)),
             prev_reservoirs: zeroed(format!("{stage} prev reservoirs"), history_bytes),
             prev_gbuffer: zeroed(format!("{stage} prev gbuffer"), vertex_bytes),
+            prev_pool: zeroed(format!("{stage} prev pool vertices"), pool_bytes),
         })
     }
 }
@@ -390,6 +409,7 @@ impl ScreenReuse {
                         ("reuse_self", receivers.into()),
                         ("reuse_out", out.into()),
                         (PREV_GBUFFER.0, (&b.prev_gbuffer).into()),
+                        (PREV_POOL.0, (&b.prev_pool).into()),
                     ];
                     if let Some(g) = grid {
                         let looked_up = if temporal { 1 - p } else { p };
@@ -474,8 +494,12 @@ impl ScreenReuse {
 
     /// The temporal pass's sources: last frame's final reservoirs and G-buffer, per pixel,
     /// then (a stage with [`Chain::pool`]) its pool's records.
-    pub fn history(&self) -> (&wgpu::Buffer, &wgpu::Buffer) {
-        (&self.buffers.prev_reservoirs, &self.buffers.prev_gbuffer)
+    pub fn history(&self) -> History<'_> {
+        History {
+            reservoirs: &self.buffers.prev_reservoirs,
+            vertices: &self.buffers.prev_gbuffer,
+            pool_vertices: &self.buffers.prev_pool,
+        }
     }
 
     /// Bytes of its buffers (parameters, reservoirs, last frame's reservoirs and G-buffer).
@@ -487,6 +511,7 @@ impl ScreenReuse {
             &b.reservoirs[1],
             &b.prev_reservoirs,
             &b.prev_gbuffer,
+            &b.prev_pool,
         ]
         .iter()
         .map(|x| x.size())

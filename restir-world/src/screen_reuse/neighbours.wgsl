@@ -20,7 +20,7 @@ fn screen_neighbours(i: u32, g: GVertex, temporal: bool, rng: ptr<function, u32>
             let j = render_project(screen_params.prev_camera, g.position);
             if j != RENDER_NO_PIXEL {
                 let m = screen_m(reuse_src[j]);
-                if m > 0u && screen_similar(g, screen_prev_gbuffer[j], screen_params.prev_camera.eye) {
+                if m > 0u && screen_similar(g, render_unpack_vertex(screen_prev_gbuffer[j]), screen_params.prev_camera.eye) {
                     n.idx[0] = j;
                     n.ms[0] = reuse_cap_m(m, cap);
                     n.k = 1u;
@@ -35,7 +35,7 @@ fn screen_neighbours(i: u32, g: GVertex, temporal: bool, rng: ptr<function, u32>
                 continue;
             }
             let m = screen_m(reuse_src[j]);
-            if j == i || m == 0u || !screen_similar(g, render_gbuffer[j], render_params.camera.eye) {
+            if j == i || m == 0u || !screen_similar(g, render_unpack_vertex(render_gbuffer[j]), render_params.camera.eye) {
                 continue;
             }
             n.idx[n.k] = j;

@@ -9,7 +9,8 @@
 // - `const SCREEN_STREAM_TEMPORAL` and `SCREEN_STREAM_SPATIAL`: the random streams of its
 //   passes.
 // In the temporal pass the sources (reuse_src) are last frame's final reservoirs, and a
-// source's vertex is last frame's G-buffer's (screen_prev_gbuffer).
+// source's vertex is last frame's G-buffer's (screen_prev_gbuffer), or past the pixels a stage's
+// pool's record's (screen_prev_pool).
 
 struct ScreenNeighbours {
     // The merged pixels and their capped M; the first k are set.
@@ -23,9 +24,13 @@ struct ScreenNeighbours {
 // The primary vertex that produced source reservoir j (last frame's in the temporal pass).
 fn screen_source_vertex(j: u32, temporal: bool) -> GVertex {
     if temporal {
-        return screen_prev_gbuffer[j];
+        let n = render_params.pixel_count;
+        if j >= n {
+            return render_unpack_vertex(screen_prev_pool[j - n]);
+        }
+        return render_unpack_vertex(screen_prev_gbuffer[j]);
     }
-    return render_gbuffer[j];
+    return render_unpack_vertex(render_gbuffer[j]);
 }
 
 @compute @workgroup_size(WORKGROUP_SIZE)
@@ -33,7 +38,7 @@ fn screen_reuse(id: Invocation) {
     let i = item_index(id);
     if i >= render_params.pixel_count { return; }
     let own = reuse_self[i];
-    let g = render_gbuffer[i];
+    let g = render_unpack_vertex(render_gbuffer[i]);
     if g.prim == BVH_NO_HIT || screen_m(own) == 0u {
         reuse_out[i] = own;
         return;

@@ -306,7 +306,7 @@ const REUSE: KernelDef = KernelDef::new(
         REUSE_IO,
         grid::LOOKUP,
         &[
-            ("wr_prev_vertices", "array<GVertex>", Access::Read),
+            ("wr_prev_vertices", "array<PackedVertex>", Access::Read),
             ESTIMATES[0],
             RAW_ESTIMATES,
         ],
@@ -686,6 +686,26 @@ pub struct WorldRestir {
 }
 
 impl WorldRestir {
+    /// Bytes of its buffers: the grid, the reservoirs, last frame's vertices, the estimates.
+    pub fn bytes(&self) -> u64 {
+        let b = &self.buffers;
+        let own: u64 = [
+            &b.params,
+            &b.reservoirs[0],
+            &b.reservoirs[1],
+            &b.prev_reservoirs,
+            &b.prev_vertices,
+            &b.estimate[0],
+            &b.estimate[1],
+            &b.debug,
+            &b.no_tiles,
+        ]
+        .map(wgpu::Buffer::size)
+        .iter()
+        .sum();
+        own + self.grid.bytes()
+    }
+
     /// The stage for `renderer`'s scene and image with `config`; its generate pass draws its
     /// candidates from `tiles` when given (filled by their owner every frame before
     /// [`WorldRestir::encode`]), else from the light table.

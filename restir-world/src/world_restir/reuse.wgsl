@@ -13,7 +13,7 @@
 // The vertex that generated source reservoir j (last frame's for the temporal pass).
 fn wr_source_vertex(j: u32, temporal: bool) -> GVertex {
     if temporal {
-        return wr_prev_vertices[j];
+        return render_unpack_vertex(wr_prev_vertices[j]);
     }
     return wr_vertex(j);
 }

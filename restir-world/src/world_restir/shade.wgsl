@@ -12,8 +12,8 @@ fn wr_shade(id: Invocation) {
     if wr_has_vertex(i) {
         let res = wr_final[i];
         e = wr_estimate[i];
-        let f = render_stored_light(render_secondary[i], res, e);
-        light = PathLight(render_shade_stored(f, res, render_gbuffer[i].albedo),
+        let f = render_stored_light(render_unpack_vertex(render_secondary[i]), res, e);
+        light = PathLight(render_shade_stored(f, res, render_unpack_vertex(render_gbuffer[i]).albedo),
                           render_shade_stored(f, res, vec3<f32>(1.0)));
     }
     render_store_path_light(i, light, e);
@@ -27,7 +27,7 @@ fn wr_shade_direct(id: Invocation) {
     let i = item_index(id);
     if i >= render_params.pixel_count { return; }
     let item = render_params.pixel_count + i;
-    let c = render_direct_from_stored(render_gbuffer[i], wr_final[item], render_secondary[i],
+    let c = render_direct_from_stored(render_unpack_vertex(render_gbuffer[i]), wr_final[item], render_unpack_vertex(render_secondary[i]),
                                       wr_estimate[item]);
     render_direct_frame[i] = vec4<f32>(c, 1.0);
 }

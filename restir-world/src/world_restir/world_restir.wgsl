@@ -31,9 +31,9 @@ fn wr_has_vertex(i: u32) -> bool {
 fn wr_vertex(i: u32) -> GVertex {
     let n = render_params.pixel_count;
     if i >= n {
-        return render_gbuffer[i - n];
+        return render_unpack_vertex(render_gbuffer[i - n]);
     }
-    return render_secondary[i];
+    return render_unpack_vertex(render_secondary[i]);
 }
 
 // Whether item i generates a reservoir and enters the grid this frame: with gi_stride s, one
