@@ -232,9 +232,10 @@ struct RenderArgs {
     /// Vertical field of view, degrees.
     #[arg(long)]
     fov: Option<f32>,
-    /// Exposure multiplier of the PNGs (EXRs are always linear and unscaled).
-    #[arg(long, default_value_t = 1.0)]
-    exposure: f32,
+    /// Exposure multiplier of the PNGs (EXRs are always linear and unscaled). Default: the
+    /// combined image's 99th-percentile luminance maps to 1, as compare's images and FLIP do.
+    #[arg(long)]
+    exposure: Option<f32>,
     /// Worker threads of the CPU reference (0 = all cores).
     #[arg(long, default_value_t = 0)]
     threads: usize,
@@ -402,8 +403,7 @@ fn info(
         }
         None => None,
     };
-    let ctx = gpu_context()?;
-    print_adapter(&ctx);
+    // What needs no adapter first: the methods are listed on a machine without one too.
     print_methods();
     if let Some((spec, plan)) = plan {
         println!("one frame of {spec} (each step enters its owner once):\n{plan}");
@@ -411,6 +411,8 @@ fn info(
     if let Some(name) = scene_name {
         print_scene(name, &scenes::load(name, opts, None)?);
     }
+    let ctx = gpu_context()?;
+    print_adapter(&ctx);
     Ok(())
 }
 
@@ -554,7 +556,9 @@ fn render(args: &RenderArgs) -> Result<()> {
         camera.vfov_deg = f;
     }
     camera.validate()?;
-    if !(args.exposure.is_finite() && args.exposure > 0.0) {
+    if let Some(e) = args.exposure
+        && !(e.is_finite() && e > 0.0)
+    {
         anyhow::bail!("--exposure must be a positive number");
     }
     // The method spec, parsed once: checked here, built by render_method.
@@ -566,7 +570,7 @@ fn render(args: &RenderArgs) -> Result<()> {
         args.anim.validate()?;
         s.check_camera(&camera).with_context(|| {
             format!(
-                "--size {}x{} (with --method {}): use a larger --size",
+                "--size {}x{} (with --method {})",
                 camera.width, camera.height, args.method
             )
         })?;
@@ -575,6 +579,9 @@ fn render(args: &RenderArgs) -> Result<()> {
                 "--candidates and --reference-ris are cpu-reference options (GPU methods: \
                  --method ris:K)"
             );
+        }
+        for w in s.scene_warnings(&scene) {
+            eprintln!("warning: --method {}: {w}", args.method);
         }
         settings = Some(s);
     } else if args.anim.used() {
@@ -708,15 +715,24 @@ fn write_images(args: &RenderArgs, tag: &str, render: &render_cmd::MethodRender)
             .iter()
             .map(|(name, _)| args.out.join(format!("{tag}-{name}.png"))),
     );
+    // One exposure for every image of the render (the combined image's), so they compare.
+    let exposure = args
+        .exposure
+        .unwrap_or_else(|| restir_world::metrics::auto_exposure(&images.combined.pixels));
     write_all_or_none(&files, |i, f| {
         match i.checked_sub(2 * sets.len()) {
             // Debug views are colours already: no exposure.
             Some(v) => image_io::write_png(f, &views[v].1, 1.0)?,
             None if i % 2 == 0 => image_io::write_exr(f, sets[i / 2].1)?,
-            None => image_io::write_png(f, sets[i / 2].1, args.exposure)?,
+            None => image_io::write_png(f, sets[i / 2].1, exposure)?,
         }
         Ok(())
     })?;
+    if args.exposure.is_none() {
+        println!(
+            "PNG exposure {exposure:.4} (the combined image's 99th-percentile luminance to 1; --exposure sets it)"
+        );
+    }
     for (i, (_, img)) in sets.iter().enumerate() {
         let m = img.mean();
         println!(

@@ -141,14 +141,10 @@ impl Shown {
         }
     }
 
-    /// Whether the method of `info` draws it: the denoiser's views with the denoiser on, the
-    /// other debug views with world-restir's grid.
-    fn available(self, info: &Info) -> bool {
-        match self.debug() {
-            Some(v) if v.is_denoise_view() => info.denoise,
-            Some(_) => info.has_debug,
-            None => true,
-        }
+    /// Whether a method of `settings` draws it (every image; the debug views its stages have).
+    fn available(self, settings: &MethodSettings) -> bool {
+        self.debug()
+            .is_none_or(|v| settings.debug_views().contains(&v))
     }
 
     fn label(self) -> &'static str {
@@ -268,6 +264,21 @@ fn check(args: ViewArgs, created: &mut Vec<PathBuf>) -> Result<Setup> {
         "off" => None,
         k => Some(DenoiseConfig::parse(k).map_err(|e| anyhow::anyhow!("--denoise: {e}"))?),
     };
+    if !args.show.available(&settings) {
+        let name =
+            |s: Shown| clap::ValueEnum::to_possible_value(&s).map(|v| v.get_name().to_owned());
+        let offered: Vec<String> = Shown::ALL
+            .iter()
+            .filter(|(s, _)| s.available(&settings))
+            .filter_map(|(s, _)| name(*s))
+            .collect();
+        anyhow::bail!(
+            "--show {}: {} has no such view; it shows: {}",
+            name(args.show).unwrap_or_default(),
+            args.method,
+            offered.join(", ")
+        );
+    }
     let paths = args.paths.paths()?;
     let screenshot = args
         .screenshot
@@ -275,6 +286,9 @@ fn check(args: ViewArgs, created: &mut Vec<PathBuf>) -> Result<Setup> {
         .map(|f| screenshot_paths(f, created))
         .transpose()?;
     let scene = scenes::load(&args.scene, &args.scene_opts, args.size)?;
+    for w in settings.scene_warnings(&scene) {
+        eprintln!("warning: --method {}: {w}", args.method);
+    }
     let base_size = args
         .size
         .or(scene.camera.map(|c| (c.width, c.height)))
@@ -286,6 +300,12 @@ fn check(args: ViewArgs, created: &mut Vec<PathBuf>) -> Result<Setup> {
         height: scaled(base_size.1, args.scale),
         ..camera
     };
+    settings.check_camera(&camera).with_context(|| {
+        format!(
+            "--size {}x{} at --scale {} (with --method {})",
+            base_size.0, base_size.1, args.scale, args.method
+        )
+    })?;
     let speed = scene
         .bounds()
         .map_or(1.0, |(lo, hi)| 0.25 * (hi - lo).length())
@@ -790,8 +810,6 @@ impl Viewer {
             settings: self.settings,
             speed: self.setup.speed,
             dt,
-            has_debug: self.settings.world.is_some(),
-            denoise: self.settings.denoise.is_some(),
             render_cmd: self.render_command(),
         };
         let texture = self.texture.as_ref().map(|t| t.id());
@@ -1097,9 +1115,6 @@ struct Info {
     settings: MethodSettings,
     speed: f32,
     dt: f32,
-    has_debug: bool,
-    /// Whether the method runs with the denoiser.
-    denoise: bool,
     render_cmd: String,
 }
 
@@ -1295,13 +1310,13 @@ fn image_ui(ui: &mut egui::Ui, info: &Info, c: &mut Controls, a: &mut Actions) {
         .selected_text(c.shown.label())
         .show_ui(ui, |ui| {
             for (shown, label) in Shown::ALL {
-                if !shown.available(info) {
+                if !shown.available(&info.settings) {
                     continue;
                 }
                 ui.selectable_value(&mut c.shown, shown, label);
             }
         });
-    if !c.shown.available(info) {
+    if !c.shown.available(&info.settings) {
         c.shown = Shown::Combined;
     }
     ui.add(

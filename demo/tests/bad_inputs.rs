@@ -1473,6 +1473,84 @@ fn expect_files(out: &Path, count: usize) -> Result<(), String> {
     }
 }
 
+/// The radiance cache's range and convergence, said as warnings where the scene still renders;
+/// grid knobs that no image size fixes, named as knobs (each case failed on the binary
+/// before: no warning, or "use a larger --size").
+fn cache_and_knob_cases(g: &Path) -> Vec<Case> {
+    // A closed white box lit by a lamp of 1e10: beyond the cache's 65504 per channel.
+    let bright = g.join("bright_box.obj");
+    std::fs::write(
+        g.join("bright_box.mtl"),
+        "newmtl white\nKd 0.7 0.7 0.7\nnewmtl lamp\nKd 0 0 0\nKe 1e10 1e10 1e10\n",
+    )
+    .unwrap();
+    std::fs::write(
+        &bright,
+        "mtllib bright_box.mtl\nv 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv 0 0 1\nv 1 0 1\n\
+         v 1 1 1\nv 0 1 1\nv 0.4 0.99 0.4\nv 0.6 0.99 0.4\nv 0.6 0.99 0.6\nv 0.4 0.99 0.6\n\
+         usemtl white\nf 1 2 6 5\nf 4 8 7 3\nf 1 5 8 4\nf 2 3 7 6\nf 1 4 3 2\nf 5 6 7 8\n\
+         usemtl lamp\nf 9 10 11 12\n",
+    )
+    .unwrap();
+    let cache_with = |method: &str, scene: &str, extra: &[&str]| {
+        let base = [
+            "render",
+            "--scene",
+            scene,
+            "--method",
+            method,
+            "--bounces",
+            "64",
+            "--size",
+            "32x32",
+            "--frames",
+            "1",
+        ];
+        base.iter()
+            .chain(extra)
+            .map(|s| s.to_string())
+            .collect::<Vec<_>>()
+    };
+    let cache = |scene: &str, extra: &[&str]| cache_with("ris+cache", scene, extra);
+    vec![
+        case_of(
+            "cache-range",
+            cache(
+                &bright.display().to_string(),
+                &["--eye=0.5,0.5,0.1", "--target=0.5,0.5,1"],
+            ),
+            0,
+            "beyond the radiance cache's range (65504 per channel)",
+        ),
+        case_of(
+            "cache-albedo-one",
+            cache("furnace", &["--rho", "1"]),
+            0,
+            "its radiance does not converge",
+        ),
+        case_of(
+            "cache-min-cell-size",
+            cache_with("ris+cache:min-cell-size=1e38", "cornell", &[]),
+            1,
+            "the cache's cells: min-cell-size=100000000000000000000000000000000000000",
+        ),
+        case(
+            "wgi-projected-size",
+            &[
+                "render",
+                "--scene",
+                "cornell",
+                "--method",
+                "world-restir-gi:projected-size=4096",
+                "--size",
+                "64x64",
+            ],
+            1,
+            "world-restir-gi's cells: min-cell-size=",
+        ),
+    ]
+}
+
 /// Cases that depend on the adapter's limits (skipped, with the reason printed, where the
 /// limit is above what they need).
 fn adapter_cases(gen_dir: &Path) -> Vec<Case> {
@@ -1555,6 +1633,7 @@ fn bad_inputs_are_refused_with_their_cause_and_leave_nothing_behind() {
     let mut cases = cases(&tmp, &gen_dir);
     cases.extend(new_input_cases(&tmp, &gen_dir));
     cases.extend(adapter_cases(&gen_dir));
+    cases.extend(cache_and_knob_cases(&gen_dir));
     let only = std::env::var("BAD_INPUTS_ONLY").ok();
     let mut failures = Vec::new();
     let mut ran = 0;
@@ -1695,4 +1774,30 @@ fn check_outputs(c: &Case, out: &Path) -> Vec<String> {
         }
     }
     problems
+}
+
+/// `info` lists the methods before it opens an adapter: on a machine without one (here an
+/// adapter name that matches none) the list is printed, then the adapter's error (it needed
+/// the adapter first).
+#[test]
+fn info_lists_the_methods_without_an_adapter() {
+    let o = Command::new(exe())
+        .arg("info")
+        .env("WGPU_ADAPTER_NAME", "no-such-adapter")
+        .output()
+        .unwrap();
+    let (out, err) = (
+        String::from_utf8_lossy(&o.stdout),
+        String::from_utf8_lossy(&o.stderr),
+    );
+    assert_eq!(o.status.code(), Some(1), "{err}");
+    assert!(err.contains("WGPU_ADAPTER_NAME"), "{err}");
+    for name in [
+        "methods (--method",
+        "  ris:",
+        "  restir-gi:",
+        "  world-restir-gi+cache:",
+    ] {
+        assert!(out.contains(name), "{name:?} missing from: {out}");
+    }
 }

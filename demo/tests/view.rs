@@ -171,7 +171,8 @@ fn screenshot_equals_the_offline_render() {
     let view_exr = read_exr(&dir.join("shot.exr")).unwrap();
     // The window shows the last frame denoised: `render --denoise`'s denoised image.
     let mut args = common.to_vec();
-    args.extend(["--frames", "30", "--denoise"]);
+    // The window's exposure (1) for render's PNG, whose default is the image's own.
+    args.extend(["--frames", "30", "--denoise", "--exposure", "1"]);
     render(&dir.join("render"), &args);
     let offline = read_exr(&dir.join("render/cornell-world-restir-denoised.exr")).unwrap();
     same_image(&view_exr, &offline).unwrap();
@@ -296,6 +297,29 @@ fn without_a_display_it_says_so_and_suggests_render() {
             "{bad:?} was not checked first: {err}"
         );
         assert!(!err.contains("panicked"), "{bad:?}: {err}");
+    }
+    // And say which flag: a view the method does not draw (it showed another image), a size
+    // the cache's cells cannot be sized for (a message naming nothing, after the adapter).
+    for (bad, needle) in [
+        (
+            &["--method", "nee", "--show", "rejected"][..],
+            "--show rejected: nee has no such view",
+        ),
+        (
+            &["--method", "ris+cache", "--bounces", "64", "--size", "1x1"],
+            "--size 1x1 at --scale 1 (with --method ris+cache): method ris+cache: the cache's cells",
+        ),
+    ] {
+        let o = Command::new(BIN)
+            .args(["view", "--scene", "cornell"])
+            .args(bad)
+            .env_remove("DISPLAY")
+            .env_remove("WAYLAND_DISPLAY")
+            .output()
+            .unwrap();
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(1), "{bad:?}: {err}");
+        assert!(err.contains(needle), "{bad:?}: {err}");
     }
 }
 

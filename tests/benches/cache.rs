@@ -67,6 +67,10 @@ fn main() {
                     ("capacity", s.capacity.to_string()),
                     ("bytes_per_cell", s.bytes_per_cell.to_string()),
                     ("overflows", s.overflows.to_string()),
+                    (
+                        "frame_bytes_per_pixel",
+                        format!("{:.1}", m.frame_bytes() as f64 / f64::from(side * side)),
+                    ),
                 ],
             );
         }

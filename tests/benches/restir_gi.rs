@@ -6,12 +6,12 @@
 //! (`restir-gi+world-restir`, `restir-di+restir-gi+world-restir`) and per world-space method
 //! (`world-restir-gi`, `world-restir-gi+world-restir`), each with the share of its
 //! reconnections rejected in the last frame and the bytes its buffers hold per pixel (the
-//! world-space grid's included).
+//! world-space grid's included) and those of every per-frame buffer of the method.
 //!
 //! Size: `GI_BENCH_SIZE` (default 128).
 
 use restir_world::GpuContext;
-use restir_world::methods::{self, Composed};
+use restir_world::methods::{self, Composed, FrameMethod};
 use restir_world::restir_gi;
 use restir_world::scene::{Camera, Scene};
 use tests::{bench, gpu};
@@ -81,6 +81,7 @@ fn main() {
         let all: Vec<String> = GI_STEPS.iter().map(|s| span(s)).collect();
         let all: Vec<&str> = all.iter().map(String::as_str).collect();
         let bytes = m.gi().unwrap().bytes() as f64 / f64::from(side * side);
+        let frame_bytes = m.frame_bytes() as f64 / f64::from(side * side);
         bench::print_result(
             ctx,
             "restir-gi",
@@ -105,6 +106,7 @@ fn main() {
                     format!("{:.3}", rejected as f64 / tried.max(1) as f64),
                 ),
                 ("bytes_per_pixel", format!("{bytes:.1}")),
+                ("frame_bytes_per_pixel", format!("{frame_bytes:.1}")),
             ],
         );
     }

@@ -519,7 +519,20 @@ fn knob_errors_and_debug_views() {
             );
         }
     }
-    let mut m = build("restir-gi", &s, &cam, 1);
-    gpu::render(&mut m, 4);
-    assert!(m.debug_image(ctx, DebugView::Cells).unwrap().is_none());
+    // The settings say which views a method draws (the viewer offers those and refuses
+    // others): each of them drawn, no other.
+    for spec in [
+        "nee",
+        "restir-gi",
+        "world-restir-gi",
+        "restir-gi+world-restir",
+    ] {
+        let mut m = build(spec, &s, &cam, 1);
+        gpu::render(&mut m, 1);
+        let views = methods::parse_spec(spec).unwrap().debug_views();
+        for view in DebugView::ALL {
+            let drawn = m.debug_image(ctx, view).unwrap().is_some();
+            assert_eq!(drawn, views.contains(&view), "{spec}: {view:?}");
+        }
+    }
 }

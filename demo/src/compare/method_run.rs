@@ -52,9 +52,23 @@ impl SceneRuns<'_> {
                 frames: opts.frames,
                 bias: bias.map(|(_, b)| *b),
             };
+            let start = std::time::Instant::now();
+            super::log_line(&self.bar, || {
+                format!(
+                    "{label}: {spec}: {} frames (its kernels compile on their first use: \
+                     minutes on a CPU adapter)",
+                    opts.frames
+                )
+            });
             let finished = self
                 .run(&run)
                 .with_context(|| format!("{label}: method {spec}"))?;
+            super::log_line(&self.bar, || {
+                format!(
+                    "{label}: {spec}: done in {:.1} s",
+                    start.elapsed().as_secs_f64()
+                )
+            });
             done.push((spec.clone(), finished));
         }
         Ok(done)
@@ -131,6 +145,7 @@ impl SceneRuns<'_> {
             Ok(())
         })?;
         tally.reuse_bytes_per_pixel = m.reuse_bytes().map(|b| b as f64 / pixels as f64);
+        tally.bytes_per_pixel = m.frame_bytes() as f64 / pixels as f64;
         tally.finish(run, &self.refs)
     }
 }
@@ -244,6 +259,7 @@ struct Tally {
     last_eval: Option<(u32, PerImage<Rgb>)>,
     cache: Option<CacheUse>,
     reuse_bytes_per_pixel: Option<f64>,
+    bytes_per_pixel: f64,
     denoised: DenoisedTally,
 }
 
@@ -273,6 +289,7 @@ impl Tally {
             last_eval: None,
             cache: None,
             reuse_bytes_per_pixel: None,
+            bytes_per_pixel: 0.0,
             denoised: DenoisedTally::default(),
         }
     }
@@ -420,6 +437,7 @@ impl Tally {
             max_grid_overflows: self.records.iter().filter_map(|r| r.grid_overflows).max(),
             cache: self.cache,
             reuse_bytes_per_pixel: self.reuse_bytes_per_pixel,
+            bytes_per_pixel: self.bytes_per_pixel,
             images: RunImages {
                 raw: self.image_errors(refs)?,
                 denoised: self.denoised_errors(refs)?,

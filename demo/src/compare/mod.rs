@@ -163,6 +163,14 @@ fn compare_scene(
     })
 }
 
+/// A line on stderr where the progress bar is not drawn (`--quiet`, a log): long work (a
+/// reference, a method's kernels compiling and its frames) is never silent there.
+fn log_line(bar: &ProgressBar, line: impl FnOnce() -> String) {
+    if bar.is_hidden() {
+        eprintln!("{}", line());
+    }
+}
+
 /// The scene's progress bar: the reference's frames (unless external), then every method's.
 /// On a terminal only (indicatif hides it in logs); it ticks by itself so that the
 /// reference's first frames (pipeline compilation) show.
@@ -348,10 +356,13 @@ pub fn run(
         for (spec, settings) in opts.methods.iter().zip(settings) {
             settings.check_camera(&base).with_context(|| {
                 format!(
-                    "--size {}x{}: method {spec} on {label}: use a larger --size",
+                    "--size {}x{}: method {spec} on {label}",
                     opts.size.0, opts.size.1
                 )
             })?;
+            for w in settings.scene_warnings(scene) {
+                eprintln!("warning: method {spec} on {label}: {w}");
+            }
         }
     }
     crate::with_out_dir(&opts.out, || {

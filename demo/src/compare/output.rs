@@ -301,7 +301,7 @@ fn write_times(s: &mut String, methods: &[MethodRun]) {
         "ms/frame median (mean)",
         "median ms by stage",
         "grid overflows (most in a frame)",
-        "path-reuse bytes/pixel",
+        "bytes/pixel (path reuse)",
     ]);
     let rows = methods.iter().map(|m| {
         let stages: Vec<String> = m
@@ -316,8 +316,10 @@ fn write_times(s: &mut String, methods: &[MethodRun]) {
             stages.join(", "),
             m.max_grid_overflows
                 .map_or_else(|| "-".to_owned(), |o| o.to_string()),
-            m.reuse_bytes_per_pixel
-                .map_or_else(|| "-".to_owned(), |b| format!("{b:.0}")),
+            match m.reuse_bytes_per_pixel {
+                Some(r) => format!("{:.0} ({r:.0})", m.bytes_per_pixel),
+                None => format!("{:.0}", m.bytes_per_pixel),
+            },
         ]
     });
     table(s, &header, rows);

@@ -101,6 +101,14 @@ pub fn make_references(
     let mut rendered = Vec::new();
     for f in evaluated_frames(opts) {
         let cam = opts.camera.per_frame(opts.frames).camera(base, f);
+        let start = std::time::Instant::now();
+        super::log_line(bar, || {
+            format!(
+                "reference of frame {f}: {} spp at {}x{}, {} bounces (loaded from --cache when \
+                 there; rendering it takes minutes on a CPU adapter)",
+                settings.spp, cam.width, cam.height, settings.paths.bounces
+            )
+        });
         let r = gpu_reference::load_or_render(
             ctx,
             scene,
@@ -112,6 +120,12 @@ pub fn make_references(
         if let Some(note) = &r.cache_note {
             bar.suspend(|| eprintln!("warning: {note}"));
         }
+        super::log_line(bar, || {
+            format!(
+                "reference of frame {f}: done in {:.1} s",
+                start.elapsed().as_secs_f64()
+            )
+        });
         rendered.push((f, r));
     }
     let info = rendered_info(&rendered, &settings);

@@ -196,6 +196,9 @@ pub struct MethodRun {
     /// Bytes per pixel of the buffers its path-resampling stage keeps (restir-gi,
     /// world-restir-gi: reservoirs, history, grid and pool).
     pub reuse_bytes_per_pixel: Option<f64>,
+    /// Bytes per pixel of every per-frame buffer the method keeps (the renderer's per-pixel
+    /// buffers and each stage's, the denoiser's too; the scene's not).
+    pub bytes_per_pixel: f64,
     pub images: RunImages,
     pub per_frame: Vec<FrameRecord>,
 }

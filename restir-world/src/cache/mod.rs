@@ -37,7 +37,7 @@ use crate::render::{
     self, Buffer, ComposedKernel, DebugView, GVertex, KernelDef, MAX_BOUNCES, OwnKernel,
     RenderError, Renderer, STAGE_GROUP,
 };
-use crate::scene::Camera;
+use crate::scene::{Camera, Scene};
 
 /// Library WGSL (parameters, cells, keys, the path's hook).
 pub const WGSL: &str = include_str!("cache.wgsl");
@@ -66,6 +66,46 @@ const SALT_ACCUMULATE: u32 = 0x802;
 
 const _: () =
     assert!((MAX_HISTORY + MAX_NEW) as f64 * SCALE as f64 * MAX_VALUE as f64 <= u32::MAX as f64);
+
+/// What a scene does to the cache that its image would not say. Its cells hold radiance up to
+/// [`MAX_VALUE`] per channel in steps of 1 / [`SCALE`] (finer values rounded at random, exact
+/// in expectation): a surface lit by an emitter brighter than that (area light or
+/// environment; a white surface reflects at most the brightest radiance it sees, more only
+/// by interreflection) may be clipped, its image darker than the truth. And an albedo of 1:
+/// the cache's paths are unbounded, so a closed scene of such surfaces keeps all of its
+/// light at every bounce and its true radiance is infinite (the cache's image grows with the
+/// frames).
+pub fn scene_warnings(scene: &Scene) -> Vec<String> {
+    let mut warnings = Vec::new();
+    let brightest = |c: [f32; 3]| c.into_iter().fold(0.0f32, f32::max);
+    let emitted = scene.materials.iter().map(|m| brightest(m.emission));
+    let sky = scene
+        .environment
+        .iter()
+        .flat_map(|e| e.pixels.iter().map(|p| brightest(*p)));
+    let max = emitted.chain(sky).fold(0.0f32, f32::max);
+    if max > MAX_VALUE {
+        warnings.push(format!(
+            "the scene emits radiance up to {max:e}, beyond the radiance cache's range \
+             ({MAX_VALUE} per channel): cells lit by it may be clipped, their light darker \
+             than the truth; scale the emission down (the image scales with it)"
+        ));
+    }
+    if let Some(i) = scene
+        .materials
+        .iter()
+        .position(|m| m.albedo.iter().any(|&a| a >= 1.0))
+    {
+        warnings.push(format!(
+            "material {i} has albedo {:?}: with the cache's unbounded paths a closed scene of \
+             such surfaces keeps all of its light at every bounce, so its radiance does not \
+             converge (it grows with the frames); a method without the cache renders the \
+             --bounces asked for",
+            scene.materials[i].albedo
+        ));
+    }
+    warnings
+}
 
 /// Errors of the radiance cache.
 #[derive(Debug, thiserror::Error)]
@@ -348,6 +388,16 @@ pub struct RadianceCache {
 }
 
 impl RadianceCache {
+    /// Bytes of its buffers: the hash table and the cells.
+    pub fn bytes(&self) -> u64 {
+        let t = &self.table;
+        [t.checksums(), t.counters(), t.stats(), t.params()]
+            .into_iter()
+            .chain([&self.params, &self.cells, &self.debug])
+            .map(wgpu::Buffer::size)
+            .sum()
+    }
+
     /// The cache for `renderer`'s scene and image with `config`.
     pub fn new(
         ctx: &GpuContext,

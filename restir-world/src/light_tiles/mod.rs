@@ -78,6 +78,11 @@ pub struct LightTiles {
 }
 
 impl LightTiles {
+    /// Bytes of its buffer.
+    pub fn bytes(&self) -> u64 {
+        self.buffer.size()
+    }
+
     /// `tiles` tiles of `tile_size` samples for the renderer of `shared` (the caller checks
     /// the counts; the buffer is checked against the device's binding limit here).
     pub fn new(

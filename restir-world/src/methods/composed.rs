@@ -241,6 +241,16 @@ impl FrameMethod for Composed {
         })
     }
 
+    fn frame_bytes(&self) -> u64 {
+        self.renderer.bytes()
+            + self.tiles.as_ref().map_or(0, LightTiles::bytes)
+            + self.world.as_ref().map_or(0, WorldRestir::bytes)
+            + self.gi.as_ref().map_or(0, RestirGi::bytes)
+            + self.di.as_ref().map_or(0, RestirDi::bytes)
+            + self.cache.as_ref().map_or(0, RadianceCache::bytes)
+            + self.denoiser.as_ref().map_or(0, Denoiser::bytes)
+    }
+
     fn reuse_bytes(&self) -> Option<u64> {
         self.gi.as_ref().map(RestirGi::bytes)
     }

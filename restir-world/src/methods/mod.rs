@@ -68,6 +68,11 @@ pub trait FrameMethod: fmt::Debug {
     fn grid_overflows(&self, _ctx: &GpuContext) -> Result<Option<u32>, MethodError> {
         Ok(None)
     }
+    /// Bytes of every per-frame buffer it keeps: the renderer's per-pixel buffers and each
+    /// stage's (reservoirs, histories, grids, pools, caches, the denoiser's); the scene's not.
+    fn frame_bytes(&self) -> u64 {
+        self.renderer().bytes()
+    }
     /// Bytes of the buffers its path-resampling stage keeps (reservoirs, history, grid, pool),
     /// for methods with one.
     fn reuse_bytes(&self) -> Option<u64> {

@@ -6,7 +6,7 @@ use std::fmt;
 
 use super::plan::{FramePlan, Step};
 use super::{Composed, FrameMethod, MethodError};
-use crate::cache::{self, CacheConfig, CacheError};
+use crate::cache::{self, CacheConfig};
 use crate::denoise::DenoiseConfig;
 use crate::gpu::GpuContext;
 use crate::knobs::{Knob, Knobs, Variant, parse_config};
@@ -15,7 +15,7 @@ use crate::restir_di::{self, RestirDiConfig};
 use crate::restir_gi::{self, RestirGiConfig, WorldRestirGiConfig};
 use crate::sampling::Estimator;
 use crate::scene::{Camera, Scene};
-use crate::world_restir::{self, WorldRestirConfig, WorldRestirError};
+use crate::world_restir::{self, WorldRestirConfig};
 
 /// Which part of a method its variant text configures.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -199,6 +199,33 @@ impl PartialEq for MethodSettings {
 }
 
 impl MethodSettings {
+    /// The debug views a method of these settings draws ([`FrameMethod::debug_image`]):
+    /// world-restir's grid, the reservoirs' M (world-restir, restir-gi, world-restir-gi),
+    /// the rejected reconnections (restir-gi, world-restir-gi), the cache's and the denoiser's.
+    pub fn debug_views(&self) -> Vec<render::DebugView> {
+        use render::DebugView as V;
+        let paths = self.gi.is_some() || self.wgi.is_some();
+        V::ALL
+            .into_iter()
+            .filter(|v| match v {
+                V::Cells | V::Overflow => self.world.is_some(),
+                V::M => self.world.is_some() || paths,
+                V::Rejected => paths,
+                V::CacheRadiance | V::CacheAge | V::CacheSamples => self.cache.is_some(),
+                V::DenoiseHistory | V::DenoiseVariance => self.denoise.is_some(),
+            })
+            .collect()
+    }
+
+    /// What `scene` does to a method of these settings that its image would not say (the
+    /// radiance cache's range, light that does not converge); empty when nothing.
+    pub fn scene_warnings(&self, scene: &Scene) -> Vec<String> {
+        match &self.cache {
+            Some(_) => cache::scene_warnings(scene),
+            None => Vec::new(),
+        }
+    }
+
     /// Checks each stage's knobs and how they compose.
     pub fn validate(&self) -> Result<(), MethodError> {
         let bad = |msg: &str| Err(self.entry.bad(msg));
@@ -235,21 +262,39 @@ impl MethodSettings {
     /// world-restir sizes its hash grid's cells from the image size and the field of view, and
     /// a tiny image (1x1, 4x4) cannot be sized.
     pub fn check_camera(&self, camera: &Camera) -> Result<(), MethodError> {
+        let pixels = camera.width.saturating_mul(camera.height);
         if let Some(w) = &self.world {
             let table = w.table(camera.width, camera.height);
-            gpu_hash::HashGridParams::new(&table, &w.sizing(camera), camera.eye)
-                .map_err(WorldRestirError::from)?;
+            self.check_cells("world-restir", &table, &w.sizing(camera), camera)?;
         }
         if let Some(g) = &self.wgi {
-            let table = g.table(camera.width.saturating_mul(camera.height));
-            gpu_hash::HashGridParams::new(&table, &g.sizing(camera), camera.eye)
-                .map_err(|e| self.entry.bad(e.to_string()))?;
+            let table = g.table(pixels);
+            self.check_cells("world-restir-gi", &table, &g.sizing(camera), camera)?;
         }
         if let Some(c) = &self.cache {
-            let table = c.table(camera.width.saturating_mul(camera.height));
-            gpu_hash::HashGridParams::new(&table, &c.sizing(camera), camera.eye)
-                .map_err(CacheError::from)?;
+            let table = c.table(pixels);
+            self.check_cells("the cache", &table, &c.sizing(camera), camera)?;
         }
+        Ok(())
+    }
+
+    /// Checks that `stage`'s cell sizing gives cells for `camera`; the error names the knobs
+    /// that set it (the image's size only enters through the angle `projected-size` spans).
+    fn check_cells(
+        &self,
+        stage: &str,
+        table: &gpu_hash::TableConfig,
+        sizing: &gpu_hash::CellSizing,
+        camera: &Camera,
+    ) -> Result<(), MethodError> {
+        gpu_hash::HashGridParams::new(table, sizing, camera.eye).map_err(|e| {
+            self.entry.bad(format!(
+                "{stage}'s cells: min-cell-size={} and projected-size={} at {}x{}: {e}; \
+                 change these knobs (a larger image also narrows the angle of projected-size \
+                 pixels)",
+                sizing.min_cell_size, sizing.projected_size, camera.width, camera.height
+            ))
+        })?;
         Ok(())
     }
 

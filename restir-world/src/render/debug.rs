@@ -28,6 +28,19 @@ pub enum DebugView {
 }
 
 impl DebugView {
+    /// Every view.
+    pub const ALL: [DebugView; 9] = [
+        Self::Cells,
+        Self::M,
+        Self::Overflow,
+        Self::Rejected,
+        Self::CacheRadiance,
+        Self::CacheAge,
+        Self::CacheSamples,
+        Self::DenoiseHistory,
+        Self::DenoiseVariance,
+    ];
+
     /// Whether the denoiser draws this view.
     pub fn is_denoise_view(self) -> bool {
         matches!(self, Self::DenoiseHistory | Self::DenoiseVariance)

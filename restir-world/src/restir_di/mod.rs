@@ -157,6 +157,11 @@ pub struct RestirDi {
 }
 
 impl RestirDi {
+    /// Bytes of its buffers (the reservoirs and history; the light tiles are their owner's).
+    pub fn bytes(&self) -> u64 {
+        self.reuse.bytes() + self._estimate.size()
+    }
+
     /// The stage for `renderer`'s scene and image with `config`, drawing its candidates from
     /// `tiles` (filled every frame by their owner before [`RestirDi::encode`]).
     pub fn new(
