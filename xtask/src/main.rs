@@ -8,7 +8,9 @@
 use std::path::{Path, PathBuf};
 use std::process::{Command, ExitCode};
 
+mod json;
 mod suite;
+mod summary;
 
 const LAVAPIPE_PACKAGES: [&str; 2] = ["mesa-vulkan-drivers", "libvulkan1"];
 
@@ -48,10 +50,12 @@ fn main() -> ExitCode {
                 "usage: cargo xtask <test|demo|results> [args...]\n  test  run every test of the \
                  workspace on the available adapter, the viewer's under Xvfb, and print each \
                  binary's time and the slowest tests ([CARGO ARGS] [-- TEST ARGS])\n  demo  build \
-                 in release, render cornell and many-lights into out/ and run the \
-                 speed-against-error comparison on both (with args: run `restir-demo` with them \
-                 instead)\n  results  regenerate docs/results.md (the reference configuration's \
-                 comparison)"
+                 in release, render cornell and many-lights with restir-gi (and denoised) into \
+                 out/ and compare ris, restir-di, restir-gi and world-restir-gi on both (with \
+                 args: run `restir-demo` with them instead)\n  results  regenerate \
+                 docs/results.md: run the comparisons of its parts, then write it from their \
+                 reports ([PART] [COMPARE ARGS]; `results assemble`: write it from the \
+                 committed reports, rendering nothing)"
             );
             return ExitCode::from(2);
         }
@@ -90,22 +94,54 @@ fn test(args: &[String]) -> Result<(), String> {
     suite::run(&workspace_root(), cargo_args, test_args, &envs)
 }
 
-/// The default demo: a compare of nee, ris and world-restir on many-lights and cornell at
-/// 256x256, small enough for a few minutes on two CPU cores with lavapipe.
-const DEMO_COMPARE: [&str; 14] = [
+/// The size and frames of everything the default demo renders.
+const DEMO_SIZE: &str = "256x256";
+const DEMO_FRAMES: &str = "16";
+
+/// The default demo's comparison: the methods that win at the default paths (restir-gi and
+/// world-restir-gi for the indirect light, restir-di for the direct light) against their
+/// baseline `ris`, at equal time against `ris`, on many-lights and cornell at 256x256: a few
+/// minutes on two CPU cores with lavapipe. The `+cache` methods need unbounded paths
+/// (`--bounces 64`), so they cannot share this run: [`DEMO_CACHE_COMPARE`] is printed instead.
+const DEMO_COMPARE: [&str; 16] = [
     "compare",
     "--scene",
     "many-lights,cornell",
     "--methods",
-    "nee,ris,world-restir,world-restir+restir-di,world-restir:unified",
+    "ris,restir-di,restir-gi,world-restir-gi",
+    "--equal-time-to",
+    "ris",
     "--size",
-    "256x256",
+    DEMO_SIZE,
     "--frames",
-    "16",
+    DEMO_FRAMES,
     "--reference-spp",
     "128",
     "--out",
     "out/compare",
+    "--no-exr",
+];
+
+/// The comparison of the radiance cache at unbounded paths that the demo prints (not runs:
+/// its reference at 64 bounces would about double the demo's time).
+const DEMO_CACHE_COMPARE: [&str; 18] = [
+    "compare",
+    "--scene",
+    "many-lights,cornell",
+    "--methods",
+    "ris,ris+cache",
+    "--equal-time-to",
+    "ris",
+    "--bounces",
+    "64",
+    "--size",
+    DEMO_SIZE,
+    "--frames",
+    DEMO_FRAMES,
+    "--reference-spp",
+    "128",
+    "--out",
+    "out/compare-cache",
     "--no-exr",
 ];
 
@@ -167,29 +203,68 @@ const RESULTS_COMMON: [&str; 11] = [
     "--cache",
 ];
 
-/// Scenes `cargo xtask demo` (no arguments) renders with world-restir at 256x256, each well
-/// under a minute in release on a 2-core lavapipe machine; the images land in `out/<scene>/`.
+/// Scenes `cargo xtask demo` (no arguments) renders with [`DEMO_METHOD`] at 256x256, each
+/// well under a minute in release on a 2-core lavapipe machine; the images land in
+/// `out/<scene>/`.
 const DEMO_SCENES: [&str; 2] = ["cornell", "many-lights"];
+
+/// The method the demo renders: screen-space ReSTIR GI, the best at equal time on a still
+/// camera at the default paths (docs/results.md: 2.4x `ris`'s indirect efficiency on
+/// many-lights, 4.4x on cornell).
+const DEMO_METHOD: &str = "restir-gi";
 
 fn demo(args: &[String]) -> Result<(), String> {
     ensure_vulkan()?;
     let base = ["run", "--release", "--package", "demo", "--"];
     if args.is_empty() {
+        let root = workspace_root();
         for scene in DEMO_SCENES {
             let out = format!("out/{scene}");
             let mut run = base.to_vec();
-            run.extend(["render", "--scene", scene, "--method", "world-restir"]);
+            run.extend(["render", "--scene", scene, "--method", DEMO_METHOD]);
             run.extend([
-                "--size", "256x256", "--frames", "16", "--seed", "1", "--out", &out,
+                "--size",
+                DEMO_SIZE,
+                "--frames",
+                DEMO_FRAMES,
+                "--seed",
+                "1",
+                "--out",
+                &out,
             ]);
+            // Last: `--denoise` takes an optional value (its knobs).
+            run.push("--denoise");
             cargo(&run)?;
         }
         let mut run = base.to_vec();
         run.extend(DEMO_COMPARE);
         cargo(&run)?;
+        // `render` names its files SCENE-METHOD-IMAGE with the method's other characters as '-'.
+        let tag = DEMO_METHOD.replace(|c: char| !c.is_ascii_alphanumeric() && c != '-', "-");
+        let denoised: Vec<String> = DEMO_SCENES
+            .iter()
+            .map(|scene| {
+                let file = format!("out/{scene}/{scene}-{tag}-denoised.png");
+                root.join(file).display().to_string()
+            })
+            .collect();
         println!(
-            "xtask: the report is {}",
-            workspace_root().join("out/compare/report.md").display()
+            "xtask: rendered {DEMO_METHOD}, the method that wins at equal time on a still camera \
+             (README: which method for what): {} (the last frame denoised; beside it the \
+             {DEMO_FRAMES} frames accumulated, -combined, -direct and -indirect, each .png and \
+             .exr)",
+            denoised.join(", ")
+        );
+        println!(
+            "xtask: compared ris, restir-di (direct light), restir-gi and world-restir-gi \
+             (indirect light) at equal time against ris: {} (world-restir-gi wins where the \
+             camera moves: the same compare with --animation orbit)",
+            root.join("out/compare/report.md").display()
+        );
+        println!(
+            "xtask: the +cache methods need unbounded paths and a comparison of their own: \
+             cargo xtask demo {}",
+            DEMO_CACHE_COMPARE.join(" ")
         );
         return Ok(());
     }
@@ -199,8 +274,9 @@ fn demo(args: &[String]) -> Result<(), String> {
 }
 
 /// `cargo xtask results [PART] [compare arguments]`: runs every part of docs/results.md (or the
-/// one named: default-depth, one-bounce; `assemble`: none) into its folder, then writes
-/// docs/results.md from the parts' reports (image links pointing into docs/results/) and
+/// one named: default-depth, cache, one-bounce; `assemble`: none, so nothing is rendered) into
+/// its folder, then writes docs/results.md: a summary table from the parts' `report.json`
+/// ([`summary::summary`]), the parts' `report.md` (image links pointing into docs/results/) and
 /// docs/results-notes.md.
 fn results(args: &[String]) -> Result<(), String> {
     let (only, extra) = match args.first().map(String::as_str) {
@@ -222,7 +298,12 @@ fn results(args: &[String]) -> Result<(), String> {
         run.extend(extra.iter().map(String::as_str));
         cargo(&run)?;
     }
-    let mut body = String::new();
+    let reports: Vec<(&str, PathBuf)> = RESULTS_PARTS
+        .iter()
+        .map(|(_, title, dir, _)| (*title, root.join(dir).join("report.json")))
+        .collect();
+    let reports: Vec<(&str, &Path)> = reports.iter().map(|(t, p)| (*t, p.as_path())).collect();
+    let mut body = summary::summary(&reports)?;
     for (_, title, dir, _) in RESULTS_PARTS {
         let report = root.join(dir).join("report.md");
         let text = std::fs::read_to_string(&report)
