@@ -643,6 +643,12 @@ fn render_into(
             let r = reference::ReferenceRenderer::new(scene)?;
             let pb = progress_bar(u64::from(camera.height), "cpu-reference rows");
             let start = std::time::Instant::now();
+            eprintln!(
+                "cpu-reference ({method:?}): {}x{} x {samples} spp, {} bounces, on the CPU",
+                camera.width,
+                camera.height,
+                args.paths.paths()?.bounces
+            );
             let out = r.render(
                 camera,
                 &reference::ReferenceOptions {

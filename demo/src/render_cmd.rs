@@ -123,7 +123,17 @@ pub fn render_method(
     args.check_cameras(camera, frames)?;
     let ctx = crate::gpu_context()?;
     eprintln!("{}", ctx.describe());
+    // Said before the build: a method's kernels compile on their first use on this machine,
+    // which takes minutes on a CPU adapter, with no progress bar yet (and none in a log).
+    eprintln!("{spec}: building (its kernels compile on first use: minutes on a CPU adapter)");
+    let start = std::time::Instant::now();
     let mut m = settings.build_with(&ctx, scene, camera, options)?;
+    eprintln!(
+        "{spec}: built in {:.1} s; rendering {frames} frames at {}x{}",
+        start.elapsed().as_secs_f64(),
+        camera.width,
+        camera.height
+    );
     let l = FrameLoop {
         path: args.path(),
         ..FrameLoop::frames(frames)

@@ -118,3 +118,48 @@ fn bad_input_fails_with_a_clear_message() {
         assert!(err.contains(needle), "{args:?}: {err}");
     }
 }
+
+/// `render`'s PNGs are exposed as compare's images by default (the combined image's
+/// 99th-percentile luminance to 1), so a bright scene is not white (issue 38: Sponza under a
+/// sky came out white at the old default exposure 1); `--exposure 1` is the old image, whose
+/// saturation shows the scene is bright enough for the check to fail.
+#[test]
+fn render_pngs_are_exposed_for_the_image() {
+    let out = std::env::temp_dir().join(format!("restir-demo-cli-exp-{}", std::process::id()));
+    let saturated = |exposure: &[&str]| {
+        let _ = std::fs::remove_dir_all(&out);
+        let o = demo()
+            .args(["render", "--scene", "furnace", "--le", "4", "--method"])
+            .args([
+                "cpu-reference",
+                "--size",
+                "8x8",
+                "--spp",
+                "1",
+                "--frames",
+                "1",
+            ])
+            .args(exposure)
+            .arg("--out")
+            .arg(&out)
+            .output()
+            .unwrap();
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        let stdout = String::from_utf8_lossy(&o.stdout).into_owned();
+        let png = image::open(out.join("furnace-cpu-reference-combined.png"))
+            .unwrap()
+            .to_rgb8();
+        let full = png.as_raw().iter().filter(|&&b| b == 255).count();
+        (full as f64 / png.as_raw().len() as f64, stdout)
+    };
+    let (auto, stdout) = saturated(&[]);
+    assert!(stdout.contains("PNG exposure"), "{stdout}");
+    assert!(
+        auto < 0.05,
+        "{:.0}% of the default PNG saturated",
+        auto * 100.0
+    );
+    let (one, _) = saturated(&["--exposure", "1"]);
+    assert!(one > 0.9, "exposure 1 saturates only {:.0}%", one * 100.0);
+    std::fs::remove_dir_all(&out).unwrap();
+}
