@@ -283,15 +283,8 @@ fn without_a_display_it_says_so_and_suggests_render() {
         &["--scene", "no-such-scene"],
         &["--camera-path", "orbit", "--camera-path-frames", "1"],
     ] {
-        let o = Command::new(BIN)
-            .arg("view")
-            .args(bad)
-            .env_remove("DISPLAY")
-            .env_remove("WAYLAND_DISPLAY")
-            .output()
-            .unwrap();
-        let err = String::from_utf8_lossy(&o.stderr);
-        assert!(!o.status.success(), "{bad:?}");
+        let (code, err) = view_without_display(bad);
+        assert_ne!(code, Some(0), "{bad:?}");
         assert!(
             !err.contains("no display"),
             "{bad:?} was not checked first: {err}"
@@ -310,17 +303,25 @@ fn without_a_display_it_says_so_and_suggests_render() {
             "--size 1x1 at --scale 1 (with --method ris+cache): method ris+cache: the cache's cells",
         ),
     ] {
-        let o = Command::new(BIN)
-            .args(["view", "--scene", "cornell"])
-            .args(bad)
-            .env_remove("DISPLAY")
-            .env_remove("WAYLAND_DISPLAY")
-            .output()
-            .unwrap();
-        let err = String::from_utf8_lossy(&o.stderr);
-        assert_eq!(o.status.code(), Some(1), "{bad:?}: {err}");
+        let (code, err) = view_without_display(&[&["--scene", "cornell"][..], bad].concat());
+        assert_eq!(code, Some(1), "{bad:?}: {err}");
         assert!(err.contains(needle), "{bad:?}: {err}");
     }
+}
+
+/// `view` with `args` and no display: its exit code and stderr.
+fn view_without_display(args: &[&str]) -> (Option<i32>, String) {
+    let o = Command::new(BIN)
+        .arg("view")
+        .args(args)
+        .env_remove("DISPLAY")
+        .env_remove("WAYLAND_DISPLAY")
+        .output()
+        .unwrap();
+    (
+        o.status.code(),
+        String::from_utf8_lossy(&o.stderr).into_owned(),
+    )
 }
 
 /// Closing the window (the window manager's WM_DELETE_WINDOW, sent here by hand to a bare Xvfb

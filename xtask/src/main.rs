@@ -98,52 +98,51 @@ fn test(args: &[String]) -> Result<(), String> {
 const DEMO_SIZE: &str = "256x256";
 const DEMO_FRAMES: &str = "16";
 
+/// A comparison of the demo: `methods` at equal time against `ris` on many-lights and cornell
+/// at the demo's size and frames, into `out`, with `extra` flags.
+fn demo_compare<'a>(methods: &'a str, extra: &[&'a str], out: &'a str) -> Vec<&'a str> {
+    let mut args = vec![
+        "compare",
+        "--scene",
+        "many-lights,cornell",
+        "--methods",
+        methods,
+        "--equal-time-to",
+        "ris",
+    ];
+    args.extend(extra);
+    args.extend([
+        "--size",
+        DEMO_SIZE,
+        "--frames",
+        DEMO_FRAMES,
+        "--reference-spp",
+        "128",
+        "--out",
+        out,
+        "--no-exr",
+    ]);
+    args
+}
+
 /// The default demo's comparison: the methods that win at the default paths (restir-gi and
 /// world-restir-gi for the indirect light, restir-di for the direct light) against their
-/// baseline `ris`, at equal time against `ris`, on many-lights and cornell at 256x256: a few
-/// minutes on two CPU cores with lavapipe. The `+cache` methods need unbounded paths
-/// (`--bounces 64`), so they cannot share this run: [`DEMO_CACHE_COMPARE`] is printed instead.
-const DEMO_COMPARE: [&str; 16] = [
-    "compare",
-    "--scene",
-    "many-lights,cornell",
-    "--methods",
-    "ris,restir-di,restir-gi,world-restir-gi",
-    "--equal-time-to",
-    "ris",
-    "--size",
-    DEMO_SIZE,
-    "--frames",
-    DEMO_FRAMES,
-    "--reference-spp",
-    "128",
-    "--out",
-    "out/compare",
-    "--no-exr",
-];
+/// baseline `ris`: a few minutes on two CPU cores with lavapipe. The `+cache` methods need
+/// unbounded paths (`--bounces 64`), so they cannot share this run: [`demo_cache_compare`]
+/// is printed instead.
+fn demo_default_compare() -> Vec<&'static str> {
+    demo_compare(
+        "ris,restir-di,restir-gi,world-restir-gi",
+        &[],
+        "out/compare",
+    )
+}
 
 /// The comparison of the radiance cache at unbounded paths that the demo prints (not runs:
 /// its reference at 64 bounces would about double the demo's time).
-const DEMO_CACHE_COMPARE: [&str; 18] = [
-    "compare",
-    "--scene",
-    "many-lights,cornell",
-    "--methods",
-    "ris,ris+cache",
-    "--equal-time-to",
-    "ris",
-    "--bounces",
-    "64",
-    "--size",
-    DEMO_SIZE,
-    "--frames",
-    DEMO_FRAMES,
-    "--reference-spp",
-    "128",
-    "--out",
-    "out/compare-cache",
-    "--no-exr",
-];
+fn demo_cache_compare() -> Vec<&'static str> {
+    demo_compare("ris,ris+cache", &["--bounces", "64"], "out/compare-cache")
+}
 
 /// The configurations of docs/results.md: (part, title, output folder, compare arguments). The
 /// default depth is what a user gets; unbounded paths are what the radiance cache is measured
@@ -237,7 +236,7 @@ fn demo(args: &[String]) -> Result<(), String> {
             cargo(&run)?;
         }
         let mut run = base.to_vec();
-        run.extend(DEMO_COMPARE);
+        run.extend(demo_default_compare());
         cargo(&run)?;
         // `render` names its files SCENE-METHOD-IMAGE with the method's other characters as '-'.
         let tag = DEMO_METHOD.replace(|c: char| !c.is_ascii_alphanumeric() && c != '-', "-");
@@ -264,7 +263,7 @@ fn demo(args: &[String]) -> Result<(), String> {
         println!(
             "xtask: the +cache methods need unbounded paths and a comparison of their own: \
              cargo xtask demo {}",
-            DEMO_CACHE_COMPARE.join(" ")
+            demo_cache_compare().join(" ")
         );
         return Ok(());
     }
