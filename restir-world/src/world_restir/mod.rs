@@ -307,6 +307,7 @@ const REUSE: KernelDef = KernelDef::new(
         grid::LOOKUP,
         &[
             ("wr_prev_vertices", "array<PackedVertex>", Access::Read),
+            ("wr_prev_primary", "array<PackedVertex>", Access::Read),
             ESTIMATES[0],
             RAW_ESTIMATES,
         ],
@@ -447,9 +448,11 @@ struct WrBuffers {
     params: wgpu::Buffer,
     reservoirs: [wgpu::Buffer; 2],
     prev_reservoirs: wgpu::Buffer,
-    /// Last frame's grid items' vertices: secondary, then primary when unified (the temporal
-    /// pass's MIS weights).
+    /// Last frame's secondary vertices (the temporal pass's MIS weights).
     prev_vertices: wgpu::Buffer,
+    /// Last frame's primary vertices when unified (their items follow the secondary ones);
+    /// one unused record otherwise.
+    prev_primary: wgpu::Buffer,
     /// Each item's MIS estimates ([`ESTIMATES`]): used, raw.
     estimate: [wgpu::Buffer; 2],
     debug: wgpu::Buffer,
@@ -469,7 +472,11 @@ impl WrBuffers {
         let items = u64::from(config.items(pixels));
         let res_bytes = items * size_of::<render::StoredReservoir>() as u64;
         ctx.check_binding_size("the world-restir reservoirs", res_bytes)?;
-        let vertex_bytes = items * size_of::<render::GVertex>() as u64;
+        let vertex_bytes = px * size_of::<render::GVertex>() as u64;
+        let primary_bytes = match config.unified {
+            true => vertex_bytes,
+            false => size_of::<render::GVertex>() as u64,
+        };
         ctx.check_binding_size("world-restir's last-frame vertices", vertex_bytes)?;
         let zeroed = |label: &str, size: u64| buffers::storage_zeroed(&ctx.device, label, size);
         let pair = |label: &str, size: u64| [0, 1].map(|p| zeroed(&format!("{label} {p}"), size));
@@ -490,6 +497,7 @@ impl WrBuffers {
             reservoirs: pair("wr reservoirs", res_bytes),
             prev_reservoirs: zeroed("wr prev reservoirs", res_bytes),
             prev_vertices: zeroed("wr prev vertices", vertex_bytes),
+            prev_primary: zeroed("wr prev primary vertices", primary_bytes),
             estimate: pair("wr estimate", items * 4),
             debug: zeroed("wr debug", px * 16),
             no_tiles: zeroed("wr no light tiles", light_tiles::LIGHT_SAMPLE_BYTES),
@@ -579,6 +587,7 @@ impl Binder<'_> {
             ("reuse_self", own.into()),
             ("reuse_out", out.into()),
             ("wr_prev_vertices", (&self.b.prev_vertices).into()),
+            ("wr_prev_primary", (&self.b.prev_primary).into()),
             ("wr_estimate", (&self.b.estimate[0]).into()),
             ("wr_estimate_raw", (&self.b.estimate[1]).into()),
         ];
@@ -695,6 +704,7 @@ impl WorldRestir {
             &b.reservoirs[1],
             &b.prev_reservoirs,
             &b.prev_vertices,
+            &b.prev_primary,
             &b.estimate[0],
             &b.estimate[1],
             &b.debug,
@@ -800,13 +810,7 @@ impl WorldRestir {
         f.copy(&b.reservoirs[self.passes.final_index], &b.prev_reservoirs);
         f.copy(&r.secondary, &b.prev_vertices);
         if self.config.unified {
-            f.raw().copy_buffer_to_buffer(
-                &r.gbuffer,
-                0,
-                &b.prev_vertices,
-                r.secondary.size(),
-                None,
-            );
+            f.copy(&r.gbuffer, &b.prev_primary);
         }
     }
 

@@ -2,7 +2,8 @@
 // reuse_self) merges a stochastic subset of up to max_count reservoirs (reuse_src) of the cell it
 // falls in, looked up (jittered) in the world-space grid (grid_visit, restir_world::grid): last
 // frame's grid, eye, reservoirs and vertices
-// (wr_prev_vertices) for the temporal pass (at most temporal_m_cap of M taken from last frame in
+// (wr_prev_vertices, and when unified wr_prev_primary: apart, so that each fits one storage
+// binding at 1920x1080) for the temporal pass (at most temporal_m_cap of M taken from last frame in
 // total), this frame's for the spatial passes (ping-pong reuse_self -> reuse_out). Reservoirs whose
 // generating normal differs from the receiver's beyond normal_threshold (cosine) are skipped.
 // Writes reuse_out; the stored M is always the sum of the merged (capped) M.
@@ -13,6 +14,10 @@
 // The vertex that generated source reservoir j (last frame's for the temporal pass).
 fn wr_source_vertex(j: u32, temporal: bool) -> GVertex {
     if temporal {
+        let n = render_params.pixel_count;
+        if j >= n {
+            return render_unpack_vertex(wr_prev_primary[j - n]);
+        }
         return render_unpack_vertex(wr_prev_vertices[j]);
     }
     return wr_vertex(j);
