@@ -8,7 +8,6 @@
 use std::path::{Path, PathBuf};
 use std::process::{Command, ExitCode};
 
-mod json;
 mod suite;
 mod summary;
 

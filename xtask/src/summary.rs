@@ -6,7 +6,7 @@
 
 use std::path::Path;
 
-use crate::json::{self, Value};
+use serde_json::Value;
 
 /// The method every factor is measured against: the baseline of every part.
 const BASELINE: &str = "ris";
@@ -42,7 +42,8 @@ pub fn summary(parts: &[(&str, &Path)]) -> Result<String, String> {
     for (title, path) in parts {
         let text = std::fs::read_to_string(path)
             .map_err(|e| format!("reading {} (run its part first): {e}", path.display()))?;
-        let report = json::parse(&text).map_err(|e| format!("{}: {e}", path.display()))?;
+        let report: Value =
+            serde_json::from_str(&text).map_err(|e| format!("{}: {e}", path.display()))?;
         if let Some(d) = report.get("device").and_then(Value::as_str)
             && !devices.iter().any(|x| x == d)
         {
@@ -167,8 +168,8 @@ fn method_figures(method: &Value) -> Option<MethodFigures> {
     // report has `frame_combined`, `frame_indirect`, ...
     let rel_mse = IMAGES.map(|(key, _)| {
         method
-            .at(&["images", key, "frame", "rel_mse"])
-            .or_else(|| method.at(&[&format!("frame_{key}"), "rel_mse"]))
+            .pointer(&format!("/images/{key}/frame/rel_mse"))
+            .or_else(|| method.pointer(&format!("/frame_{key}/rel_mse")))
             .and_then(Value::as_f64)
     });
     Some(MethodFigures { name, ms, rel_mse })
@@ -202,7 +203,7 @@ mod tests {
 
     #[test]
     fn picks_the_most_efficient_method_in_both_report_layouts() {
-        let scene = json::parse(
+        let scene: Value = serde_json::from_str(
             r#"{"scene": "cornell", "camera": "static", "width": 64, "height": 64, "methods": [
               {"method": "ris", "ms_per_frame_median": 100.0, "planted_bias": null,
                "images": {"combined": {"frame": {"rel_mse": 0.2}},
