@@ -2,6 +2,7 @@
 //! step every ReSTIR reuse pass shares. The twin of `reuse.wgsl`: the same operations in the
 //! same order (see [`Reuse`] for the protocol and [`Combination`] for the modes).
 
+use crate::twin::flush;
 use crate::{PackedReservoir, Reservoir};
 
 /// [`Reuse::selected`] when the receiver's own sample is selected (or nothing is).
@@ -59,9 +60,9 @@ pub fn cap_m(m: u32, cap: u32) -> u32 {
     m.min(cap)
 }
 
-/// `a / (a + b)`, with 0 / 0 = 0.
+/// `a / (a + b)`, with 0 / 0 = 0, a subnormal quotient flushed to 0.
 fn balance(a: f32, b: f32) -> f32 {
-    if a + b > 0.0 { a / (a + b) } else { 0.0 }
+    if a + b > 0.0 { flush(a / (a + b)) } else { 0.0 }
 }
 
 /// The state of one combination at a receiver (the twin of the WGSL `Reuse`).
@@ -140,9 +141,13 @@ impl Reuse {
         } else {
             0.0
         };
+        // Every product and quotient is flushed where it would be subnormal, as GPUs that
+        // flush subnormals do (the WGSL flushes at the same places).
+        let (a, b) = (flush(m_n * p_n_y), flush(self.m_c * p_here));
+        let (a_own, b_own) = (flush(self.m_c * self.p_own), flush(m_n * p_n_own));
         [
-            share * balance(m_n * p_n_y, self.m_c * p_here),
-            share * balance(self.m_c * self.p_own, m_n * p_n_own),
+            flush(share * balance(a, b)),
+            flush(share * balance(a_own, b_own)),
         ]
     }
 
@@ -180,7 +185,7 @@ impl Reuse {
         let selected = if self.mode == Combination::Pairwise {
             let w = self.pairwise_weights(other.m as f32, p_here, p_n_y, p_n_own);
             self.canonical += w[1];
-            self.r.update_slot(w[0] * p_here * other.ucw, u, n)
+            self.r.update_slot(flush(w[0] * p_here) * other.ucw, u, n)
         } else {
             self.r.merge(&other.unpack(n), p_here, u)
         };
@@ -202,7 +207,7 @@ impl Reuse {
     pub fn finish(&mut self) -> PackedReservoir {
         match self.mode {
             Combination::Pairwise => {
-                let w = self.canonical * self.p_own * self.own_ucw;
+                let w = flush(self.canonical * self.p_own) * self.own_ucw;
                 if self.r.update_slot(w, self.u_own, CANONICAL) {
                     self.p_hat = self.p_own;
                 }
@@ -239,6 +244,17 @@ mod tests {
             assert_eq!(mode.name(), name);
         }
         assert!("bogus".parse::<Combination>().is_err());
+    }
+
+    /// A pairwise weight that would be subnormal is 0, as on GPUs that flush subnormals (an
+    /// NVIDIA H200 dropped such a neighbour where the unflushed twin selected it).
+    #[test]
+    fn pairwise_weights_flush_subnormal_quotients() {
+        let c = Reuse::begin(Combination::Pairwise, packed(1.0, 1), 1.0, 1, 1, 0.5);
+        // Balance 1e-20 : 1e20 (a quotient of 1e-40) for the neighbour's sample.
+        let w = c.pairwise_weights(1.0, 1e20, 1e-20, 1.0);
+        assert_eq!(w[0], 0.0);
+        assert!(w[1].is_normal(), "{}", w[1]);
     }
 
     /// With no neighbour every mode keeps the receiver's reservoir: W and M unchanged.

@@ -112,7 +112,7 @@ pub(crate) fn positive_normal(x: f32) -> f32 {
 }
 
 /// `x` with subnormals replaced by 0.
-fn flush(x: f32) -> f32 {
+pub(crate) fn flush(x: f32) -> f32 {
     if x.to_bits() & 0x7fff_ffff >= MIN_NORMAL_BITS {
         x
     } else {

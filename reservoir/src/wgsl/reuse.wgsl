@@ -60,9 +60,9 @@ fn reuse_cap_m(m: u32, cap: u32) -> u32 {
     return min(m, cap);
 }
 
-// a / (a + b), with 0 / 0 = 0.
+// a / (a + b), with 0 / 0 = 0, a subnormal quotient flushed to 0.
 fn reuse_balance(a: f32, b: f32) -> f32 {
-    return select(0.0, a / (a + b), a + b > 0.0);
+    return select(0.0, reservoir_flush(a / (a + b)), a + b > 0.0);
 }
 
 // Starts combining at a receiver whose own finalized reservoir is `own` (W, M) with target
@@ -95,9 +95,15 @@ fn reuse_begin(mode: u32, own: PackedReservoir, p_own: f32, k: u32, m_neighbours
 // (the weight of n's sample, n's part of the canonical sample's weight).
 fn reuse_pairwise_weights(c: Reuse, m_n: f32, p_here: f32, p_n_y: f32, p_n_own: f32) -> vec2<f32> {
     // No confidence at all (every M = 0): no weight.
+    // Every product and quotient is flushed where it would be subnormal, as GPUs that flush
+    // subnormals do (the twin flushes at the same places).
     let share = select(0.0, (m_n + c.m_c) / f32(c.m_total), c.m_total > 0u);
-    return vec2<f32>(share * reuse_balance(m_n * p_n_y, c.m_c * p_here),
-                     share * reuse_balance(c.m_c * c.p_own, m_n * p_n_own));
+    let a = reservoir_flush(m_n * p_n_y);
+    let b = reservoir_flush(c.m_c * p_here);
+    let a_own = reservoir_flush(c.m_c * c.p_own);
+    let b_own = reservoir_flush(m_n * p_n_own);
+    return vec2<f32>(reservoir_flush(share * reuse_balance(a, b)),
+                     reservoir_flush(share * reuse_balance(a_own, b_own)));
 }
 
 // Merges neighbour n's finalized reservoir `other` (its W, its capped M), its sample shifted
@@ -122,7 +128,7 @@ fn reuse_neighbour_shifted(c: ptr<function, Reuse>, n: u32, other: PackedReservo
     if (*c).mode == REUSE_PAIRWISE {
         let w = reuse_pairwise_weights(*c, f32(other.m), p_here, p_n_y, p_n_own);
         (*c).canonical += w.y;
-        selected = reservoir_update_slot(&r, w.x * p_here * other.ucw, u, n);
+        selected = reservoir_update_slot(&r, reservoir_flush(w.x * p_here) * other.ucw, u, n);
     } else {
         selected = reservoir_merge(&r, reservoir_unpack(other, n), p_here, u);
     }
@@ -148,7 +154,7 @@ fn reuse_count_z(c: ptr<function, Reuse>, m_n: u32, p_n_selected: f32) {
 fn reuse_finish(c: ptr<function, Reuse>) -> PackedReservoir {
     var r = (*c).r;
     if (*c).mode == REUSE_PAIRWISE {
-        let w = (*c).canonical * (*c).p_own * (*c).own_ucw;
+        let w = reservoir_flush((*c).canonical * (*c).p_own) * (*c).own_ucw;
         if reservoir_update_slot(&r, w, (*c).u_own, REUSE_CANONICAL) {
             (*c).p_hat = (*c).p_own;
         }
