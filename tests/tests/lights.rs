@@ -134,7 +134,13 @@ fn gpu_sampling_matches_the_rust_twin() {
             v(k),
             s.position
         );
-        assert_eq!(out[k][3], s.pdf_area, "{i}: pdf");
+        // A quotient: WGSL allows 2.5 ulp (exact on lavapipe, 1 ulp off on an NVIDIA H200).
+        let pdf = out[k][3];
+        assert!(
+            (pdf - s.pdf_area).abs() <= 1e-6 * s.pdf_area.abs(),
+            "{i}: pdf {pdf} vs {}",
+            s.pdf_area
+        );
         assert!(close(v(k + 1), s.normal, 1e-5), "{i}: normal");
         let nrm = Vec3::new(u[0] - 0.5, u[1] - 0.5, u[2] - 0.4).normalize();
         let (t, b) = sampling::onb(nrm);
