@@ -405,7 +405,7 @@ impl RadianceCache {
         config: CacheConfig,
     ) -> Result<Self, CacheError> {
         config.validate()?;
-        let (device, camera) = (&ctx.device, renderer.camera());
+        let (device, camera) = (&ctx.device, &renderer.gpu_camera());
         let pixels = renderer.pixels();
         let table_config = config.table(pixels);
         let slots = table_config.num_slots();
@@ -481,7 +481,7 @@ impl RadianceCache {
         f: &mut FrameEncoder,
         renderer: &Renderer,
     ) -> Result<(), CacheError> {
-        let grid = self.grid_params.with_eye(renderer.camera().eye)?;
+        let grid = self.grid_params.with_eye(renderer.gpu_camera().eye)?;
         f.upload(self.table.params(), 0, &grid);
         f.raw().clear_buffer(self.table.stats(), 0, None);
         f.span("cache-update", |f| {

@@ -211,7 +211,7 @@ impl Denoiser {
         ctx.check_binding_size("the denoiser's per-pixel state", state_bytes)?;
         ctx.check_binding_size("the denoiser's per-pixel colours", pair_bytes)?;
         let zeroed = |label: &str, size| buffers::storage_zeroed(device, label, size);
-        let words = params_words(config, renderer.camera(), false);
+        let words = params_words(config, &renderer.gpu_camera(), false);
         let usage = wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST;
         let b = DenoiseBuffers {
             params: buffers::with_usage(device, "denoise params", &words, usage),
@@ -287,7 +287,7 @@ impl Denoiser {
     /// Records the denoiser for the frame `renderer` just recorded (span `denoise`), and keeps
     /// this frame's state and camera for the next.
     pub fn encode(&mut self, f: &mut FrameEncoder, renderer: &Renderer) {
-        let camera = *renderer.camera();
+        let camera = renderer.gpu_camera();
         let prev = self.last_camera.unwrap_or(camera);
         let words = params_words(&self.config, &prev, self.last_camera.is_some());
         let b = &self.buffers;

@@ -264,7 +264,7 @@ impl FrameMethod for Composed {
 
     fn read_denoised(&self, ctx: &GpuContext) -> Result<Option<FrameImages>, MethodError> {
         match &self.denoiser {
-            Some(d) => Ok(Some(d.read(ctx, self.renderer.camera())?)),
+            Some(d) => Ok(Some(d.read(ctx, &self.renderer.gpu_camera())?)),
             None => Ok(None),
         }
     }

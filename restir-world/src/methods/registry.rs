@@ -218,12 +218,23 @@ impl MethodSettings {
     }
 
     /// What `scene` does to a method of these settings that its image would not say (the
-    /// radiance cache's range, light that does not converge); empty when nothing.
+    /// radiance cache's range, light that does not converge, a scene the GPU renders in
+    /// other units); empty when nothing.
     pub fn scene_warnings(&self, scene: &Scene) -> Vec<String> {
-        match &self.cache {
+        let mut warnings = match &self.cache {
             Some(_) => cache::scene_warnings(scene),
             None => Vec::new(),
+        };
+        let units = scene.gpu_units();
+        if units != 1.0 {
+            warnings.push(format!(
+                "the scene's extent is below {}: the GPU renders it {units:e} times larger \
+                 (a power of two: the image is the same), and knobs in world units \
+                 (min-cell-size) are in those units",
+                crate::scene::SMALLEST_GPU_EXTENT
+            ));
         }
+        warnings
     }
 
     /// Checks each stage's knobs and how they compose.

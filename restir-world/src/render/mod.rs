@@ -180,7 +180,10 @@ impl Passes {
 /// The GPU renderer of one scene and camera.
 #[derive(Debug)]
 pub struct Renderer {
+    /// The camera as given (the scene's units).
     camera: Camera,
+    /// The power of two the scene and cameras are scaled by on the GPU ([`Scene::gpu_units`]).
+    units: f32,
     /// Set by [`Renderer::set_camera`]: uploaded at the start of the next frame.
     camera_changed: bool,
     estimator: Estimator,
@@ -235,6 +238,14 @@ impl Renderer {
             .ok_or_else(|| RenderError::Settings("image too large".into()))?;
         let vertex_bytes = u64::from(pixels) * size_of::<GVertex>() as u64;
         ctx.check_binding_size("the G-buffer", vertex_bytes)?;
+        let units = scene.gpu_units();
+        let scaled;
+        let scene = if units == 1.0 {
+            scene
+        } else {
+            scaled = scene.scaled(units);
+            &scaled
+        };
         let gpu_bvh = Bvh::build(scene)?.upload(ctx)?;
         let gpu_lights = GpuLights::new(&ctx.device, &Lights::build(scene))?;
         let attributes = triangle_attributes(scene);
@@ -245,7 +256,7 @@ impl Renderer {
         let textures = texture_tables(scene);
         let texel_bytes = (textures.1.len() * 4) as u64;
         ctx.check_binding_size("the scene's textures (resize them)", texel_bytes)?;
-        let mut params = RenderParams::new(camera, estimator, options);
+        let mut params = RenderParams::new(&camera.scaled(units), estimator, options);
         params.ray_offset_floor = ray_offset_floor(scene);
         params.attributes = u32::from(attributes.is_some());
         let no_material = [Material::new([0.0; 3], [0.0; 3])];
@@ -273,6 +284,7 @@ impl Renderer {
         let passes = Passes::new(&ctx.device, &shared);
         Ok(Self {
             camera: *camera,
+            units,
             camera_changed: false,
             estimator,
             options: *options,
@@ -284,9 +296,22 @@ impl Renderer {
         })
     }
 
-    /// The camera of the next frame.
+    /// The camera of the next frame, in the scene's units.
     pub fn camera(&self) -> &Camera {
         &self.camera
+    }
+
+    /// The camera of the next frame in the GPU's units (the scene's times [`Renderer::units`]),
+    /// which the stages' positions are in.
+    pub fn gpu_camera(&self) -> Camera {
+        self.camera.scaled(self.units)
+    }
+
+    /// The power of two the scene is scaled by on the GPU: 1 unless its extent is below
+    /// [`crate::scene::SMALLEST_GPU_EXTENT`] ([`Scene::gpu_units`]). Knobs in world units
+    /// (the grids' `min-cell-size`) are in the GPU's units.
+    pub fn units(&self) -> f32 {
+        self.units
     }
 
     /// The light estimator at both vertices.
@@ -334,7 +359,7 @@ impl Renderer {
     pub fn encode_primary_and_gi(&mut self, f: &mut FrameEncoder) {
         if std::mem::take(&mut self.camera_changed) {
             // The camera is the first field of RenderParams.
-            f.upload(&self.buffers.params, 0, &CameraGpu::new(&self.camera));
+            f.upload(&self.buffers.params, 0, &CameraGpu::new(&self.gpu_camera()));
         }
         f.span("primary", |f| f.dispatch(&self.passes.primary));
         f.span("gi", |f| f.dispatch(&self.passes.gi));

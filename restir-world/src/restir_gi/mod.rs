@@ -232,7 +232,7 @@ impl RestirGi {
             spatial: config.spatial_k > 0,
             pool: capacity,
         };
-        let camera = renderer.camera();
+        let camera = &renderer.gpu_camera();
         let size = size_of::<GiReservoir>();
         let pool_buffers = PoolBuffers::new(ctx, capacity, size);
         let items = world::grid_items(pixels, Some(&pool_buffers));
@@ -274,7 +274,7 @@ impl RestirGi {
             self.reuse.encode(f, renderer, 0);
             return Ok(());
         };
-        let eye = renderer.camera().eye;
+        let eye = renderer.gpu_camera().eye;
         let parity = f.span("wgi-build", |f| w.grid.encode_build(f, eye))?;
         self.reuse.encode(f, renderer, parity);
         let history = self.reuse.history();

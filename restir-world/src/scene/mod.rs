@@ -183,6 +183,15 @@ pub struct Camera {
 }
 
 impl Camera {
+    /// This camera in units `k` times smaller (eye and target times `k`).
+    pub fn scaled(&self, k: f32) -> Camera {
+        Camera {
+            eye: self.eye * k,
+            target: self.target * k,
+            ..*self
+        }
+    }
+
     /// Checks that the camera can produce rays: finite vectors, eye != target, up not parallel
     /// to the view direction, 0 < fov < 180, non-zero size.
     pub fn validate(&self) -> Result<(), SceneError> {
@@ -329,6 +338,10 @@ impl PunctualLight {
         Ok(())
     }
 }
+
+/// Scenes whose extent is below this are rendered scaled by a power of two
+/// ([`Scene::gpu_units`]): 2^-10, about a millimetre in metres.
+pub const SMALLEST_GPU_EXTENT: f32 = 1.0 / 1024.0;
 
 /// A scene ready to render: triangles with materials, and an optional camera from the file.
 #[derive(Debug, Clone, Default, PartialEq)]
@@ -516,6 +529,46 @@ impl Scene {
         Some(it.fold((first, first), |(lo, hi), v| (lo.min(v), hi.max(v))))
     }
 
+    /// The power of two the GPU renderer scales this scene by ([`crate::render::Renderer`]):
+    /// 1 unless its extent (largest side of its bounding box) is below [`SMALLEST_GPU_EXTENT`],
+    /// else the one that brings the extent into [1, 2). Products of two areas of a scene of
+    /// 1e-10 units are below f32's smallest normal number, and GPUs that flush subnormals to 0
+    /// (an NVIDIA H200 does; lavapipe does not) rendered NaN there; a power of two scales
+    /// exactly, so the image is the same.
+    pub fn gpu_units(&self) -> f32 {
+        let extent = self
+            .bounds()
+            .map_or(1.0, |(lo, hi)| (hi - lo).max_element());
+        if !(extent.is_finite() && extent > 0.0) || extent >= SMALLEST_GPU_EXTENT {
+            return 1.0;
+        }
+        // extent = m 2^e with m in [1, 2): scale by 2^-e (at most 2^126, finite).
+        let e = extent.log2().floor() as i32;
+        2f32.powi(-e.max(-126))
+    }
+
+    /// This scene in units `k` times smaller (every position times `k`, a punctual light's
+    /// range too and its candela times `k^2`, so that it lights the scaled surfaces as
+    /// before); its cameras too.
+    pub fn scaled(&self, k: f32) -> Scene {
+        let mut s = self.clone();
+        for t in &mut s.triangles {
+            t.v = t.v.map(|v| v * k);
+        }
+        for l in &mut s.lights {
+            l.position *= k;
+            l.range = l.range.map(|r| r * k);
+            if l.kind != PunctualKind::Directional {
+                l.intensity *= k * k;
+            }
+        }
+        s.camera = s.camera.map(|c| c.scaled(k));
+        for c in &mut s.cameras {
+            c.camera = c.camera.scaled(k);
+        }
+        s
+    }
+
     /// Makes the file camera `wanted` (an index into [`Scene::cameras`] or a name) the one
     /// renders use. An unknown one is an error listing the cameras there are.
     /// A scene without named cameras but with a camera (the built-in scenes) offers that one
@@ -608,6 +661,41 @@ impl Scene {
 
 #[cfg(test)]
 mod tests {
+    use super::*;
+
+    /// A scene below the smallest extent is rendered scaled by the power of two that brings
+    /// its extent into [1, 2); others are not scaled. Scaling moves every position and keeps
+    /// what a punctual light delivers to the scaled surfaces (candela times k^2).
+    #[test]
+    fn tiny_scenes_are_scaled_by_a_power_of_two() {
+        let mut s = builtin::cornell(8, 8);
+        assert_eq!(s.gpu_units(), 1.0);
+        s.lights.push(PunctualLight {
+            name: "lamp".into(),
+            kind: PunctualKind::Point,
+            position: Vec3::ONE,
+            direction: Vec3::NEG_Y,
+            color: [1.0; 3],
+            intensity: 8.0,
+            range: Some(4.0),
+        });
+        let extent = |s: &Scene| s.bounds().map(|(lo, hi)| (hi - lo).max_element()).unwrap();
+        for k in [1e-3, 1e-10, 3e-30] {
+            let tiny = s.scaled(k);
+            let units = tiny.gpu_units();
+            assert_eq!(units.log2().fract(), 0.0, "{units}");
+            let e = extent(&tiny) * units;
+            assert!((1.0..2.0).contains(&e), "{k}: extent {e}");
+        }
+        let half = s.scaled(0.5);
+        assert_eq!(half.lights[0].position, Vec3::splat(0.5));
+        assert_eq!(half.lights[0].intensity, 2.0);
+        assert_eq!(half.lights[0].range, Some(2.0));
+        assert_eq!(half.triangles[3].v[1], s.triangles[3].v[1] * 0.5);
+        let cam = s.camera.unwrap();
+        assert_eq!(half.camera.unwrap().eye, cam.eye * 0.5);
+    }
+
     #[test]
     fn orbit_keeps_the_distance_to_the_target() {
         let base = Camera {
@@ -627,8 +715,6 @@ mod tests {
             assert!(((c.eye - c.target).length() - (base.eye - base.target).length()).abs() < 1e-4);
         }
     }
-
-    use super::*;
 
     fn tri(a: [f32; 3], b: [f32; 3], c: [f32; 3]) -> Triangle {
         Triangle::new([a.into(), b.into(), c.into()], 0)

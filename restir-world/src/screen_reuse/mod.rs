@@ -371,7 +371,7 @@ impl ScreenReuse {
             chain.pool,
             stage.reservoir_size,
         )?;
-        let words = params_words(knobs, renderer.camera(), false);
+        let words = params_words(knobs, &renderer.gpu_camera(), false);
         let usage = wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST;
         let label = format!("{} params", stage.name);
         let params = buffers::with_usage(device, &label, &words, usage);
@@ -469,7 +469,7 @@ impl ScreenReuse {
     /// this frame's reservoirs, G-buffer and camera for the next. `parity`: that of this
     /// frame's grid (0 for a stage that looks none up).
     pub fn encode(&mut self, f: &mut FrameEncoder, renderer: &Renderer, parity: usize) {
-        let camera = *renderer.camera();
+        let camera = renderer.gpu_camera();
         let prev = self.last_camera.unwrap_or(camera);
         let words = params_words(&self.knobs, &prev, self.last_camera.is_some());
         f.upload_slice(&self.params, 0, &words);

@@ -726,7 +726,7 @@ impl WorldRestir {
         tiles: Option<&LightTiles>,
     ) -> Result<Self, WorldRestirError> {
         config.validate()?;
-        let camera = renderer.camera();
+        let camera = &renderer.gpu_camera();
         let pixels = renderer.pixels();
         let items = config.items(pixels);
         let dims = tiles.map(LightTiles::dims);
@@ -772,7 +772,7 @@ impl WorldRestir {
     ) -> Result<(), WorldRestirError> {
         let passes = &self.passes;
         f.span("generate", |f| f.dispatch(&passes.generate));
-        let (grid, eye) = (&mut self.grid, renderer.camera().eye);
+        let (grid, eye) = (&mut self.grid, renderer.gpu_camera().eye);
         let p = f.span("build", |f| grid.encode_build(f, eye))?;
         self.parity = p;
         if let Some(temporal) = &passes.temporal {
