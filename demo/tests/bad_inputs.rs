@@ -1548,6 +1548,32 @@ fn cache_and_knob_cases(g: &Path) -> Vec<Case> {
             1,
             "world-restir-gi's cells: min-cell-size=",
         ),
+        // colonnade's eye is 47 m from its target: an 18-degree orbit leaves the hall, and
+        // the frame's reference was black (every method's relMSE read 0, silently).
+        case(
+            "compare-black-reference",
+            &[
+                "compare",
+                "--scene",
+                "colonnade",
+                "--animation",
+                "orbit",
+                "--frames",
+                "18",
+                "--eval-every",
+                "9",
+                "--size",
+                "16x16",
+                "--reference-spp",
+                "2",
+                "--methods",
+                "ris",
+                "--no-cache",
+                "--quiet",
+            ],
+            1,
+            "the reference of frame 17 of the orbit camera: the camera at",
+        ),
     ]
 }
 

@@ -98,6 +98,12 @@ pub enum ReferenceError {
     Bad { path: PathBuf, msg: String },
     #[error("a reference of {0} samples per pixel: at most {MAX_SPP}")]
     Spp(u32),
+    /// Every pixel of the rendered reference is 0: a relative error against it is undefined.
+    #[error(
+        "the camera at {eye} looking at {target} sees no light: its reference is black everywhere \
+         (is the eye outside the scene's lit space, or inside an object?)"
+    )]
+    Black { eye: glam::Vec3, target: glam::Vec3 },
 }
 
 /// 64-bit FNV-1a, a stable hash for cache keys (std's hasher may change between releases).
@@ -452,6 +458,12 @@ pub fn load_or_render(
         }
     }
     let mut r = render(ctx, scene, camera, settings, progress)?;
+    if r.combined.iter().all(|p| p.iter().all(|&v| v == 0.0)) {
+        return Err(ReferenceError::Black {
+            eye: camera.eye,
+            target: camera.target,
+        });
+    }
     if let Some(dir) = cache_dir {
         write_cache(dir, &r)?;
     }

@@ -1,7 +1,7 @@
 //! The converged images a compare run measures against: rendered on the GPU (or read from the
 //! cache) for each evaluated frame, or one external EXR for a static camera.
 
-use anyhow::{Result, bail};
+use anyhow::{Context, Result, bail};
 use indicatif::ProgressBar;
 use restir_world::GpuContext;
 use restir_world::gpu_reference::{self, GpuReference, ReferenceSettings};
@@ -116,7 +116,11 @@ pub fn make_references(
             &settings,
             opts.cache.as_deref(),
             |n| bar.inc(u64::from(n)),
-        )?;
+        )
+        .with_context(|| {
+            let motion = format!("{:?}", opts.camera).to_lowercase();
+            format!("the reference of frame {f} of the {motion} camera")
+        })?;
         if let Some(note) = &r.cache_note {
             bar.suspend(|| eprintln!("warning: {note}"));
         }
