@@ -52,6 +52,8 @@ crate::knobs! {
         temporal: bool = true, "temporal";
         /// Cap of a reused reservoir's confidence M, in frames of paths (default 20).
         [gpu] temporal_m_cap: u32 = 20, "temporal-m-cap", 1..=MAX_M;
+        /// Cap of a pooled record's confidence M when the temporal pass merges it (default 1).
+        [gpu] pool_m_cap: u32 = 1, "pool-m-cap", 1..=MAX_M;
         /// Path samples of last frame's cell merged per pixel (default 1).
         [gpu] temporal_k: u32 = 1, "temporal-k", 1..=screen_reuse::MAX_SPATIAL_K;
         /// Path samples of this frame's cell merged per pixel (default 4; 0: no spatial pass).

@@ -35,7 +35,8 @@ fn screen_neighbours(i: u32, g: GVertex, temporal: bool, rng: ptr<function, u32>
             continue;
         }
         n.idx[n.k] = j;
-        n.ms[n.k] = reuse_cap_m(m, cap);
+        let pooled = temporal && j >= render_params.pixel_count;
+        n.ms[n.k] = reuse_cap_m(m, select(cap, min(cap, screen_params.knobs.pool_m_cap), pooled));
         n.k += 1u;
     }
     return n;
