@@ -255,7 +255,7 @@ const DOLLY: CameraPath = CameraPath::Dolly {
 /// reconnection, temporal reuse from last frame's cell and the pool, spatial reuse from this
 /// frame's cell, 3 bounces) converges to the reference by [`assert_unbiased_on`]'s check (128
 /// frames at 48x48, 2% per channel, the scene's seeds; on cornell seeds 1-18) on `paths`.
-/// Measured on lavapipe: cornell static -0.7/+0.8/+0.1% over seeds 1-9; each seed's mean
+/// Measured on lavapipe: cornell static -0.3/-0.0/+0.1% over seeds 1-18; each seed's mean
 /// scatters by 2.5% there and by 3.4% on an NVIDIA H200 (27 seeds each: -0.1% and +0.6% on
 /// average), where seeds 1-9 measured +2.2/+2.3/+2.1% (seed 1 alone +10%): 18 seeds leave
 /// 0.6-0.8%; colonnade static +1.3/+1.0/+0.6%; many-lights static, orbiting, dollying
