@@ -311,20 +311,6 @@ fn render_structs_match_wgsl_layout() {
     );
 }
 
-/// `scene` with every vertex and its camera scaled by `s` about the origin.
-fn scaled(scene: &Scene, s: f32) -> Scene {
-    let mut out = scene.clone();
-    for t in &mut out.triangles {
-        t.v = t.v.map(|p| p * s);
-    }
-    out.camera = scene.camera.map(|c| restir_world::scene::Camera {
-        eye: c.eye * s,
-        target: c.target * s,
-        ..c
-    });
-    out
-}
-
 /// The CPU reference's images of `scene` (nee, `spp` samples, seed 9) at 32x32.
 fn cpu_render(scene: &Scene, spp: u32) -> Rendered {
     let camera = scene.camera_or_default(32, 32);
@@ -357,7 +343,7 @@ fn scaled_scene_renders_the_same() {
     let base = builtin("cornell", &Default::default()).expect("cornell");
     assert_scale_invariant("cornell", &base, &[1e-3, 1e-4, 1e-5, 1e-10, 1e4, 3e9]);
     for s in [1e-15f32, 1e12] {
-        let err = scaled(&base, s).sanitize("scaled cornell").unwrap_err();
+        let err = base.scaled(s).sanitize("scaled cornell").unwrap_err();
         assert!(
             err.to_string().contains("units across"),
             "scale {s:e}: {err}"
@@ -431,7 +417,7 @@ fn assert_scale_invariant(what: &str, base: &Scene, scales: &[f32]) {
     };
     let mut failures = Vec::new();
     for &s in scales {
-        let mut scene = scaled(base, s);
+        let mut scene = base.scaled(s);
         let report = scene.sanitize("scaled scene").expect("sanitize");
         assert_eq!(
             report.degenerate, 0,
@@ -453,7 +439,7 @@ fn assert_scale_invariant(what: &str, base: &Scene, scales: &[f32]) {
         }
     }
     assert!(failures.is_empty(), "{}", failures.join("\n"));
-    let mut scene = scaled(base, scales[0]);
+    let mut scene = base.scaled(scales[0]);
     scene.sanitize("scaled scene").expect("sanitize");
     let pdf = Planted::LightPdfOverstated;
     let planted = render_planted(&scene, size, Estimator::Nee, 5, 16, pdf);
