@@ -2,12 +2,14 @@
 //!
 //! A statistical test's negative control runs an estimator with a known defect and checks that
 //! the test's own check fails on it. The defect is chosen per method build
-//! ([`RenderOptions::planted`](crate::render::RenderOptions)) and compiled into every kernel of
-//! that build as WGSL constants ([`Planted::wgsl`]): `PLANTED` (the defect's id) and the two
-//! power-check scales. A build without a defect gets `PLANTED = 0` and scales of exactly 1, so
-//! the compiler folds every planted branch away: it costs nothing when unset, and images are
-//! bit for bit those of a tree without the hook. Nothing a user types reaches it (no flag, knob
-//! or file sets it).
+//! ([`RenderOptions::planted`](crate::render::RenderOptions)) and reaches every kernel of that
+//! build in the render parameters' uniform (WGSL `render_params.planted`, the defect's id, and
+//! the two power-check scales), which the kernels compare with the `PLANTED_*` ids
+//! ([`Planted::wgsl`]). A build without a defect gets 0 and scales of exactly 1: every planted
+//! branch is a uniform branch not taken and every scale a multiplication by 1, so images are bit
+//! for bit those of a tree without the hook; and a control runs the shipped kernels themselves,
+//! with no compilation of its own (on a CPU adapter a kernel set compiles for about a minute).
+//! Nothing a user types reaches it (no flag, knob or file sets it).
 //!
 //! Two kinds:
 //! - defects of an estimator ([`Planted::is_defect`]): a wrong Jacobian, a merge that drops
@@ -63,7 +65,7 @@ pub enum Planted {
 }
 
 impl Planted {
-    /// The WGSL id of the defect (`PLANTED`; 0: none, and the power checks).
+    /// The WGSL id of the defect (`render_params.planted`; 0: none, and the power checks).
     pub fn id(self) -> u32 {
         match self {
             Self::None | Self::Scale { .. } => 0,
@@ -109,10 +111,9 @@ impl Planted {
         }
     }
 
-    /// The WGSL constants every kernel of a build composes: `PLANTED`, the `PLANTED_*` ids
-    /// the kernels compare it with, and the accumulation scales.
-    pub fn wgsl(self) -> String {
-        let (direct, indirect) = self.scales();
+    /// The WGSL constants every kernel composes: the `PLANTED_*` ids the kernels compare
+    /// `render_params.planted` with.
+    pub fn wgsl() -> String {
         let ids = [
             ("JACOBIAN_WITHOUT_DISTANCE", Self::JacobianWithoutDistance),
             ("MERGE_WITHOUT_M", Self::MergeWithoutM),
@@ -125,12 +126,8 @@ impl Planted {
             ("DENOISE_NO_DISOCCLUSION", Self::DenoiseNoDisocclusion),
             ("DENOISE_NO_LUMINANCE_STOP", Self::DenoiseNoLuminanceStop),
         ];
-        let mut s = format!(
-            "// Planted defects (restir_world::plant): 0 and scales of 1 but in tests' controls.\n\
-             const PLANTED: u32 = {}u;\n\
-             const PLANTED_DIRECT_SCALE: f32 = {direct:?};\n\
-             const PLANTED_INDIRECT_SCALE: f32 = {indirect:?};\n",
-            self.id()
+        let mut s = String::from(
+            "// Planted defects (restir_world::plant), compared with render_params.planted.\n",
         );
         for (name, p) in ids {
             s += &format!("const PLANTED_{name}: u32 = {}u;\n", p.id());
@@ -165,11 +162,6 @@ mod tests {
         assert!(!Planted::None.is_defect() && !Planted::indirect_scaled(96).is_defect());
         assert_eq!(Planted::None.scales(), (1.0, 1.0));
         assert_eq!(Planted::indirect_scaled(96).scales(), (1.0, 0.96));
-        assert!(Planted::None.wgsl().contains("const PLANTED: u32 = 0u;"));
-        assert!(
-            Planted::None
-                .wgsl()
-                .contains("PLANTED_INDIRECT_SCALE: f32 = 1.0;")
-        );
+        assert!(Planted::wgsl().contains("const PLANTED_MERGE_WITHOUT_M: u32 = 2u;"));
     }
 }

@@ -29,7 +29,7 @@ pub fn world_restir_indirect_means(
     world_restir_planted_means(s, cam, config, seeds, frames, Planted::None)
 }
 
-/// [`world_restir_indirect_means`] with `planted` compiled into the method (a negative
+/// [`world_restir_indirect_means`] with `planted` in the method (a negative
 /// control's defect, or a power check's scale).
 pub fn world_restir_planted_means(
     s: &Scene,

@@ -285,9 +285,9 @@ fn render_structs_match_wgsl_layout() {
             bounces,
             roulette_from,
             mis,
-            _pad0,
-            _pad1,
-            _pad2
+            planted,
+            planted_direct_scale,
+            planted_indirect_scale
         ]
     );
     tests::assert_wgsl_layout!(RenderState, src, "RenderState", [frame, _pad]);

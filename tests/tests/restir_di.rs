@@ -105,7 +105,7 @@ fn reference(name: &str, side: u32, frames: u32, seed: u32) -> [f64; 3] {
 }
 
 /// Per channel: mean over `seeds` of (the run's direct mean / its paired reference's) - 1,
-/// with `planted` compiled into `spec`.
+/// with `planted` in `spec`.
 fn relative_bias(
     spec: &str,
     name: &str,
@@ -135,7 +135,7 @@ fn assert_bias_bounded(spec: &str, bound: f64, control: Planted) {
 const MARGIN: f64 = 0.015;
 
 /// `d(seeds, planted)`, a relative difference of image means averaged over `seeds` with
-/// `planted` compiled into the tested method, is within [`MARGIN`] on seeds 1 and 2, and its
+/// `planted` in the tested method, is within [`MARGIN`] on seeds 1 and 2, and its
 /// control on seed 3, light samples whose pdf is overstated by 10% (with reuse off nothing is
 /// merged), is not.
 fn assert_equivalent(what: &str, d: impl Fn(&[u32], Planted) -> [f64; 3]) {

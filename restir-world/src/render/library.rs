@@ -26,8 +26,8 @@ pub const PATH_LIGHT: &str = "path-light";
 pub(super) const METHOD_NEE: u32 = 0;
 pub(super) const METHOD_RIS: u32 = 1;
 
-/// Constants header of the render WGSL, with the defect `planted` ([`Planted::wgsl`]).
-pub fn constants_wgsl(planted: Planted) -> String {
+/// Constants header of the render WGSL, with the planted defects' ids ([`Planted::wgsl`]).
+pub fn constants_wgsl() -> String {
     let mut s = format!(
         "const RENDER_METHOD_NEE: u32 = {METHOD_NEE}u;\nconst RENDER_METHOD_RIS: u32 = {METHOD_RIS}u;\n\
          const STREAM_COUNT: u32 = {STREAM_COUNT}u;\nconst RENDER_RAY_EPS: f32 = {RAY_EPS:e};\n\
@@ -41,7 +41,7 @@ pub fn constants_wgsl(planted: Planted) -> String {
             .map(|(s, name)| format!("const STREAM_{name}: u32 = {}u;\n", *s as u32))
             .collect::<String>()
     );
-    s += &planted.wgsl();
+    s += &Planted::wgsl();
     s
 }
 
@@ -78,17 +78,12 @@ pub fn shared_bindings(tracer: Tracer) -> [BindingSet; 3] {
 /// (groups 0..3) and the libraries (rng, reservoir, sampling, lights, `tracer`'s trace, render,
 /// `WORKGROUP_SIZE` and `item_index`).
 pub fn library(tracer: Tracer) -> Vec<WgslModule> {
-    planted_library(tracer, Planted::None)
-}
-
-/// [`library`] with the defect `planted` compiled in (tests' negative controls).
-pub fn planted_library(tracer: Tracer, planted: Planted) -> Vec<WgslModule> {
     let mut m = trace::modules(1, tracer);
     m.extend(lights::modules(2));
     m.extend([
         WgslModule::new("reservoir", &["rng"], reservoir::wgsl()),
         WgslModule::new("workgroup", &[], workgroup_size_wgsl()),
-        WgslModule::new("render-constants", &[], constants_wgsl(planted)),
+        WgslModule::new("render-constants", &[], constants_wgsl()),
         WgslModule::new("render-bindings", &[], bindings().wgsl(0)),
         WgslModule::new(
             "render",
@@ -107,12 +102,7 @@ pub fn planted_library(tracer: Tracer, planted: Planted) -> Vec<WgslModule> {
 
 /// [`library`] + `modules`, which need what they name of the library and of each other.
 pub fn compose_with_library(tracer: Tracer, modules: Vec<WgslModule>) -> String {
-    compose_planted(tracer, Planted::None, modules)
-}
-
-/// [`compose_with_library`] with the defect `planted` compiled in.
-pub fn compose_planted(tracer: Tracer, planted: Planted, modules: Vec<WgslModule>) -> String {
-    let mut m = planted_library(tracer, planted);
+    let mut m = library(tracer);
     m.extend(modules);
     compose(&m).expect("the render library composes")
 }

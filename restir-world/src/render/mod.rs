@@ -50,8 +50,8 @@ mod streams;
 pub use debug::{DebugView, heat, read_rgb};
 pub use library::{
     ComposedKernel, PASSES_WGSL, PATH_CACHE, PATH_LIGHT, PATH_WGSL, WGSL, bindings,
-    compose_planted, compose_with_library, constants_wgsl, kernels, library, passes_source,
-    path_modules, planted_library, shared_bindings,
+    compose_with_library, constants_wgsl, kernels, library, passes_source, path_modules,
+    shared_bindings,
 };
 pub use records::{
     ATTR_NORMALS, ATTR_UV, GVertex, RenderParams, RenderState, StoredReservoir, TextureGpu,
@@ -97,7 +97,7 @@ pub use crate::sampling::{
 };
 
 /// How a render runs, whatever the method: the seed of its random streams, the depth of its
-/// indirect paths, and (tests' negative controls only) a defect compiled into its kernels.
+/// indirect paths, and (tests' negative controls only) a defect its kernels carry out.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
 pub struct RenderOptions {
     pub seed: u32,
@@ -278,7 +278,6 @@ impl Renderer {
             groups,
             tracer: ctx.tracer,
             pixels,
-            planted: options.planted,
             kernels: ctx.kernels.clone(),
         };
         let passes = Passes::new(&ctx.device, &shared);

@@ -92,8 +92,8 @@ fn render_accumulate(id: Invocation) {
     if i >= render_params.pixel_count {
         return;
     }
-    let direct = render_direct_frame[i] * PLANTED_DIRECT_SCALE;
-    let indirect = render_indirect_frame[i] * PLANTED_INDIRECT_SCALE;
+    let direct = render_direct_frame[i] * render_params.planted_direct_scale;
+    let indirect = render_indirect_frame[i] * render_params.planted_indirect_scale;
     render_direct_frame[i] = direct;
     render_indirect_frame[i] = indirect;
     render_accum_direct[i] += direct;

@@ -158,9 +158,12 @@ pub struct RenderParams {
     pub roulette_from: u32,
     /// [`crate::sampling::Paths::mis`] as 0 or 1.
     pub mis: u32,
-    pub _pad0: u32,
-    pub _pad1: u32,
-    pub _pad2: u32,
+    /// [`Planted::id`](crate::plant::Planted::id) of the build's defect (0 but in tests' negative controls).
+    pub planted: u32,
+    /// [`Planted::scales`](crate::plant::Planted::scales) of the build: the scales of the accumulated direct and indirect
+    /// frames (1 but in tests' power checks).
+    pub planted_direct_scale: f32,
+    pub planted_indirect_scale: f32,
 }
 
 impl RenderParams {
@@ -182,9 +185,9 @@ impl RenderParams {
             bounces: options.paths.bounces,
             roulette_from: options.paths.roulette_from,
             mis: u32::from(options.paths.mis),
-            _pad0: 0,
-            _pad1: 0,
-            _pad2: 0,
+            planted: options.planted.id(),
+            planted_direct_scale: options.planted.scales().0,
+            planted_indirect_scale: options.planted.scales().1,
         }
     }
 }

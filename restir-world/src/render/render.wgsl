@@ -99,9 +99,11 @@ struct RenderParams {
     roulette_from: u32,
     // 1: light samples and the emission rays hit are weighted by multiple importance sampling.
     mis: u32,
-    _pad0: u32,
-    _pad1: u32,
-    _pad2: u32,
+    // restir_world::plant: the build's planted defect (PLANTED_* ids; 0: none) and the scales of
+    // the accumulated direct and indirect frames (1 but in tests' power checks).
+    planted: u32,
+    planted_direct_scale: f32,
+    planted_indirect_scale: f32,
 }
 
 // A pixel's path sample (what ReSTIR GI resamples): its reconnection vertex x2 (the secondary
@@ -271,7 +273,7 @@ fn render_textured_emission(sample: LightSample) -> LightSample {
 // lights_sample with the emission of a textured emissive triangle at the sampled point.
 fn render_light_sample(u: vec4<f32>, rng: ptr<function, u32>) -> LightSample {
     var s = render_textured_emission(lights_sample(u, rng));
-    if PLANTED == PLANTED_LIGHT_PDF_OVERSTATED {
+    if render_params.planted == PLANTED_LIGHT_PDF_OVERSTATED {
         s.pdf_area *= 1.1;
     }
     return s;
@@ -280,13 +282,13 @@ fn render_light_sample(u: vec4<f32>, rng: ptr<function, u32>) -> LightSample {
 // The confidence a reuse pass merges a neighbour's reservoir with: its (capped) M, but at most
 // 1 under the planted defect MERGE_WITHOUT_M (restir_world::plant).
 fn render_planted_m(m: u32) -> u32 {
-    return select(m, min(m, 1u), PLANTED == PLANTED_MERGE_WITHOUT_M);
+    return select(m, min(m, 1u), render_params.planted == PLANTED_MERGE_WITHOUT_M);
 }
 
 // The survival probability a path's throughput is divided by after Russian roulette: q, but 1
 // under the planted defect ROULETTE_WITHOUT_DIVISION (restir_world::plant).
 fn render_roulette_divisor(q: f32) -> f32 {
-    return select(q, 1.0, PLANTED == PLANTED_ROULETTE_WITHOUT_DIVISION);
+    return select(q, 1.0, render_params.planted == PLANTED_ROULETTE_WITHOUT_DIVISION);
 }
 
 // lights_sample_at with the emission of a textured emissive triangle at the point.
@@ -428,7 +430,7 @@ fn render_light_mis_at(p: vec3<f32>, ns: vec3<f32>, s: LightSample, e: f32) -> f
     }
     let p_ray = max(dot(ns, wi), 0.0) * SAMPLING_INV_PI;
     var p_light = render_light_density(p_table, p_ray, s.emission, e);
-    if e > 0.0 && PLANTED == PLANTED_LIGHT_MIS_DOUBLED {
+    if e > 0.0 && render_params.planted == PLANTED_LIGHT_MIS_DOUBLED {
         // Planted defect: the light side's density doubled, the ray side's not.
         p_light *= 2.0;
     }

@@ -1,13 +1,11 @@
 //! The kit a stage above the renderer is built from: the shared bind groups, a stage's kernel
 //! declarations ([`KernelDef`]) and what every reuse pass binds.
 
+use super::library::{compose_with_library, shared_bindings};
 use crate::gpu::{
     Access, BindGroupLayout, BindingSet, GpuContext, GpuError, Kernel, KernelCache, Pass, Resource,
     Tracer, WgslModule, buffers,
 };
-use crate::plant::Planted;
-
-use super::library::{compose_planted, shared_bindings};
 
 /// The shared bind groups (render buffers, tracer, lights) with their layouts, the tracer
 /// and the frame's pixel count: what a pixel pass is made from.
@@ -17,8 +15,6 @@ pub struct SharedGroups {
     pub groups: [wgpu::BindGroup; 3],
     pub tracer: Tracer,
     pub pixels: u32,
-    /// The defect compiled into every kernel of this build ([`super::RenderOptions::planted`]).
-    pub planted: Planted,
     /// Where its kernels come from: the context's, so that a build again reuses them.
     pub kernels: KernelCache,
 }
@@ -36,7 +32,7 @@ impl SharedGroups {
     ) -> Kernel {
         let mut layouts: Vec<&BindGroupLayout> = self.layouts.iter().collect();
         layouts.extend(own);
-        let source = compose_planted(self.tracer, self.planted, modules);
+        let source = compose_with_library(self.tracer, modules);
         let size = crate::gpu::WORKGROUP_SIZE;
         self.kernels
             .kernel(device, label, &source, &layouts, entry_points, size)

@@ -117,7 +117,7 @@ fn gi_jacobian(s: GiSample, x1_from: vec3<f32>, x1_to: vec3<f32>) -> f32 {
         return 0.0;
     }
     var j = cos_b / cos_a * (da / db);
-    if PLANTED == PLANTED_JACOBIAN_WITHOUT_DISTANCE {
+    if render_params.planted == PLANTED_JACOBIAN_WITHOUT_DISTANCE {
         j = cos_b / cos_a;
     }
     let t = screen_params.knobs.max_jacobian;
