@@ -71,8 +71,9 @@ fn check(
 /// (the built-in scenes' test bounds 2% with 5 seeds at 96x96). The small lamps near the
 /// surfaces make every estimator heavy-tailed here: one 512-frame ris reference sat 3.4% above
 /// the mean of three 256-frame ris runs (the same estimator), which is why the reference is
-/// four. Measured at one bounce: +0.07/+0.45/+0.24%. The control runs 64 frames: its defect
-/// darkened 256 frames by 24-26%, far past the bound, once the reservoirs held history.
+/// four. Measured at one bounce: +0.07/+0.45/+0.24%; at the default paths +0.51/+0.57/+0.52%.
+/// The control runs 64 frames: its defect darkened 256 frames by 24-26% and 64 frames by
+/// 28-30%, far past the bound, once the reservoirs held history.
 #[test]
 fn colonnade_bias_at_the_defaults() {
     let (s, cam) = builtin_square("colonnade", SIDE, BuiltinOptions::default());
