@@ -6,6 +6,8 @@
 # (--bounces 1 --mis off) on cornell.
 # `scripts/same-images.sh` runs it for two revisions and checks the EXRs are byte-identical.
 # usage: scripts/render-golden.sh BIN OUT [EXTRA-RENDER-ARGS...]
+# GOLDEN_FILTER: an extended regex; only the images whose names match it are rendered (e.g.
+# GOLDEN_FILTER='restir-(di|gi)' for a change that touches only those methods).
 set -euo pipefail
 bin=$1
 out=$2
@@ -24,6 +26,7 @@ methods=(nee ris ris:4
 render() { # name, args...
   local name=$1
   shift
+  [[ -z ${GOLDEN_FILTER:-} || $name =~ $GOLDEN_FILTER ]] || return 0
   "$bin" render "$@" "${extra[@]}" --out "$out/$name" >/dev/null 2>>"$out/render.log" ||
     { echo "render $name failed:" >&2; tail -3 "$out/render.log" >&2; exit 1; }
 }

@@ -5,6 +5,7 @@
 # usage: scripts/same-images.sh BASE   (e.g. scripts/same-images.sh HEAD~3)
 # AFTER_ARGS: render arguments for the working tree's binary only, for a default that changed
 # on purpose (e.g. AFTER_ARGS="--bounces 1" checks that one bounce renders as before).
+# GOLDEN_FILTER: only the images whose names match this extended regex (render-golden.sh).
 set -euo pipefail
 base=${1:?usage: scripts/same-images.sh BASE}
 root=$(git rev-parse --show-toplevel)

@@ -5,11 +5,12 @@
 //! record is its path-sample reservoir. Beside the pixels the grid holds a *pool*: one record
 //! per cell (its first pixel's final reservoir and primary vertex) kept across frames, which
 //! ages while its cell is out of view and goes after `history-frames` frames ([`Pool`],
-//! `world_pool.wgsl`). The temporal pass merges path samples that last frame's pixels or the
-//! pool left in the receiver's cell of last frame's grid (no reprojection: the cell is where
-//! the surface is, whatever the camera did, and a surface seen again finds its cell's record),
-//! the spatial pass those this frame's pixels left in its cell of this frame's grid, the lookup
-//! jittered by up to a cell. The method's own code is its neighbour choice
+//! `world_pool.wgsl`). The temporal pass merges last frame's pixel that saw the receiver's
+//! primary vertex (restir-gi's reprojection, `reproject`) and, where there is none (a
+//! disocclusion, a cut), a path sample that last frame's pixels or the pool left in the
+//! receiver's cell of last frame's grid (the cell is where the surface is, whatever the camera
+//! did, and a surface seen again finds its cell's record); the spatial pass merges those this
+//! frame's pixels left in its cell of this frame's grid, the lookup jittered by up to a cell. The method's own code is its neighbour choice
 //! (`world_neighbours.wgsl`) and its cells (`world_items.wgsl`, the pool,
 //! [`WorldRestirGiConfig::grid`]); the chain of passes is [`crate::screen_reuse`]'s and the
 //! combination the reservoir crate's.
@@ -54,6 +55,9 @@ crate::knobs! {
         [gpu] temporal_m_cap: u32 = 20, "temporal-m-cap", 1..=MAX_M;
         /// Cap of a pooled record's confidence M when the temporal pass merges it (default 1).
         [gpu] pool_m_cap: u32 = 1, "pool-m-cap", 1..=MAX_M;
+        /// The temporal pass merges last frame's pixel that saw the receiver's primary vertex
+        /// (reprojection) first, the cell's items only past it or where it fails (default on).
+        [gpu] reproject: bool = true, "reproject";
         /// Path samples of last frame's cell merged per pixel (default 1).
         [gpu] temporal_k: u32 = 1, "temporal-k", 1..=screen_reuse::MAX_SPATIAL_K;
         /// Path samples of this frame's cell merged per pixel (default 4; 0: no spatial pass).

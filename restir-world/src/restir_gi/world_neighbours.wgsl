@@ -4,8 +4,11 @@
 // - temporal: up to temporal_k of the items of the cell of the receiver's x1 in last frame's
 //   grid: last frame's pixels and the pool's records (the temporal pass looks that grid up; its
 //   sources are last frame's final reservoirs and G-buffer, then the pool's reservoirs and
-//   vertices). No reprojection: the cell is where the surface is, whatever the camera did; the
-//   first frame (history = 0) has none.
+//   vertices). The cell is where the surface is, whatever the camera did; the first frame
+//   (history = 0) has none. With `reproject` on, the first of them is last frame's pixel that
+//   saw x1 (screen_reprojected) where there is one: with a still camera that is the receiver's
+//   own pixel, whose x1 is the receiver's, where a random item of the cell is another point
+//   whose shift fails more often; the cell is left for disocclusions and cuts.
 // - spatial: up to spatial_k items of the receiver's cell in this frame's grid (the receiver
 //   itself skipped), the lookup jittered in the tangent plane by up to one cell, so that a
 //   neighbouring cell is visited at times.
@@ -21,13 +24,25 @@ fn screen_neighbours(i: u32, g: GVertex, temporal: bool, rng: ptr<function, u32>
     let cap = max(screen_params.knobs.temporal_m_cap, 1u);
     let wanted = min(select(screen_params.knobs.spatial_k, screen_params.knobs.temporal_k, temporal),
                      SCREEN_MAX_NEIGHBOURS);
+    var reprojected = RENDER_NO_PIXEL;
+    if temporal && screen_params.knobs.reproject != 0u {
+        reprojected = screen_reprojected(g);
+        if reprojected != RENDER_NO_PIXEL {
+            n.idx[0] = reprojected;
+            n.ms[0] = reuse_cap_m(screen_m(reuse_src[reprojected]), cap);
+            n.k = 1u;
+        }
+        if n.k >= wanted {
+            return n;
+        }
+    }
     // This frame's cell holds the receiver too: visit one more.
     let visit = grid_visit(g.position, g.normal, wanted + select(1u, 0u, temporal), rng);
     let eye = select(render_params.camera.eye, screen_params.prev_camera.eye, temporal);
     for (var k = 0u; k < visit.count && n.k < wanted; k += visit.increment) {
         let j = grid_visited(visit, k);
         // This frame's grid also holds the pool's records, which only the temporal pass reads.
-        if !temporal && (j == i || j >= render_params.pixel_count) {
+        if (!temporal && (j == i || j >= render_params.pixel_count)) || j == reprojected {
             continue;
         }
         let m = screen_m(reuse_src[j]);

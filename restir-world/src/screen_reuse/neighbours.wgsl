@@ -3,8 +3,7 @@
 // among the pixels whose reservoirs are reuse_src, each passing screen_similar (depth within
 // depth_threshold, shading normals within normal_threshold):
 // - temporal: the one pixel of last frame's image that sees the receiver's primary hit through
-//   last frame's camera (render_project), tested against last frame's G-buffer
-//   (screen_prev_gbuffer) from last frame's eye. A disocclusion, a camera cut or the first frame
+//   last frame's camera (screen_reprojected). A disocclusion, a camera cut or the first frame
 //   (history = 0) gives none.
 // - spatial: spatial_k pixels drawn uniformly in a disc of spatial_radius pixels around the
 //   receiver (this frame's temporal output); the receiver itself and empty pixels are skipped.
@@ -16,16 +15,11 @@ fn screen_neighbours(i: u32, g: GVertex, temporal: bool, rng: ptr<function, u32>
     var n: ScreenNeighbours;
     let cap = max(screen_params.knobs.temporal_m_cap, 1u);
     if temporal {
-        if screen_params.history != 0u {
-            let j = render_project(screen_params.prev_camera, g.position);
-            if j != RENDER_NO_PIXEL {
-                let m = screen_m(reuse_src[j]);
-                if m > 0u && screen_similar(g, render_unpack_vertex(screen_prev_gbuffer[j]), screen_params.prev_camera.eye) {
-                    n.idx[0] = j;
-                    n.ms[0] = reuse_cap_m(m, cap);
-                    n.k = 1u;
-                }
-            }
+        let j = screen_reprojected(g);
+        if j != RENDER_NO_PIXEL {
+            n.idx[0] = j;
+            n.ms[0] = reuse_cap_m(screen_m(reuse_src[j]), cap);
+            n.k = 1u;
         }
     } else {
         let count = min(screen_params.knobs.spatial_k, SCREEN_MAX_NEIGHBOURS);

@@ -33,6 +33,21 @@ fn screen_source_vertex(j: u32, temporal: bool) -> GVertex {
     return render_unpack_vertex(render_gbuffer[j]);
 }
 
+// Last frame's pixel that saw receiver vertex g through last frame's camera (render_project),
+// when it holds a reservoir and passes screen_similar against last frame's G-buffer from last
+// frame's eye; RENDER_NO_PIXEL where there is none (a disocclusion, a cut, the first frame).
+fn screen_reprojected(g: GVertex) -> u32 {
+    if screen_params.history == 0u {
+        return RENDER_NO_PIXEL;
+    }
+    let j = render_project(screen_params.prev_camera, g.position);
+    if j == RENDER_NO_PIXEL || screen_m(reuse_src[j]) == 0u
+        || !screen_similar(g, render_unpack_vertex(screen_prev_gbuffer[j]), screen_params.prev_camera.eye) {
+        return RENDER_NO_PIXEL;
+    }
+    return j;
+}
+
 @compute @workgroup_size(WORKGROUP_SIZE)
 fn screen_reuse(id: Invocation) {
     let i = item_index(id);
