@@ -211,6 +211,7 @@ fn debug_views(
         (DebugView::CacheSamples, "debug-cache-samples"),
         (DebugView::DenoiseHistory, "debug-denoise-history"),
         (DebugView::DenoiseVariance, "debug-denoise-variance"),
+        (DebugView::History, "debug-history"),
     ] {
         // Each method draws the views it has.
         let Some(px) = m.debug_image(ctx, view)? else {

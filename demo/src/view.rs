@@ -107,10 +107,12 @@ pub enum Shown {
     DenoiseHistory,
     /// Debug view: the denoiser's luminance variance per pixel.
     DenoiseVariance,
+    /// Debug view: where world-restir-gi's temporal neighbour came from.
+    History,
 }
 
 impl Shown {
-    const ALL: [(Shown, &'static str); 13] = [
+    const ALL: [(Shown, &'static str); 14] = [
         (Shown::Denoised, "denoised (last frame)"),
         (Shown::Combined, "combined (accumulated)"),
         (Shown::Direct, "direct"),
@@ -124,6 +126,7 @@ impl Shown {
         (Shown::CacheSamples, "debug: cache samples"),
         (Shown::DenoiseHistory, "debug: denoiser history length"),
         (Shown::DenoiseVariance, "debug: denoiser variance"),
+        (Shown::History, "debug: temporal history's origin"),
     ];
 
     fn debug(self) -> Option<DebugView> {
@@ -137,6 +140,7 @@ impl Shown {
             Shown::DenoiseVariance => Some(DebugView::DenoiseVariance),
             Shown::CacheAge => Some(DebugView::CacheAge),
             Shown::CacheSamples => Some(DebugView::CacheSamples),
+            Shown::History => Some(DebugView::History),
             _ => None,
         }
     }

@@ -25,11 +25,15 @@ pub enum DebugView {
     DenoiseHistory = 7,
     /// The denoiser's luminance variance per pixel (heat map of log10, 1e-4 .. 1e2).
     DenoiseVariance = 8,
+    /// Where world-restir-gi's temporal neighbour came from: blue last frame's reprojected
+    /// pixel, green another pixel of last frame's cell (the reprojection failed), red a record
+    /// the pool kept (the cell was out of view last frame); black: none merged.
+    History = 9,
 }
 
 impl DebugView {
     /// Every view.
-    pub const ALL: [DebugView; 9] = [
+    pub const ALL: [DebugView; 10] = [
         Self::Cells,
         Self::M,
         Self::Overflow,
@@ -39,6 +43,7 @@ impl DebugView {
         Self::CacheSamples,
         Self::DenoiseHistory,
         Self::DenoiseVariance,
+        Self::History,
     ];
 
     /// Whether the denoiser draws this view.

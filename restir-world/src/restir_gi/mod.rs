@@ -317,14 +317,43 @@ impl RestirGi {
 
     /// Per pixel of the last frame: (neighbours merged, reconnections rejected).
     pub fn reconnections(&self, ctx: &GpuContext) -> Result<Vec<(u32, u32)>, GpuError> {
-        let v: Vec<u32> = buffers::read(ctx, &self.debug)?;
-        let pixels = &v[..v.len().min(self.pixels as usize)];
-        Ok(pixels.iter().map(|w| (w & 0xffff, w >> 16)).collect())
+        Ok(self
+            .debug_words(ctx)?
+            .iter()
+            .map(|w| (w & 0xfff, w >> 16))
+            .collect())
+    }
+
+    /// Per pixel of the last frame, where world-restir-gi's temporal neighbour came from;
+    /// `None` for restir-gi.
+    pub fn history_origins(
+        &self,
+        ctx: &GpuContext,
+    ) -> Result<Option<Vec<HistoryOrigin>>, GpuError> {
+        if self.world.is_none() {
+            return Ok(None);
+        }
+        let origin = |w: &u32| match (w >> 12) & 3 {
+            1 => HistoryOrigin::Reprojected,
+            2 => HistoryOrigin::CellPixel,
+            3 => HistoryOrigin::Pool,
+            _ => HistoryOrigin::None,
+        };
+        Ok(Some(self.debug_words(ctx)?.iter().map(origin).collect()))
+    }
+
+    /// gi_debug's word per pixel: bits 0-11 the neighbours merged, 12-13 the temporal
+    /// neighbour's origin (world-restir-gi), 16-31 the reconnections rejected.
+    fn debug_words(&self, ctx: &GpuContext) -> Result<Vec<u32>, GpuError> {
+        let mut v: Vec<u32> = buffers::read(ctx, &self.debug)?;
+        v.truncate(self.pixels as usize);
+        Ok(v)
     }
     /// A debug view of the last frame (RGB per pixel): [`DebugView::M`], a heat map of
     /// log2(M) of the final reservoirs (blue M = 1 .. red M = 1023), or
     /// [`DebugView::Rejected`], the share of the pixel's reconnections rejected (black: none
-    /// tried, green: none rejected .. red: all); `None` for the views of a hash grid.
+    /// tried, green: none rejected .. red: all), or (world-restir-gi) [`DebugView::History`];
+    /// `None` for the other views.
     pub fn debug_image(
         &self,
         ctx: &GpuContext,
@@ -352,9 +381,32 @@ impl RestirGi {
                     })
                     .collect(),
             ),
+            DebugView::History => self.history_origins(ctx)?.map(|o| {
+                o.iter()
+                    .map(|o| match o {
+                        HistoryOrigin::None => [0.0; 3],
+                        HistoryOrigin::Reprojected => [0.0, 0.0, 1.0],
+                        HistoryOrigin::CellPixel => [0.0, 1.0, 0.0],
+                        HistoryOrigin::Pool => [1.0, 0.0, 0.0],
+                    })
+                    .collect()
+            }),
             _ => None,
         })
     }
+}
+
+/// Where a pixel's temporal neighbour came from (world-restir-gi, [`RestirGi::history_origins`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum HistoryOrigin {
+    /// No temporal neighbour merged (the first frame, nothing similar found).
+    None,
+    /// Last frame's pixel that saw the receiver's primary vertex.
+    Reprojected,
+    /// Another pixel of last frame's cell: the reprojection failed.
+    CellPixel,
+    /// A record the pool kept: the cell was out of view last frame.
+    Pool,
 }
 
 #[cfg(test)]

@@ -14,7 +14,25 @@
 //   neighbouring cell is visited at times.
 // A cell's items are visited every increment-th from a random offset (grid_visit); each must
 // pass screen_similar (depth and normal thresholds) and hold a reservoir, its M capped at
-// temporal_m_cap.
+// temporal_m_cap. The temporal pass notes where its first neighbour came from in gi_debug
+// (bits 12-13: WGI_FROM_*), the debug view History.
+
+const WGI_FROM_REPROJECTED: u32 = 1u;
+const WGI_FROM_CELL_PIXEL: u32 = 2u;
+const WGI_FROM_POOL: u32 = 3u;
+
+fn wgi_note_origin(i: u32, n: ScreenNeighbours, reprojected: u32) {
+    if n.k == 0u {
+        return;
+    }
+    var origin = WGI_FROM_CELL_PIXEL;
+    if n.idx[0] == reprojected {
+        origin = WGI_FROM_REPROJECTED;
+    } else if n.idx[0] >= render_params.pixel_count {
+        origin = WGI_FROM_POOL;
+    }
+    gi_debug[i] |= origin << 12u;
+}
 
 fn screen_neighbours(i: u32, g: GVertex, temporal: bool, rng: ptr<function, u32>) -> ScreenNeighbours {
     var n: ScreenNeighbours;
@@ -33,6 +51,7 @@ fn screen_neighbours(i: u32, g: GVertex, temporal: bool, rng: ptr<function, u32>
             n.k = 1u;
         }
         if n.k >= wanted {
+            wgi_note_origin(i, n, reprojected);
             return n;
         }
     }
@@ -53,6 +72,9 @@ fn screen_neighbours(i: u32, g: GVertex, temporal: bool, rng: ptr<function, u32>
         let pooled = temporal && j >= render_params.pixel_count;
         n.ms[n.k] = reuse_cap_m(m, select(cap, min(cap, screen_params.knobs.pool_m_cap), pooled));
         n.k += 1u;
+    }
+    if temporal {
+        wgi_note_origin(i, n, reprojected);
     }
     return n;
 }
