@@ -439,9 +439,9 @@ fn world_restir_gi_motion_and_a_cut_stay_finite_bounded_and_evicted() {
 /// check: world-restir-gi with `history-frames=0` (its pool keeps last frame's cells only) has
 /// none on the frame back (seed 1). Where the temporal neighbours came from (the debug view
 /// History): on frame 15, still, the reprojected pixel for more than 3/4 of the pixels; on the
-/// frame back none, and some pooled records. Measured with the reprojection (2026-12-05, seeds 1-6):
-/// 0.112 against restir-gi's 0.203 (`history-frames=0`, seed 1: 0.119). Before it, over seeds
-/// 1-27 (median error): lavapipe 0.118
+/// frame back none, and some pooled records. Measured with the reprojection (2026-12-05,
+/// seeds 1-6): 0.112 against restir-gi's 0.203 (`history-frames=0`, seed 1: 0.119). Before it,
+/// over seeds 1-27 (median error): lavapipe 0.118
 /// (restir-gi 0.186, `history-frames=0` 0.128; with the pooled records merged at their full M,
 /// `pool-m-cap=20`, 0.227, which this test's former 3-seed sums hid); an NVIDIA H200 with
 /// `pool-m-cap=20` 0.169 (restir-gi 0.191, `history-frames=0` 0.128). The error comparison has

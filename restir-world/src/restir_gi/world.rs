@@ -11,9 +11,9 @@
 //! receiver's cell of last frame's grid (the cell is where the surface is, whatever the camera
 //! did, and a surface seen again finds its cell's record); the spatial pass merges those this
 //! frame's pixels left in its cell of this frame's grid, the lookup jittered by up to a cell.
-//! The method's own code is its neighbour choice (`world_neighbours.wgsl`) and its cells (`world_items.wgsl`, the pool,
-//! [`WorldRestirGiConfig::grid`]); the chain of passes is [`crate::screen_reuse`]'s and the
-//! combination the reservoir crate's.
+//! The method's own code is its neighbour choice (`world_neighbours.wgsl`) and its cells
+//! (`world_items.wgsl`, the pool, [`WorldRestirGiConfig::grid`]); the chain of passes is
+//! [`crate::screen_reuse`]'s and the combination the reservoir crate's.
 //!
 //! | span | what |
 //! |---|---|
