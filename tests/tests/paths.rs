@@ -62,6 +62,7 @@ fn gpu_images_planted(
         seed,
         paths,
         planted,
+        ..Default::default()
     };
     let settings = methods::parse_spec(spec).expect(spec);
     let mut m = settings
@@ -340,6 +341,7 @@ fn cornell_means(spec: &str, paths: Paths, frames: u32, planted: Planted) -> [[f
         seed: 7,
         paths,
         planted,
+        ..Default::default()
     };
     let mut m = methods::parse_spec(spec)
         .unwrap()

@@ -57,6 +57,7 @@ pub fn bindings() -> BindingSet {
         .buffer("render_direct_frame", image, rw)
         .buffer("render_indirect_frame", image, rw)
         .buffer("render_path_radiance", image, rw)
+        .buffer("render_path_split", image, rw)
         .buffer("render_accum_direct", image, rw)
         .buffer("render_accum_indirect", image, rw)
         .buffer("render_materials", "array<Material>", Access::Read)

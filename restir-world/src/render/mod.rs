@@ -104,6 +104,10 @@ pub struct RenderOptions {
     pub paths: Paths,
     /// [`Planted::None`] but in tests' negative controls (see [`crate::plant`]).
     pub planted: Planted,
+    /// The path pass records each pixel's path split (`render_path_split`: x2's own light, the
+    /// rest, the radiance one vertex short and x3; 64 bytes a pixel), what world-restir-gi's
+    /// sub-path reuse reads. Off: the buffer is one dummy record.
+    pub path_split: bool,
 }
 
 impl RenderOptions {
@@ -238,6 +242,10 @@ impl Renderer {
             .ok_or_else(|| RenderError::Settings("image too large".into()))?;
         let vertex_bytes = u64::from(pixels) * size_of::<GVertex>() as u64;
         ctx.check_binding_size("the G-buffer", vertex_bytes)?;
+        if options.path_split {
+            let bytes = u64::from(pixels) * render_buffers::PATH_SPLIT_BYTES;
+            ctx.check_binding_size("the path split", bytes)?;
+        }
         let units = scene.gpu_units();
         let scaled;
         let scene = if units == 1.0 {

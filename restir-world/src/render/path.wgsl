@@ -33,7 +33,8 @@ fn render_path_spread(v: GVertex, w: GVertex, dir: vec3<f32>) -> f32 {
 // the vertex before counts it), nor the environment an escaping ray sees, except with MIS
 // (render_params.mis), which weighs both ways to the light and traces one more ray for the last
 // bounce's hits. A vertex whose cached radiance path_cache_radiance gives ends the path: that
-// radiance stands for its light estimate and every bounce beyond it.
+// radiance stands for its light estimate and every bounce beyond it. With
+// render_params.path_split on, also records the pixel's path split (RenderPathSplit).
 fn render_path_pixel(i: u32) {
     let g = render_unpack_vertex(render_gbuffer[i]);
     var v = render_unpack_vertex(render_secondary[i]);
@@ -51,6 +52,12 @@ fn render_path_pixel(i: u32) {
     let bounces = render_params.bounces - select(0u, 1u, render_params.planted == PLANTED_MISSING_BOUNCE);
     // With MIS one more ray: the emission the last vertex's ray finds is part of the last bounce.
     let last = bounces + render_params.mis;
+    // The path split (render_params.path_split): x2's light so far is its light sample's.
+    var split = RenderPathSplit(render_path_radiance[i].xyz, vec3<f32>(0.0), vec3<f32>(0.0),
+                                vec3<f32>(0.0), vec3<f32>(0.0), false);
+    split.one_short = select(vec3<f32>(0.0), split.direct, bounces >= 2u);
+    // The throughput of what x3 sends towards x2.
+    var beyond = vec3<f32>(1.0);
     for (var bounce = 2u; bounce <= last; bounce++) {
         var rng = render_rng_salted(i, STREAM_PATH, bounce);
         if render_params.roulette_from != 0u && bounce >= render_params.roulette_from {
@@ -60,28 +67,55 @@ fn render_path_pixel(i: u32) {
             }
             leaving /= render_roulette_divisor(q);
             reflected /= render_roulette_divisor(q);
+            beyond /= render_roulette_divisor(q);
         }
         leaving *= v.albedo;
         reflected *= v.albedo;
+        if bounce > 2u {
+            beyond *= v.albedo;
+        }
         let w = render_path_step(v, &rng);
         // The ray from v weighs what it finds as v's light sample was.
-        render_path_add(&light, leaving, reflected, render_hit_emission_at(v, w, e_v));
+        let found = render_hit_emission_at(v, w, e_v);
+        render_path_add(&light, leaving, reflected, found);
+        // Split: the emission x2's ray finds is x2's own light; the one vertex k's ray finds is
+        // vertex k's light (k = bounce), in the short radiance where k is at most `bounces`.
+        if bounce == 2u {
+            split.direct += leaving * found;
+            split.x3 = w.position;
+            split.x3_normal = w.normal;
+            split.x3_hit = w.prim != BVH_NO_HIT;
+        } else {
+            split.beyond += beyond * found;
+        }
+        split.one_short += select(vec3<f32>(0.0), leaving * found, bounce <= bounces);
         if w.prim == BVH_NO_HIT || bounce > bounces {
             break;
         }
         footprint += render_path_spread(v, w, normalize(w.position - v.position));
         let cached = path_cache_radiance(w, bounce, footprint);
+        // Vertex w is vertex bounce + 1: its light (or the cache's radiance) is in the short
+        // radiance where that is at most `bounces`.
+        let in_short = bounce + 1u <= bounces;
         if cached.w > 0.0 {
             render_path_add(&light, leaving, reflected, cached.xyz);
+            split.beyond += beyond * cached.xyz;
+            split.one_short += select(vec3<f32>(0.0), leaving * cached.xyz, in_short);
             break;
         }
         let e_w = path_light_estimate(i, w, bounce);
-        render_path_add(&light, leaving, reflected, path_light_nee(i, w, bounce, e_w, &rng));
+        let nee = path_light_nee(i, w, bounce, e_w, &rng);
+        render_path_add(&light, leaving, reflected, nee);
+        split.beyond += beyond * nee;
+        split.one_short += select(vec3<f32>(0.0), leaving * nee, in_short);
         v = w;
         e_v = e_w;
     }
     render_path_radiance[i] += vec4<f32>(light.leaving, 0.0);
     render_indirect_frame[i] += vec4<f32>(light.reflected, 0.0);
+    if render_params.path_split != 0u {
+        render_store_path_split(i, split);
+    }
 }
 
 // Adds radiance l, found along the path with the two throughputs, to both parts of `light`.

@@ -164,6 +164,9 @@ pub struct RenderParams {
     /// frames (1 but in tests' power checks).
     pub planted_direct_scale: f32,
     pub planted_indirect_scale: f32,
+    /// 1: the path pass records the path split (`render_path_split`, [`RenderOptions::path_split`]).
+    pub path_split: u32,
+    pub _pad: [u32; 3],
 }
 
 impl RenderParams {
@@ -188,6 +191,8 @@ impl RenderParams {
             planted: options.planted.id(),
             planted_direct_scale: options.planted.scales().0,
             planted_indirect_scale: options.planted.scales().1,
+            path_split: u32::from(options.path_split),
+            _pad: [0; 3],
         }
     }
 }

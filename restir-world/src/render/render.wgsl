@@ -104,6 +104,11 @@ struct RenderParams {
     planted: u32,
     planted_direct_scale: f32,
     planted_indirect_scale: f32,
+    // 1: the path pass records each pixel's path split (render_path_split, RenderPathSplit).
+    path_split: u32,
+    _pad0: u32,
+    _pad1: u32,
+    _pad2: u32,
 }
 
 // A pixel's path sample (what ReSTIR GI resamples): its reconnection vertex x2 (the secondary
@@ -127,6 +132,39 @@ struct PathLight {
 fn render_store_path_light(i: u32, light: PathLight, e: f32) {
     render_indirect_frame[i] = vec4<f32>(light.reflected, 1.0);
     render_path_radiance[i] = vec4<f32>(light.leaving, e);
+}
+
+// Pixel i's path split, recorded by the path pass when render_params.path_split is 1 (for
+// sub-path reuse at x2, world-restir-gi's subpath-k): the radiance leaving x2 towards x1 cut at
+// x2's own light (`direct`: x2's light sample and the emission its path's ray from x2 finds,
+// MIS-weighted as they are) and the rest (`beyond`: the radiance leaving the tertiary vertex x3
+// towards x2, Le(x3) left out, divided by the roulette at x2, so that the path sample's radiance
+// is direct + albedo(x2) x beyond); the radiance leaving x2 towards x1 one vertex short
+// (`one_short`: the light estimate of the path's last vertex and the emission its ray finds left
+// out), the depth a path sample has when another path reconnects to it from its secondary
+// vertex; and x3 (`x3_hit` 0: the path ended at x2). Four vec4 per pixel in render_path_split.
+struct RenderPathSplit {
+    direct: vec3<f32>,
+    beyond: vec3<f32>,
+    one_short: vec3<f32>,
+    x3: vec3<f32>,
+    x3_normal: vec3<f32>,
+    x3_hit: bool,
+}
+
+fn render_store_path_split(i: u32, s: RenderPathSplit) {
+    render_path_split[4u * i] = vec4<f32>(s.direct, s.x3_normal.x);
+    render_path_split[4u * i + 1u] = vec4<f32>(s.beyond, s.x3_normal.y);
+    render_path_split[4u * i + 2u] = vec4<f32>(s.one_short, s.x3_normal.z);
+    render_path_split[4u * i + 3u] = vec4<f32>(s.x3, select(0.0, 1.0, s.x3_hit));
+}
+
+fn render_load_path_split(i: u32) -> RenderPathSplit {
+    let a = render_path_split[4u * i];
+    let b = render_path_split[4u * i + 1u];
+    let c = render_path_split[4u * i + 2u];
+    let d = render_path_split[4u * i + 3u];
+    return RenderPathSplit(a.xyz, b.xyz, c.xyz, d.xyz, vec3<f32>(a.w, b.w, c.w), d.w > 0.0);
 }
 
 // GPU-side frame counter: advanced by render_accumulate, read by every pass for its seeds.

@@ -6,6 +6,9 @@ use crate::scene::Material;
 
 use super::records::{GVertex, RenderParams, RenderState, TextureGpu, TriangleAttributes};
 
+/// Bytes of one pixel's path split (WGSL `RenderPathSplit`, four vec4).
+pub(crate) const PATH_SPLIT_BYTES: u64 = 64;
+
 /// The render buffers (per pixel unless noted).
 #[derive(Debug)]
 pub(crate) struct RenderBuffers {
@@ -18,6 +21,9 @@ pub(crate) struct RenderBuffers {
     /// The radiance leaving each pixel's secondary vertex towards its primary along the
     /// pixel's path (with `secondary`, the pixel's path sample: WGSL `PathLight`).
     pub path_radiance: wgpu::Buffer,
+    /// Four vec4 per pixel when `RenderParams::path_split` is 1 (WGSL `RenderPathSplit`), one
+    /// dummy record when it is 0.
+    pub path_split: wgpu::Buffer,
     pub accum_direct: wgpu::Buffer,
     pub accum_indirect: wgpu::Buffer,
     /// Per material.
@@ -53,6 +59,10 @@ impl RenderBuffers {
             direct_frame: zeroed("render_direct_frame", px * 16),
             indirect_frame: zeroed("render_indirect_frame", px * 16),
             path_radiance: zeroed("render_path_radiance", px * 16),
+            path_split: zeroed(
+                "render_path_split",
+                PATH_SPLIT_BYTES * if params.path_split != 0 { px } else { 1 },
+            ),
             accum_direct: zeroed("render_accum_direct", px * 16),
             accum_indirect: zeroed("render_accum_indirect", px * 16),
             materials: buffers::storage_from(device, "render_materials", materials),
@@ -70,6 +80,7 @@ impl RenderBuffers {
             &self.direct_frame,
             &self.indirect_frame,
             &self.path_radiance,
+            &self.path_split,
             &self.accum_direct,
             &self.accum_indirect,
         ]
@@ -79,7 +90,7 @@ impl RenderBuffers {
     }
 
     /// The buffers of [`bindings`], by name.
-    pub(super) fn resources(&self) -> [(&'static str, Resource<'_>); 13] {
+    pub(super) fn resources(&self) -> [(&'static str, Resource<'_>); 14] {
         [
             ("render_params", (&self.params).into()),
             ("render_state", (&self.state).into()),
@@ -88,6 +99,7 @@ impl RenderBuffers {
             ("render_direct_frame", (&self.direct_frame).into()),
             ("render_indirect_frame", (&self.indirect_frame).into()),
             ("render_path_radiance", (&self.path_radiance).into()),
+            ("render_path_split", (&self.path_split).into()),
             ("render_accum_direct", (&self.accum_direct).into()),
             ("render_accum_indirect", (&self.accum_indirect).into()),
             ("render_materials", (&self.materials).into()),
