@@ -126,3 +126,48 @@ fn gi_jacobian(s: GiSample, x1_from: vec3<f32>, x1_to: vec3<f32>) -> f32 {
     }
     return j;
 }
+
+// Neighbour q's target at the receiver's sample y shifted to it from the receiver's x1 (at
+// x1_own), times that shift's Jacobian, with visibility from q when `visibility` is on.
+fn gi_shifted_target(q: GVertex, y: GiSample, x1_own: vec3<f32>) -> f32 {
+    let j = gi_jacobian(y, x1_own, q.position);
+    if j == 0.0 {
+        return 0.0;
+    }
+    let p = gi_target(q, y) * j;
+    if p > 0.0 && screen_params.knobs.visibility != 0u && !render_visible(q.position, q.normal, y.position) {
+        return 0.0;
+    }
+    return p;
+}
+
+// What a receiver (primary vertex g, own sample own_sample) needs of neighbour q's reservoir
+// src to merge it (reuse_neighbour_shifted): src's sample's target at g with its reconnection's
+// Jacobian (0 where the shift or, with `visibility`, the ray from g fails), its target at q, and
+// (`pairwise`) the receiver's own sample's shifted to q.
+struct GiPair {
+    p_target: f32,
+    jacobian: f32,
+    p_n_y: f32,
+    p_n_own: f32,
+}
+
+fn gi_pair(g: GVertex, own_sample: GiSample, pairwise: bool, q: GVertex, src: GiReservoir) -> GiPair {
+    var pair = GiPair(0.0, 0.0, 0.0, 0.0);
+    if gi_has_sample(src) {
+        let y = gi_sample(src);
+        pair.jacobian = gi_jacobian(y, q.position, g.position);
+        if pair.jacobian > 0.0 {
+            pair.p_target = gi_target(g, y);
+        }
+        if pair.p_target > 0.0 && screen_params.knobs.visibility != 0u
+            && !render_visible(g.position, g.normal, y.position) {
+            pair.p_target = 0.0;
+        }
+        pair.p_n_y = gi_target(q, y);
+    }
+    if pairwise {
+        pair.p_n_own = gi_shifted_target(q, own_sample, g.position);
+    }
+    return pair;
+}

@@ -11,20 +11,6 @@
 // (reuse_neighbour_shifted). Adds the merged neighbours and the rejected
 // reconnections (shift or visibility failed) to gi_debug.
 
-// Neighbour q's target at the receiver's sample y shifted to it from the receiver's x1 (at
-// x1_own), times that shift's Jacobian, with visibility from q when `visibility` is on.
-fn gi_shifted_target(q: GVertex, y: GiSample, x1_own: vec3<f32>) -> f32 {
-    let j = gi_jacobian(y, x1_own, q.position);
-    if j == 0.0 {
-        return 0.0;
-    }
-    let p = gi_target(q, y) * j;
-    if p > 0.0 && screen_params.knobs.visibility != 0u && !render_visible(q.position, q.normal, y.position) {
-        return 0.0;
-    }
-    return p;
-}
-
 const SCREEN_STREAM_TEMPORAL: u32 = STREAM_GI_TEMPORAL;
 const SCREEN_STREAM_SPATIAL: u32 = STREAM_GI_SPATIAL;
 
@@ -49,28 +35,11 @@ fn screen_merge(i: u32, own: GiReservoir, g: GVertex, temporal: bool, nb: Screen
         let u_merge = rng_next_f32(rng);
         let src = reuse_src[nb.idx[n]];
         let q = screen_source_vertex(nb.idx[n], temporal);
-        let y = gi_sample(src);
-        var p_target = 0.0;
-        var jacobian = 0.0;
-        var p_n_y = 0.0;
-        if gi_has_sample(src) {
-            jacobian = gi_jacobian(y, q.position, g.position);
-            if jacobian > 0.0 {
-                p_target = gi_target(g, y);
-            }
-            if p_target > 0.0 && screen_params.knobs.visibility != 0u
-                && !render_visible(g.position, g.normal, y.position) {
-                p_target = 0.0;
-            }
-            rejected += select(0u, 1u, p_target == 0.0);
-            p_n_y = gi_target(q, y);
-        }
-        var p_n_own = 0.0;
-        if has_own && combine == REUSE_PAIRWISE {
-            p_n_own = gi_shifted_target(q, own_sample, g.position);
-        }
+        let pair = gi_pair(g, own_sample, has_own && combine == REUSE_PAIRWISE, q, src);
+        rejected += select(0u, 1u, gi_has_sample(src) && pair.p_target == 0.0);
         let packed = PackedReservoir(src.ucw, render_planted_m(nb.ms[n]));
-        if reuse_neighbour_shifted(&c, n, packed, p_target, jacobian, p_n_y, p_n_own, u_merge) {
+        if reuse_neighbour_shifted(&c, n, packed, pair.p_target, pair.jacobian, pair.p_n_y,
+                                   pair.p_n_own, u_merge) {
             out = src;
         }
     }
