@@ -14,8 +14,9 @@
 //! Two kinds:
 //! - defects of an estimator ([`Planted::is_defect`]): a wrong Jacobian, a merge that drops
 //!   the neighbours' M, Russian roulette without its division, an overstated light pdf, a path
-//!   one bounce short, cache updates without their tail. These are the controls of the bias
-//!   tests: each must fail the check its test makes.
+//!   one bounce short, cache updates without their tail, sub-path reuse one bounce too deep or without its
+//!   escaped candidates.
+//!   These are the controls of the bias tests: each must fail the check its test makes.
 //! - power checks ([`Planted::Scale`]): the finished frames scaled as they are accumulated.
 //!   They show only that a bound can see a shift of that size, never that a check catches a
 //!   defect, and are named so where used.
@@ -62,6 +63,14 @@ pub enum Planted {
     DenoiseNoDisocclusion,
     /// The denoiser's a-trous filter without its luminance edge-stopping weight.
     DenoiseNoLuminanceStop,
+    /// world-restir-gi's sub-path reuse takes the other paths' samples at their full depth
+    /// (the radiance leaving their x2 along all of their bounces) instead of one vertex short:
+    /// a reconnected path is one bounce deeper than `--bounces`.
+    SubpathFullDepth,
+    /// world-restir-gi's sub-path reuse leaves out the candidates whose GI ray escaped (they
+    /// hold no sample) while it weighs the others as if every candidate had been drawn: the
+    /// kept ones' weights are too large by the share that escaped.
+    SubpathSkipsEscaped,
 }
 
 impl Planted {
@@ -79,6 +88,8 @@ impl Planted {
             Self::DenoiseHistoryWeight => 8,
             Self::DenoiseNoDisocclusion => 9,
             Self::DenoiseNoLuminanceStop => 10,
+            Self::SubpathFullDepth => 11,
+            Self::SubpathSkipsEscaped => 12,
         }
     }
 
@@ -125,6 +136,8 @@ impl Planted {
             ("DENOISE_HISTORY_WEIGHT", Self::DenoiseHistoryWeight),
             ("DENOISE_NO_DISOCCLUSION", Self::DenoiseNoDisocclusion),
             ("DENOISE_NO_LUMINANCE_STOP", Self::DenoiseNoLuminanceStop),
+            ("SUBPATH_FULL_DEPTH", Self::SubpathFullDepth),
+            ("SUBPATH_SKIPS_ESCAPED", Self::SubpathSkipsEscaped),
         ];
         let mut s = String::from(
             "// Planted defects (restir_world::plant), compared with render_params.planted.\n",
@@ -153,6 +166,8 @@ mod tests {
             Planted::DenoiseHistoryWeight,
             Planted::DenoiseNoDisocclusion,
             Planted::DenoiseNoLuminanceStop,
+            Planted::SubpathFullDepth,
+            Planted::SubpathSkipsEscaped,
         ];
         let mut ids: Vec<u32> = all.iter().map(|p| p.id()).collect();
         ids.sort_unstable();

@@ -52,6 +52,11 @@ impl Composed {
         settings.validate()?;
         settings.check_paths(&options.paths)?;
         let plan = settings.plan(&options.paths)?;
+        // world-restir-gi's sub-path reuse reads the path split.
+        let options = &RenderOptions {
+            path_split: options.path_split || settings.wgi.is_some_and(|w| w.subpath_k > 0),
+            ..*options
+        };
         let renderer = Renderer::with_options(ctx, scene, camera, settings.estimator, options)?;
         let tiles = match settings.di {
             Some(d) => Some(LightTiles::new(

@@ -123,6 +123,7 @@ pub static STAGE: ScreenStage = ScreenStage {
     extra_modules,
     neighbours: screen_reuse::NEIGHBOURS_WGSL,
     grid_lookup: false,
+    subpath: None,
 };
 
 /// Each pixel's MIS estimate (WGSL `render_light_estimate`), from the initial pass to the shade.
@@ -183,6 +184,7 @@ impl RestirDi {
             temporal: config.temporal,
             spatial: config.spatial_k > 0,
             pool: 0,
+            subpath: false,
         };
         let px = u64::from(renderer.pixels());
         let estimate = buffers::storage_zeroed(&ctx.device, "di estimate", px * 4);

@@ -145,6 +145,7 @@ pub static STAGE: ScreenStage = ScreenStage {
     extra_modules: |_| Vec::new(),
     neighbours: screen_reuse::NEIGHBOURS_WGSL,
     grid_lookup: false,
+    subpath: None,
 };
 
 /// Every kernel of ReSTIR GI, composed as used, with its binding sets.
@@ -206,6 +207,7 @@ impl RestirGi {
             temporal: config.temporal,
             spatial: config.spatial_k > 0,
             pool: 0,
+            subpath: false,
         };
         let words = config.gpu_words();
         let stage = (&STAGE, words.as_slice(), chain);
@@ -225,12 +227,21 @@ impl RestirGi {
         config: WorldRestirGiConfig,
     ) -> Result<Self, RestirGiError> {
         config.validate()?;
+        if config.subpath_k > 0 && !renderer.options().path_split {
+            return Err(ScreenReuseError::config("world-restir-gi")(
+                "subpath-k needs a renderer that records the path split \
+                 (RenderOptions::path_split)"
+                    .into(),
+            ));
+        }
         let pixels = renderer.pixels();
         let capacity = world::pool_capacity(pixels);
         let chain = Chain {
             temporal: config.temporal,
             spatial: config.spatial_k > 0,
             pool: capacity,
+            // One bounce: x2 has no light beyond its own to resample.
+            subpath: config.subpath_k > 0 && renderer.options().paths.bounces >= 2,
         };
         let camera = &renderer.gpu_camera();
         let size = size_of::<GiReservoir>();

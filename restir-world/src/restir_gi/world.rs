@@ -15,9 +15,18 @@
 //! (`world_items.wgsl`, the pool, [`WorldRestirGiConfig::grid`]); the chain of passes is
 //! [`crate::screen_reuse`]'s and the combination the reservoir crate's.
 //!
+//! With `subpath-k` above 0 (the variant `subpath`), sub-path reuse (Zhang & Wang 2023), which
+//! no screen-space method can do: before the initial pass each pixel's secondary vertex x2 is
+//! a receiver too, resampling the light it reflects from the path samples this frame's pixels
+//! left in x2's cell (`world_subpath.wgsl`, restir-gi's shift and MIS with x2 as the receiver).
+//! It reads the path split the renderer records when asked
+//! ([`crate::render::RenderOptions::path_split`]): x2's own light apart from the rest, and the
+//! radiance one vertex short that a path reconnecting from x2 keeps its depth with.
+//!
 //! | span | what |
 //! |---|---|
 //! | `wgi-build` | this frame's grid of the pixels and the pool |
+//! | `wgi-subpath` | (`subpath-k` > 0) each pixel's x2 resamples path samples of its cell |
 //! | `wgi-initial` .. `wgi-persist` | [`crate::screen_reuse`]'s chain |
 //! | `wgi-pool` | the pool's records into the history, then the next pool: flag each cell's first item, gpu-scan, scatter |
 
@@ -41,6 +50,7 @@ use crate::screen_reuse::{self, ScreenReuseError, ScreenStage};
 const NEIGHBOURS_WGSL: &str = include_str!("world_neighbours.wgsl");
 const ITEMS_WGSL: &str = include_str!("world_items.wgsl");
 const POOL_WGSL: &str = include_str!("world_pool.wgsl");
+const SUBPATH_WGSL: &str = include_str!("world_subpath.wgsl");
 const POOL_FLAG_WGSL: &str = include_str!("world_pool_flag.wgsl");
 const POOL_SCATTER_WGSL: &str = include_str!("world_pool_scatter.wgsl");
 
@@ -62,6 +72,9 @@ crate::knobs! {
         [gpu] temporal_k: u32 = 1, "temporal-k", 1..=screen_reuse::MAX_SPATIAL_K;
         /// Path samples of this frame's cell merged per pixel (default 4; 0: no spatial pass).
         [gpu] spatial_k: u32 = 4, "spatial-k", 0..=screen_reuse::MAX_SPATIAL_K;
+        /// Sub-path reuse: path samples of the cell of each pixel's secondary vertex x2 that
+        /// x2 resamples for the light it reflects, before the initial pass (default 0: none).
+        [gpu] subpath_k: u32 = 0, "subpath-k", 0..=screen_reuse::MAX_SPATIAL_K;
         /// A reused pixel's depth (distance to the eye) must be within this fraction of the
         /// receiver's (default 0.1).
         [gpu] depth_threshold: f32 = 0.1, "depth-threshold", 0.0..=f32::MAX;
@@ -91,9 +104,15 @@ crate::knobs! {
 }
 
 /// The named variants of `world-restir-gi`: the reuse variants every method has, `biased`
-/// restir-gi's (1/M weights, no visibility rays).
+/// restir-gi's (1/M weights, no visibility rays), and `subpath` (sub-path reuse on).
 pub fn variants() -> Vec<Variant> {
-    super::variants_with("spatial-k=0")
+    let mut v = super::variants_with("spatial-k=0");
+    v.push(Variant::new(
+        "subpath",
+        &["subpath-k=1"],
+        "sub-path reuse: each pixel's secondary vertex resamples a path sample of its cell",
+    ));
+    v
 }
 
 impl WorldRestirGiConfig {
@@ -155,6 +174,7 @@ pub static STAGE: ScreenStage = ScreenStage {
     extra_modules: |_| Vec::new(),
     neighbours: NEIGHBOURS_WGSL,
     grid_lookup: true,
+    subpath: Some(SUBPATH_WGSL),
 };
 
 /// Most frames a pooled record may outlive its cell's last view (`history-frames`).

@@ -9,6 +9,7 @@
 //!
 //! | span | pass | reads | writes |
 //! |---|---|---|---|
+//! | `*-subpath` | a stage's sub-path pass (world-restir-gi's `subpath-k`) | this frame's grid, path split | path radiance |
 //! | `*-initial` | initial | G-buffer, the stage's inputs | reservoirs R0 |
 //! | `*-temporal` | reuse | R0, last frame's reservoirs, G-buffer and camera | R1 |
 //! | `*-spatial` | reuse | R(cur), G-buffer | R(1-cur) |
@@ -39,6 +40,9 @@ pub const NEIGHBOURS_WGSL: &str = include_str!("neighbours.wgsl");
 /// The reuse pass's entry point and the neighbours' struct (composed into the stage's reuse
 /// kernel only).
 pub const REUSE_PASS_WGSL: &str = include_str!("reuse_pass.wgsl");
+
+/// The entry point of a stage's sub-path pass ([`ScreenStage::subpath`]).
+const SUBPATH_ENTRY: &str = "screen_subpath";
 
 /// Most spatial neighbours per pixel (each stage's `spatial-k`).
 pub const MAX_SPATIAL_K: u32 = 16;
@@ -105,6 +109,10 @@ pub struct ScreenStage {
     /// Whether its neighbour choice looks the world-space grid up ([`grid::LOOKUP`]): the
     /// temporal pass last frame's grid, the spatial pass this frame's.
     pub grid_lookup: bool,
+    /// Its sub-path pass, if it has one (world-restir-gi's): WGSL with the entry point
+    /// `screen_subpath`, composed into its reuse kernel and run over this frame's grid before
+    /// the initial pass where the chain asks ([`Chain::subpath`]).
+    pub subpath: Option<&'static str>,
 }
 
 /// A stage's kernels.
@@ -196,6 +204,10 @@ impl ScreenStage {
                 WgslModule::new("screen-reuse-pass", &pass_deps, REUSE_PASS_WGSL),
             ]);
             needs.push("screen-reuse-pass");
+            if let Some(subpath) = self.subpath {
+                modules.push(WgslModule::new("screen-subpath", &deps, subpath));
+                needs.push("screen-subpath");
+            }
         }
         modules.push(WgslModule::new(name, &needs, self.sources[k as usize]));
         modules.extend((self.extra_modules)(k));
@@ -311,6 +323,8 @@ pub struct Chain {
     /// Records of older frames a stage keeps after last frame's pixels in the temporal pass's
     /// sources ([`ScreenReuse::history`]; 0: none).
     pub pool: u32,
+    /// The stage's sub-path pass ([`ScreenStage::subpath`]) before the initial pass.
+    pub subpath: bool,
 }
 
 /// The pass of `entry` of `kernel` over every pixel, binding the stage's parameters, `res`
@@ -340,14 +354,15 @@ pub struct ScreenReuse {
     params: wgpu::Buffer,
     buffers: ReuseBuffers,
     initial: Pass,
+    subpath: Option<ReusePasses>,
     temporal: Option<ReusePasses>,
     spatial: Option<ReusePasses>,
     shade: Pass,
     /// Which of the pair holds the final reservoirs.
     final_index: usize,
     knobs: Vec<u32>,
-    /// Its spans: initial, temporal, spatial, shade, persist.
-    spans: [String; 5],
+    /// Its spans: initial, temporal, spatial, shade, persist, subpath.
+    spans: [String; 6],
     /// The camera of the last frame recorded (`None` before the first).
     last_camera: Option<Camera>,
 }
@@ -375,13 +390,22 @@ impl ScreenReuse {
         let usage = wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST;
         let label = format!("{} params", stage.name);
         let params = buffers::with_usage(device, &label, &words, usage);
+        if chain.subpath && stage.subpath.is_none() {
+            return Err(GpuError::Binding(format!(
+                "{} has no sub-path pass",
+                stage.name
+            )));
+        }
         let kernel = |k: Kernel| {
             let label = format!("{} {}", stage.name, k.names().0);
             let own = stage.bindings(k);
-            let kernel =
-                renderer
-                    .shared
-                    .own_kernel(ctx, &label, &own, stage.modules(k), &[k.names().1]);
+            let mut entries = vec![k.names().1];
+            if k == Kernel::Reuse && chain.subpath {
+                entries.push(SUBPATH_ENTRY);
+            }
+            let kernel = renderer
+                .shared
+                .own_kernel(ctx, &label, &own, stage.modules(k), &entries);
             kernel.map(|kernel| (kernel, k.names().1))
         };
         let [initial_k, reuse_k, shade_k] = Kernel::ALL.map(kernel);
@@ -397,8 +421,9 @@ impl ScreenReuse {
             }
         };
         let first_hash = stage.buffers(Kernel::Reuse).next_binding();
-        // The temporal pass looks up last frame's grid, the spatial pass this frame's.
-        let reuse = |temporal: bool, [src, receivers, out]: [&wgpu::Buffer; 3]| {
+        // The temporal pass looks up last frame's grid, the spatial and sub-path passes this
+        // frame's.
+        let reuse = |(temporal, entry): (bool, &str), [src, receivers, out]: [&wgpu::Buffer; 3]| {
             let parities = if grid.is_some() { 2 } else { 1 };
             (0..parities)
                 .map(|p| {
@@ -418,7 +443,7 @@ impl ScreenReuse {
                     bind_pass(
                         renderer,
                         device,
-                        (&reuse_k.0, reuse_k.1),
+                        (&reuse_k.0, entry),
                         &params,
                         res,
                         &own.reuse,
@@ -431,16 +456,25 @@ impl ScreenReuse {
         let temporal = match chain.temporal {
             true => {
                 cur = 1;
-                Some(reuse(true, [&b.prev_reservoirs, &r[0], &r[1]])?)
+                Some(reuse(
+                    (true, reuse_k.1),
+                    [&b.prev_reservoirs, &r[0], &r[1]],
+                )?)
             }
             false => None,
         };
         let spatial = match chain.spatial {
             true => {
-                let p = reuse(false, [&r[cur], &r[cur], &r[1 - cur]])?;
+                let p = reuse((false, reuse_k.1), [&r[cur], &r[cur], &r[1 - cur]])?;
                 cur = 1 - cur;
                 Some(p)
             }
+            false => None,
+        };
+        // It reads and writes render buffers only: the reservoirs are bound as the spatial
+        // pass's.
+        let subpath = match chain.subpath {
+            true => Some(reuse((false, SUBPATH_ENTRY), [&r[0], &r[0], &r[1]])?),
             false => None,
         };
         let out = ("screen_out", Resource::from(&r[0]));
@@ -453,13 +487,16 @@ impl ScreenReuse {
             params,
             buffers: b,
             initial,
+            subpath,
             temporal,
             spatial,
             shade,
             final_index: cur,
             knobs: knobs.to_vec(),
-            spans: ["initial", "temporal", "spatial", "shade", "persist"]
-                .map(|step| format!("{}-{step}", stage.short)),
+            spans: [
+                "initial", "temporal", "spatial", "shade", "persist", "subpath",
+            ]
+            .map(|step| format!("{}-{step}", stage.short)),
             last_camera: None,
         })
     }
@@ -473,7 +510,10 @@ impl ScreenReuse {
         let prev = self.last_camera.unwrap_or(camera);
         let words = params_words(&self.knobs, &prev, self.last_camera.is_some());
         f.upload_slice(&self.params, 0, &words);
-        let [initial, temporal, spatial, shade, persist] = &self.spans;
+        let [initial, temporal, spatial, shade, persist, subpath] = &self.spans;
+        if let Some(s) = &self.subpath {
+            f.span(subpath, |f| f.dispatch(&s[parity % s.len()]));
+        }
         f.span(initial, |f| f.dispatch(&self.initial));
         if let Some(t) = &self.temporal {
             f.span(temporal, |f| f.dispatch(&t[parity % t.len()]));

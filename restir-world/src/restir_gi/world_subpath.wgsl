@@ -1,0 +1,108 @@
+// Pass "wgi-subpath" (the entry point screen_subpath; world-restir-gi with subpath-k > 0, before
+// the initial pass): sub-path reuse (Zhang & Wang 2023), the secondary vertex as a receiver.
+// Each pixel's x2 resamples the light arriving at it from the path samples that this frame's
+// pixels left in x2's cell of this frame's grid (cells of primary vertices: x2 finds those
+// whose x1 lies where it does): up to subpath_k of them, each pixel j's x2 and the radiance
+// leaving it one vertex short (RenderPathSplit.one_short: a path from x2 through it has the depth
+// of the pixel's own), shifted to x2 by reconnection as restir-gi's temporal and spatial
+// passes shift to x1 (gi_pair: its target, Jacobian, visibility and pairwise MIS, with x2 as
+// the receiver and j's x1 as the neighbour's vertex). The canonical sample is x2's own: x3 and
+// the radiance it sends (RenderPathSplit.beyond), drawn with the cosine density at x2. The
+// pixel's path sample's radiance becomes x2's own light (RenderPathSplit.direct) plus the
+// resampled light reflected at x2 (render_path_radiance, which the initial pass reads).
+// Candidates whose x1's shading normal is below normal_threshold against x2's are skipped;
+// one whose GI ray escaped is merged with no sample (skipping it would bias the others up).
+
+@compute @workgroup_size(WORKGROUP_SIZE)
+fn screen_subpath(id: Invocation) {
+    let i = item_index(id);
+    if i >= render_params.pixel_count { return; }
+    let x2 = render_unpack_vertex(render_secondary[i]);
+    if render_unpack_vertex(render_gbuffer[i]).prim == BVH_NO_HIT || x2.prim == BVH_NO_HIT {
+        return;
+    }
+    let split = render_load_path_split(i);
+    // Sub-stream 1 of the temporal pass's numbers.
+    var rng = render_rng_salted(i, STREAM_GI_TEMPORAL, 1u);
+    let own_sample = GiSample(split.x3, split.x3_normal, split.beyond);
+    var own = PackedReservoir(0.0, 1u);
+    if split.x3_hit {
+        let pdf = max(dot(x2.shading, normalize(split.x3 - x2.position)), 0.0) * SAMPLING_INV_PI;
+        if pdf > 0.0 && gi_target(x2, own_sample) > 0.0 {
+            own.ucw = 1.0 / pdf;
+        }
+    }
+    let has_own = own.ucw > 0.0;
+    var p_own = 0.0;
+    if has_own {
+        p_own = gi_target(x2, own_sample);
+    }
+    // The candidates: pixels of x2's cell with a secondary vertex and a similar normal.
+    let wanted = min(screen_params.knobs.subpath_k, SCREEN_MAX_NEIGHBOURS);
+    var idx: array<u32, SCREEN_MAX_NEIGHBOURS>;
+    var k = 0u;
+    let visit = grid_visit(x2.position, x2.normal, wanted + 1u, &rng);
+    for (var n = 0u; n < visit.count && k < wanted; n += visit.increment) {
+        let j = grid_visited(visit, n);
+        // A candidate whose GI ray escaped stays one (with no sample): leaving it out would
+        // make the others' weights depend on its sample, and bias them up.
+        if j == i || j >= render_params.pixel_count || (render_params.planted == PLANTED_SUBPATH_SKIPS_ESCAPED
+            && render_secondary[j].prim == BVH_NO_HIT) {
+            continue;
+        }
+        let q = render_unpack_vertex(render_gbuffer[j]);
+        if dot(q.shading, x2.shading) < screen_params.knobs.normal_threshold {
+            continue;
+        }
+        idx[k] = j;
+        k += 1u;
+    }
+    let combine = screen_params.knobs.combine;
+    let u_own = rng_next_f32(&rng);
+    var c = reuse_begin(combine, own, p_own, k, k, u_own);
+    var chosen = own_sample;
+    for (var n = 0u; n < k; n++) {
+        let u_merge = rng_next_f32(&rng);
+        let j = idx[n];
+        let q = render_unpack_vertex(render_gbuffer[j]);
+        let y2 = render_unpack_vertex(render_secondary[j]);
+        // j's own sample as its initial pass would hold it: W = pi / cos (0: none), M = 1.
+        var src: GiReservoir;
+        if y2.prim != BVH_NO_HIT {
+            let split_j = render_load_path_split(j);
+            var radiance = split_j.one_short;
+            if render_params.planted == PLANTED_SUBPATH_FULL_DEPTH {
+                // The defect: j's radiance at its full depth (one vertex too deep here).
+                radiance = split_j.direct + y2.albedo * split_j.beyond;
+            }
+            let y = GiSample(y2.position, y2.normal, radiance);
+            src = gi_store(y, PackedReservoir(0.0, 1u));
+            let pdf = max(dot(q.shading, normalize(y.position - q.position)), 0.0) * SAMPLING_INV_PI;
+            if pdf > 0.0 && gi_target(q, y) > 0.0 {
+                src.ucw = 1.0 / pdf;
+            }
+        }
+        let pair = gi_pair(x2, own_sample, has_own && combine == REUSE_PAIRWISE, q, src);
+        let packed = PackedReservoir(src.ucw, render_planted_m(1u));
+        if reuse_neighbour_shifted(&c, n, packed, pair.p_target, pair.jacobian, pair.p_n_y,
+                                   pair.p_n_own, u_merge) {
+            chosen = gi_sample(src);
+        }
+    }
+    if combine == REUSE_ONE_OVER_Z && c.p_hat > 0.0 {
+        // Z: x2 and every candidate whose x1 could have produced the chosen sample.
+        for (var n = 0u; n < k; n++) {
+            let q = render_unpack_vertex(render_gbuffer[idx[n]]);
+            reuse_count_z(&c, 1u, gi_shifted_target(q, chosen, x2.position));
+        }
+    }
+    let stored = reuse_finish(&c);
+    if reuse_selected(c) == REUSE_CANONICAL {
+        chosen = own_sample;
+    }
+    var reflected = vec3<f32>(0.0);
+    if stored.ucw > 0.0 {
+        reflected = gi_contribution(x2, chosen) * stored.ucw;
+    }
+    render_path_radiance[i] = vec4<f32>(split.direct + reflected, render_path_radiance[i].w);
+}
