@@ -287,7 +287,11 @@ fn render_structs_match_wgsl_layout() {
             mis,
             planted,
             planted_direct_scale,
-            planted_indirect_scale
+            planted_indirect_scale,
+            path_split,
+            _pad0,
+            _pad1,
+            _pad2
         ]
     );
     tests::assert_wgsl_layout!(RenderState, src, "RenderState", [frame, _pad]);

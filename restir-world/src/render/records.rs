@@ -166,7 +166,9 @@ pub struct RenderParams {
     pub planted_indirect_scale: f32,
     /// 1: the path pass records the path split (`render_path_split`, [`RenderOptions::path_split`]).
     pub path_split: u32,
-    pub _pad: [u32; 3],
+    pub _pad0: u32,
+    pub _pad1: u32,
+    pub _pad2: u32,
 }
 
 impl RenderParams {
@@ -192,7 +194,9 @@ impl RenderParams {
             planted_direct_scale: options.planted.scales().0,
             planted_indirect_scale: options.planted.scales().1,
             path_split: u32::from(options.path_split),
-            _pad: [0; 3],
+            _pad0: 0,
+            _pad1: 0,
+            _pad2: 0,
         }
     }
 }
