@@ -212,6 +212,7 @@ fn debug_views(
         (DebugView::DenoiseHistory, "debug-denoise-history"),
         (DebugView::DenoiseVariance, "debug-denoise-variance"),
         (DebugView::History, "debug-history"),
+        (DebugView::HistoryAge, "debug-history-age"),
     ] {
         // Each method draws the views it has.
         let Some(px) = m.debug_image(ctx, view)? else {

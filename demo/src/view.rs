@@ -109,10 +109,12 @@ pub enum Shown {
     DenoiseVariance,
     /// Debug view: where world-restir-gi's temporal neighbour came from.
     History,
+    /// Debug view: how old world-restir-gi's temporal neighbour's sample is.
+    HistoryAge,
 }
 
 impl Shown {
-    const ALL: [(Shown, &'static str); 14] = [
+    const ALL: [(Shown, &'static str); 15] = [
         (Shown::Denoised, "denoised (last frame)"),
         (Shown::Combined, "combined (accumulated)"),
         (Shown::Direct, "direct"),
@@ -127,6 +129,7 @@ impl Shown {
         (Shown::DenoiseHistory, "debug: denoiser history length"),
         (Shown::DenoiseVariance, "debug: denoiser variance"),
         (Shown::History, "debug: temporal history's origin"),
+        (Shown::HistoryAge, "debug: temporal history's age"),
     ];
 
     fn debug(self) -> Option<DebugView> {
@@ -141,6 +144,7 @@ impl Shown {
             Shown::CacheAge => Some(DebugView::CacheAge),
             Shown::CacheSamples => Some(DebugView::CacheSamples),
             Shown::History => Some(DebugView::History),
+            Shown::HistoryAge => Some(DebugView::HistoryAge),
             _ => None,
         }
     }

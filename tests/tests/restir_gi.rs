@@ -468,7 +468,8 @@ fn world_restir_gi_motion_and_a_cut_stay_finite_bounded_and_evicted() {
 /// check: world-restir-gi with `history-frames=0` (its pool keeps last frame's cells only) has
 /// none on the frame back (seed 1). Where the temporal neighbours came from (the debug view
 /// History): on frame 15, still, the reprojected pixel for more than 3/4 of the pixels; on the
-/// frame back none, and some pooled records. Measured with the reprojection (2026-12-05,
+/// frame back none, and some pooled records, the youngest 5 frames old (HistoryAge; the oldest
+/// measured 6-9 over seeds 1-6). Measured with the reprojection (2026-12-05,
 /// seeds 1-6): 0.112 against restir-gi's 0.203 (`history-frames=0`, seed 1: 0.119). Before it,
 /// over seeds 1-27 (median error): lavapipe 0.118
 /// (restir-gi 0.186, `history-frames=0` 0.128; with the pooled records merged at their full M,
@@ -498,13 +499,24 @@ fn world_restir_gi_keeps_history_across_a_cut_and_back() {
     });
     let k = WorldRestirGiConfig::default().spatial_k;
     // Pixels whose temporal neighbour came from each origin (world-restir-gi's; none for
-    // restir-gi).
+    // restir-gi), and the least and most age of the pooled ones' samples.
     let origins = |m: &Composed| {
-        let o = m.gi().unwrap().history_origins(ctx).expect("origins");
-        let count = |k| o.iter().flatten().filter(|&&x| x == k).count();
+        let gi = m.gi().unwrap();
+        let o = gi
+            .history_origins(ctx)
+            .expect("origins")
+            .unwrap_or_default();
+        let ages = gi.history_ages(ctx).expect("ages").unwrap_or_default();
+        let count = |k| o.iter().filter(|&&x| x == k).count();
+        let pooled = o
+            .iter()
+            .zip(&ages)
+            .filter(|(o, _)| **o == HistoryOrigin::Pool);
+        let ages = pooled.map(|(_, &a)| a);
         (
             count(HistoryOrigin::Reprojected),
             count(HistoryOrigin::Pool),
+            (ages.clone().min(), ages.max()),
         )
     };
     // (max M on the frame back, median over `seeds` of the two frames' summed relMSE).
@@ -527,6 +539,17 @@ fn world_restir_gi_keeps_history_across_a_cut_and_back() {
                 assert!(
                     back.0 == 0 && back.1 > 0,
                     "seed {seed}: on the frame back {back:?}"
+                );
+                // The pooled samples' ages (the debug view HistoryAge): none resampled while
+                // the camera looked away, so at least 5 frames old (frame 15, the last still
+                // one; cells its pixels missed at the view's edge, older), at most the pool's
+                // history-frames + 2.
+                let most = WorldRestirGiConfig::default().history_frames + 2;
+                let (young, old) = back.2;
+                assert!(
+                    young == Some(5) && old.is_some_and(|a| a <= most),
+                    "seed {seed}: pooled samples' ages {:?}",
+                    back.2
                 );
             }
             let r = m.gi().unwrap().reservoirs(ctx).expect("reservoirs");
@@ -620,7 +643,12 @@ fn knob_errors_and_debug_views() {
         let mut m = build(spec, &s, &cam, 1);
         gpu::render(&mut m, 4);
         let views: &[DebugView] = match spec {
-            "world-restir-gi" => &[DebugView::M, DebugView::Rejected, DebugView::History],
+            "world-restir-gi" => &[
+                DebugView::M,
+                DebugView::Rejected,
+                DebugView::History,
+                DebugView::HistoryAge,
+            ],
             _ => &[DebugView::M, DebugView::Rejected],
         };
         for &view in views {

@@ -202,7 +202,7 @@ impl MethodSettings {
     /// The debug views a method of these settings draws ([`FrameMethod::debug_image`]):
     /// world-restir's grid, the reservoirs' M (world-restir, restir-gi, world-restir-gi),
     /// the rejected reconnections (restir-gi, world-restir-gi), the temporal neighbours' origin
-    /// (world-restir-gi), the cache's and the denoiser's.
+    /// and age (world-restir-gi), the cache's and the denoiser's.
     pub fn debug_views(&self) -> Vec<render::DebugView> {
         use render::DebugView as V;
         let paths = self.gi.is_some() || self.wgi.is_some();
@@ -212,7 +212,7 @@ impl MethodSettings {
                 V::Cells | V::Overflow => self.world.is_some(),
                 V::M => self.world.is_some() || paths,
                 V::Rejected => paths,
-                V::History => self.wgi.is_some(),
+                V::History | V::HistoryAge => self.wgi.is_some(),
                 V::CacheRadiance | V::CacheAge | V::CacheSamples => self.cache.is_some(),
                 V::DenoiseHistory | V::DenoiseVariance => self.denoise.is_some(),
             })

@@ -29,11 +29,15 @@ pub enum DebugView {
     /// pixel, green another pixel of last frame's cell (the reprojection failed), red a record
     /// the pool kept (the cell was out of view last frame); black: none merged.
     History = 9,
+    /// How old world-restir-gi's temporal neighbour's sample is, in frames since a pixel
+    /// resampled it: heat map from 1 (blue, last frame's pixel) to `history-frames` + 2 (red,
+    /// the oldest pooled record); black: none merged.
+    HistoryAge = 10,
 }
 
 impl DebugView {
     /// Every view.
-    pub const ALL: [DebugView; 10] = [
+    pub const ALL: [DebugView; 11] = [
         Self::Cells,
         Self::M,
         Self::Overflow,
@@ -44,6 +48,7 @@ impl DebugView {
         Self::DenoiseHistory,
         Self::DenoiseVariance,
         Self::History,
+        Self::HistoryAge,
     ];
 
     /// Whether the denoiser draws this view.

@@ -158,6 +158,8 @@ pub fn kernels() -> Vec<ComposedKernel> {
 #[derive(Debug)]
 struct WorldCells {
     grid: WorldGrid,
+    /// Its `history-frames` (the age view's scale).
+    history_frames: u32,
     pool_buffers: PoolBuffers,
     pool: Pool,
 }
@@ -176,18 +178,21 @@ pub struct RestirGi {
     world: Option<WorldCells>,
 }
 
-/// The debug buffer and the reuse chain of `stage` (its reuse kernel looking up `grid`).
+/// The debug buffer and the reuse chain of `stage` (its reuse kernel looking up `grid` and
+/// binding `reuse` beside the debug buffer).
 fn reuse_stage(
     ctx: &GpuContext,
     renderer: &Renderer,
     (stage, words, chain): (&'static ScreenStage, &[u32], Chain),
-    grid: Option<&WorldGrid>,
+    (grid, reuse): (Option<&WorldGrid>, Vec<(&'static str, &wgpu::Buffer)>),
 ) -> Result<(ScreenReuse, wgpu::Buffer), RestirGiError> {
     let bytes = u64::from(renderer.pixels()) * 4;
     let debug = buffers::storage_zeroed(&ctx.device, "gi debug", bytes);
+    let mut reuse_own = vec![(DEBUG.0, &debug)];
+    reuse_own.extend(reuse);
     let own = StageBuffers {
         initial: vec![(DEBUG.0, &debug)],
-        reuse: vec![(DEBUG.0, &debug)],
+        reuse: reuse_own,
         grid,
         ..Default::default()
     };
@@ -211,7 +216,7 @@ impl RestirGi {
         };
         let words = config.gpu_words();
         let stage = (&STAGE, words.as_slice(), chain);
-        let (reuse, debug) = reuse_stage(ctx, renderer, stage, None)?;
+        let (reuse, debug) = reuse_stage(ctx, renderer, stage, (None, Vec::new()))?;
         Ok(Self {
             reuse,
             pixels: renderer.pixels(),
@@ -256,9 +261,11 @@ impl RestirGi {
         )?;
         let words = config.gpu_words();
         let stage = (&world::STAGE, words.as_slice(), chain);
-        let (reuse, debug) = reuse_stage(ctx, renderer, stage, Some(&grid))?;
+        let history_age = world::history_age_buffer(ctx, capacity);
+        let ages = vec![(world::HISTORY_AGE.0, &history_age)];
+        let (reuse, debug) = reuse_stage(ctx, renderer, stage, (Some(&grid), ages))?;
         let setup = (pixels, config.history_frames, size);
-        let history = reuse.history();
+        let history = (reuse.history(), history_age);
         let pool = Pool::new(ctx, &renderer.shared, setup, &pool_buffers, &grid, history)?;
         Ok(Self {
             reuse,
@@ -266,6 +273,7 @@ impl RestirGi {
             debug,
             world: Some(WorldCells {
                 grid,
+                history_frames: config.history_frames,
                 pool_buffers,
                 pool,
             }),
@@ -331,7 +339,7 @@ impl RestirGi {
         Ok(self
             .debug_words(ctx)?
             .iter()
-            .map(|w| (w & 0xfff, w >> 16))
+            .map(|w| (w & 0xff, (w >> 8) & 0xff))
             .collect())
     }
 
@@ -344,7 +352,7 @@ impl RestirGi {
         if self.world.is_none() {
             return Ok(None);
         }
-        let origin = |w: &u32| match (w >> 12) & 3 {
+        let origin = |w: &u32| match (w >> 16) & 3 {
             1 => HistoryOrigin::Reprojected,
             2 => HistoryOrigin::CellPixel,
             3 => HistoryOrigin::Pool,
@@ -353,8 +361,23 @@ impl RestirGi {
         Ok(Some(self.debug_words(ctx)?.iter().map(origin).collect()))
     }
 
-    /// gi_debug's word per pixel: bits 0-11 the neighbours merged, 12-13 the temporal
-    /// neighbour's origin (world-restir-gi), 16-31 the reconnections rejected.
+    /// Per pixel of the last frame, how many frames old world-restir-gi's temporal
+    /// neighbour's sample was (1: last frame's pixel; a pooled record more; 0: none merged);
+    /// `None` for restir-gi.
+    pub fn history_ages(&self, ctx: &GpuContext) -> Result<Option<Vec<u32>>, GpuError> {
+        if self.world.is_none() {
+            return Ok(None);
+        }
+        Ok(Some(
+            self.debug_words(ctx)?
+                .iter()
+                .map(|w| (w >> 18) & 0x3ff)
+                .collect(),
+        ))
+    }
+
+    /// gi_debug's word per pixel: bits 0-7 the neighbours merged, 8-15 the reconnections
+    /// rejected, and (world-restir-gi) 16-17 the temporal neighbour's origin, 18-27 its age.
     fn debug_words(&self, ctx: &GpuContext) -> Result<Vec<u32>, GpuError> {
         let mut v: Vec<u32> = buffers::read(ctx, &self.debug)?;
         v.truncate(self.pixels as usize);
@@ -392,6 +415,17 @@ impl RestirGi {
                     })
                     .collect(),
             ),
+            DebugView::HistoryAge => {
+                let most = self.world.as_ref().map_or(1, |w| w.history_frames + 2);
+                self.history_ages(ctx)?.map(|ages| {
+                    ages.iter()
+                        .map(|&a| match a {
+                            0 => [0.0; 3],
+                            a => render::heat((a - 1) as f32 / (most - 1).max(1) as f32),
+                        })
+                        .collect()
+                })
+            }
             DebugView::History => self.history_origins(ctx)?.map(|o| {
                 o.iter()
                     .map(|o| match o {

@@ -55,6 +55,6 @@ fn screen_merge(i: u32, own: GiReservoir, g: GVertex, temporal: bool, nb: Screen
     if reuse_selected(c) == REUSE_CANONICAL {
         out = own;
     }
-    gi_debug[i] += nb.k | (rejected << 16u);
+    gi_debug[i] += nb.k | (rejected << 8u);
     return gi_reweighted(out, stored);
 }

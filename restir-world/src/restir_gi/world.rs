@@ -170,7 +170,7 @@ pub static STAGE: ScreenStage = ScreenStage {
     library: super::WGSL,
     constants: constants_wgsl,
     sources: [INITIAL_WGSL, REUSE_WGSL, SHADE_WGSL],
-    own: [&[DEBUG], &[DEBUG], &[]],
+    own: [&[DEBUG], &[DEBUG, HISTORY_AGE], &[]],
     extra_modules: |_| Vec::new(),
     neighbours: NEIGHBOURS_WGSL,
     grid_lookup: true,
@@ -232,6 +232,14 @@ pub struct PoolParams {
 }
 
 const POOL_PARAMS: Buffer = ("wgi_pool_params", "WgiPoolParams", Access::Uniform);
+/// The ages of the pool's records in the history (after the pixels'), which the pool's passes
+/// and the temporal pass (the debug view of its neighbours' age) read.
+pub(super) const HISTORY_AGE: Buffer = ("wgi_history_age", "array<u32>", Access::Read);
+
+/// [`HISTORY_AGE`]'s buffer for a pool of `capacity` records.
+pub(super) fn history_age_buffer(ctx: &GpuContext, capacity: u32) -> wgpu::Buffer {
+    buffers::storage_zeroed(&ctx.device, "wgi history age", u64::from(capacity) * 4)
+}
 const FLAG: KernelDef = KernelDef::new(
     "wgi-pool-flag",
     &["wgi_pool_flag"],
@@ -241,7 +249,7 @@ const FLAG: KernelDef = KernelDef::new(
         ("grid_item_slot", "array<vec2<u32>>", Access::Read),
         ("grid_offsets", "array<u32>", Access::Read),
         ("grid_cells", "array<u32>", Access::Read),
-        ("wgi_history_age", "array<u32>", Access::Read),
+        HISTORY_AGE,
         ("wgi_flags", "array<u32>", Access::ReadWrite),
     ]],
 );
@@ -251,7 +259,7 @@ const SCATTER: KernelDef = KernelDef::new(
     POOL_SCATTER_WGSL,
     &[&[
         POOL_PARAMS,
-        ("wgi_history_age", "array<u32>", Access::Read),
+        HISTORY_AGE,
         ("wgi_flags", "array<u32>", Access::Read),
         ("wgi_positions", "array<u32>", Access::Read),
         ("wgi_history_reservoirs", "array<u32>", Access::Read),
@@ -356,14 +364,14 @@ impl Pool {
     /// The pool of a frame of `pixels` keeping records up to `max_age` frames, whose
     /// records are `reservoir_size`-byte reservoirs: `buffers` (the grid's items read them),
     /// `grid` the grid they enter and `history` the stage's temporal sources (reservoirs,
-    /// vertices).
+    /// vertices) with the ages of its pool's records ([`history_age_buffer`]).
     pub(super) fn new(
         ctx: &GpuContext,
         shared: &SharedGroups,
         (pixels, max_age, reservoir_size): (u32, u32, usize),
         buffers: &PoolBuffers,
         grid: &WorldGrid,
-        history: screen_reuse::History<'_>,
+        (history, history_age): (screen_reuse::History<'_>, wgpu::Buffer),
     ) -> Result<Self, ScreenReuseError> {
         let device = &ctx.device;
         let items = grid_item_count(pixels);
@@ -383,7 +391,6 @@ impl Pool {
             wgpu::BufferUsages::UNIFORM,
         );
         let zeroed = |label: &str, size: u64| buffers::storage_zeroed(device, label, size);
-        let history_age = zeroed("wgi history age", u64::from(capacity) * 4);
         let flags = zeroed("wgi pool flags", u64::from(items) * 4);
         let positions = zeroed("wgi pool positions", u64::from(items) * 4);
         let scan = Scan::new(device, &ScanDescriptor::for_device(device, items.max(1)))?;

@@ -15,7 +15,9 @@
 // A cell's items are visited every increment-th from a random offset (grid_visit); each must
 // pass screen_similar (depth and normal thresholds) and hold a reservoir, its M capped at
 // temporal_m_cap. The temporal pass notes where its first neighbour came from in gi_debug
-// (bits 12-13: WGI_FROM_*), the debug view History.
+// (bits 16-17: WGI_FROM_*), the debug view History, and how old its sample is (bits 18-27:
+// frames since a pixel resampled it, 1 for last frame's pixels, a pooled record's age + 2; the
+// history's ages are wgi_history_age), the debug view HistoryAge.
 
 const WGI_FROM_REPROJECTED: u32 = 1u;
 const WGI_FROM_CELL_PIXEL: u32 = 2u;
@@ -26,12 +28,14 @@ fn wgi_note_origin(i: u32, n: ScreenNeighbours, reprojected: u32) {
         return;
     }
     var origin = WGI_FROM_CELL_PIXEL;
+    var age = 1u;
     if n.idx[0] == reprojected {
         origin = WGI_FROM_REPROJECTED;
     } else if n.idx[0] >= render_params.pixel_count {
         origin = WGI_FROM_POOL;
+        age = wgi_history_age[n.idx[0] - render_params.pixel_count] + 2u;
     }
-    gi_debug[i] |= origin << 12u;
+    gi_debug[i] |= (origin << 16u) | (min(age, 1023u) << 18u);
 }
 
 fn screen_neighbours(i: u32, g: GVertex, temporal: bool, rng: ptr<function, u32>) -> ScreenNeighbours {
