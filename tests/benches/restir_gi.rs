@@ -4,7 +4,8 @@
 //! warm-up of 4 frames (temporal history built). One `RESULT restir-gi` line per variant of the
 //! registry's `restir-gi` (`variant=default` first), per composition
 //! (`restir-gi+world-restir`, `restir-di+restir-gi+world-restir`) and per world-space method
-//! (`world-restir-gi`, `world-restir-gi+world-restir`), each with the share of its
+//! (`world-restir-gi`, `world-restir-gi+world-restir`, and `world-restir-gi:subpath` with its
+//! sub-path pass, `subpath_ms`), each with the share of its
 //! reconnections rejected in the last frame and the bytes its buffers hold per pixel (the
 //! world-space grid's included) and those of every per-frame buffer of the method.
 //!
@@ -18,8 +19,8 @@ use tests::{bench, gpu};
 
 const WARM_UP: u32 = 4;
 /// Every pass of the stage, after its span prefix (`gi`, `wgi`).
-const GI_STEPS: [&str; 7] = [
-    "build", "initial", "temporal", "spatial", "shade", "persist", "pool",
+const GI_STEPS: [&str; 8] = [
+    "build", "subpath", "initial", "temporal", "spatial", "shade", "persist", "pool",
 ];
 const FRAMES: u32 = 6;
 
@@ -48,6 +49,7 @@ fn specs() -> Vec<(&'static str, String)> {
             ]
             .map(|m| (m, "default".to_string())),
         )
+        .chain(std::iter::once(("world-restir-gi", "subpath".to_string())))
         .collect()
 }
 
@@ -91,6 +93,7 @@ fn main() {
                 ("scene", "many-lights".into()),
                 ("size", format!("{side}x{side}")),
                 ("build_ms", f(ms("build"))),
+                ("subpath_ms", f(ms("subpath"))),
                 ("initial_ms", f(ms("initial"))),
                 ("temporal_ms", f(ms("temporal"))),
                 ("spatial_ms", f(ms("spatial"))),
