@@ -19,10 +19,7 @@ fn screen_initial(id: Invocation) {
     var packed = PackedReservoir(0.0, 1u);
     if x2.prim != BVH_NO_HIT {
         sample = GiSample(x2.position, x2.normal, render_path_radiance[i].xyz);
-        let pdf = max(dot(g.shading, normalize(x2.position - g.position)), 0.0) * SAMPLING_INV_PI;
-        if pdf > 0.0 && gi_target(g, sample) > 0.0 {
-            packed.ucw = 1.0 / pdf;
-        }
+        packed.ucw = gi_own_ucw(g, sample);
     }
     screen_out[i] = gi_store(sample, packed);
 }

@@ -101,6 +101,16 @@ fn gi_target(g: GVertex, s: GiSample) -> f32 {
     return render_luminance(gi_contribution(g, s));
 }
 
+// W of a vertex's own sample s, drawn by a ray with the cosine density about g's shading
+// normal: 1 / pdf = pi / cos (one RIS candidate); 0 where the pdf or the target is 0.
+fn gi_own_ucw(g: GVertex, s: GiSample) -> f32 {
+    let pdf = max(dot(g.shading, normalize(s.position - g.position)), 0.0) * SAMPLING_INV_PI;
+    if pdf > 0.0 && gi_target(g, s) > 0.0 {
+        return 1.0 / pdf;
+    }
+    return 0.0;
+}
+
 // |J| of the reconnection shift of sample s from primary vertex x1_from to primary vertex x1_to
 // (Ouyang et al. 2021, Eq. 11): |cos phi_to| / |cos phi_from| * |from - x2|^2 / |to - x2|^2,
 // phi the angle at x2 between its normal and the direction to each primary. 0 (no shift)

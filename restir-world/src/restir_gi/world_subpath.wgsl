@@ -27,10 +27,7 @@ fn screen_subpath(id: Invocation) {
     let own_sample = GiSample(split.x3, split.x3_normal, split.beyond);
     var own = PackedReservoir(0.0, 1u);
     if split.x3_hit {
-        let pdf = max(dot(x2.shading, normalize(split.x3 - x2.position)), 0.0) * SAMPLING_INV_PI;
-        if pdf > 0.0 && gi_target(x2, own_sample) > 0.0 {
-            own.ucw = 1.0 / pdf;
-        }
+        own.ucw = gi_own_ucw(x2, own_sample);
     }
     let has_own = own.ucw > 0.0;
     var p_own = 0.0;
@@ -76,11 +73,7 @@ fn screen_subpath(id: Invocation) {
                 radiance = split_j.direct + y2.albedo * split_j.beyond;
             }
             let y = GiSample(y2.position, y2.normal, radiance);
-            src = gi_store(y, PackedReservoir(0.0, 1u));
-            let pdf = max(dot(q.shading, normalize(y.position - q.position)), 0.0) * SAMPLING_INV_PI;
-            if pdf > 0.0 && gi_target(q, y) > 0.0 {
-                src.ucw = 1.0 / pdf;
-            }
+            src = gi_store(y, PackedReservoir(gi_own_ucw(q, y), 1u));
         }
         let pair = gi_pair(x2, own_sample, has_own && combine == REUSE_PAIRWISE, q, src);
         let packed = PackedReservoir(src.ucw, render_planted_m(1u));
