@@ -203,6 +203,20 @@ impl Reuse {
         }
     }
 
+    /// Pairwise: forgets the neighbours' candidates merged so far (their weights; the total
+    /// confidence stays), so that [`Reuse::finish`] selects the canonical sample wherever it has
+    /// weight. For a pass that tests the selected neighbour's sample after the merge (one
+    /// visibility ray instead of one per neighbour) and finds that it contributes nothing:
+    /// pairwise streams the canonical last, so the neighbours' part is a resampled estimate of
+    /// its own whose sample, contributing nothing, counts as 0; the combination stays unbiased.
+    /// Call it before [`Reuse::finish`].
+    pub fn drop_neighbours(&mut self) {
+        self.r.w_sum = 0.0;
+        self.r.w_sum_err = 0.0;
+        self.r.sample = CANONICAL;
+        self.p_hat = 0.0;
+    }
+
     /// Ends the combination: the reservoir to store (W, M = the total confidence).
     pub fn finish(&mut self) -> PackedReservoir {
         match self.mode {
@@ -235,6 +249,22 @@ mod tests {
 
     fn packed(ucw: f32, m: u32) -> PackedReservoir {
         PackedReservoir { ucw, m }
+    }
+
+    /// A selected neighbour dropped before the end leaves the receiver's own sample with its
+    /// own weight (W = its pairwise MIS weight x W_own) and the total confidence.
+    #[test]
+    fn dropped_neighbours_leave_the_canonical_sample() {
+        let mut c = Reuse::begin(Combination::Pairwise, packed(2.0, 1), 0.5, 1, 1, 0.99);
+        assert!(c.neighbour(0, packed(4.0, 1), 1.0, 1.0, 1.0, 0.0));
+        let canonical = c.canonical;
+        assert!(canonical > 0.0 && canonical < 1.0);
+        c.drop_neighbours();
+        let stored = c.finish();
+        assert_eq!(c.selected(), CANONICAL);
+        assert_eq!(c.p_hat, 0.5);
+        assert!((stored.ucw - canonical * 2.0).abs() < 1e-6, "{stored:?}");
+        assert_eq!(stored.m, 2);
     }
 
     #[test]

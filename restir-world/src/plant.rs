@@ -15,7 +15,7 @@
 //! - defects of an estimator ([`Planted::is_defect`]): a wrong Jacobian, a merge that drops
 //!   the neighbours' M, Russian roulette without its division, an overstated light pdf, a path
 //!   one bounce short, cache updates without their tail, sub-path reuse one bounce too deep or without its
-//!   escaped candidates.
+//!   escaped candidates, a selected sample left untested.
 //!   These are the controls of the bias tests: each must fail the check its test makes.
 //! - power checks ([`Planted::Scale`]): the finished frames scaled as they are accumulated.
 //!   They show only that a bound can see a shift of that size, never that a check catches a
@@ -71,6 +71,9 @@ pub enum Planted {
     /// hold no sample) while it weighs the others as if every candidate had been drawn: the
     /// kept ones' weights are too large by the share that escaped.
     SubpathSkipsEscaped,
+    /// ReSTIR GI's `visibility=selected` leaves the sample a merge selects untested: the
+    /// targets leave visibility out, so an occluded neighbour's sample lights the receiver.
+    SelectedUntested,
 }
 
 impl Planted {
@@ -90,6 +93,7 @@ impl Planted {
             Self::DenoiseNoLuminanceStop => 10,
             Self::SubpathFullDepth => 11,
             Self::SubpathSkipsEscaped => 12,
+            Self::SelectedUntested => 13,
         }
     }
 
@@ -138,6 +142,7 @@ impl Planted {
             ("DENOISE_NO_LUMINANCE_STOP", Self::DenoiseNoLuminanceStop),
             ("SUBPATH_FULL_DEPTH", Self::SubpathFullDepth),
             ("SUBPATH_SKIPS_ESCAPED", Self::SubpathSkipsEscaped),
+            ("SELECTED_UNTESTED", Self::SelectedUntested),
         ];
         let mut s = String::from(
             "// Planted defects (restir_world::plant), compared with render_params.planted.\n",

@@ -4,8 +4,9 @@
 //! warm-up of 4 frames (temporal history built). One `RESULT restir-gi` line per variant of the
 //! registry's `restir-gi` (`variant=default` first), per composition
 //! (`restir-gi+world-restir`, `restir-di+restir-gi+world-restir`) and per world-space method
-//! (`world-restir-gi`, `world-restir-gi+world-restir`, and `world-restir-gi:subpath` with its
-//! sub-path pass, `subpath_ms`), each with the share of its
+//! (`world-restir-gi`, `world-restir-gi+world-restir`, `world-restir-gi:subpath` with its
+//! sub-path pass, `subpath_ms`, and its two visibility modes that trace fewer rays), each with
+//! the share of its
 //! reconnections rejected in the last frame and the bytes its buffers hold per pixel (the
 //! world-space grid's included) and those of every per-frame buffer of the method.
 //!
@@ -49,7 +50,10 @@ fn specs() -> Vec<(&'static str, String)> {
             ]
             .map(|m| (m, "default".to_string())),
         )
-        .chain(std::iter::once(("world-restir-gi", "subpath".to_string())))
+        .chain(
+            ["subpath", "selected-visibility", "final-visibility"]
+                .map(|v| ("world-restir-gi", v.to_string())),
+        )
         .collect()
 }
 

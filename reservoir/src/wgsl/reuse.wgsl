@@ -148,6 +148,20 @@ fn reuse_count_z(c: ptr<function, Reuse>, m_n: u32, p_n_selected: f32) {
     }
 }
 
+// Pairwise: forgets the neighbours' candidates merged so far (their weights; the confidence T
+// stays), so that reuse_finish selects the canonical sample wherever it has weight. For a pass
+// that tests the selected neighbour's sample after the merge (one visibility ray instead of
+// one per neighbour) and finds that it contributes nothing: pairwise streams the canonical
+// last, so the neighbours' part is a resampled estimate of its own whose sample, contributing
+// nothing, counts as 0; the combination stays unbiased, and the receiver keeps its own sample
+// (W = its weight / p_own) instead of none. Call it before reuse_finish.
+fn reuse_drop_neighbours(c: ptr<function, Reuse>) {
+    (*c).r.w_sum = 0.0;
+    (*c).r.w_sum_err = 0.0;
+    (*c).r.sample = REUSE_CANONICAL;
+    (*c).p_hat = 0.0;
+}
+
 // Ends the combination: pairwise streams the canonical sample with its MIS weight; W is set
 // by the mode's normalization. Returns the reservoir to store: W and M = T. The selection is
 // then reuse_selected(*c).

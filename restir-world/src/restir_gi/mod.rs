@@ -35,6 +35,78 @@ pub mod world;
 pub use world::WorldRestirGiConfig;
 use world::{Pool, PoolBuffers};
 
+/// Which reconnections trace a visibility ray. A merge shifts each neighbour's sample to the
+/// receiver (the *forward* ray: the receiver's x1 to the neighbour's x2) and, for pairwise MIS,
+/// the receiver's own sample to each neighbour (the *back* ray: the neighbour's x1 to the
+/// receiver's x2, so that a neighbour is never credited with a sample it could not hold).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Visibility {
+    /// None: an occluded sample lights the receiver (the paper's biased mode).
+    Off = 0,
+    /// Both rays for every neighbour: the targets include visibility (unbiased).
+    On = 1,
+    /// The back rays for every neighbour and the forward ray only for the sample the merge
+    /// selects, whose W becomes 0 where it is occluded (unbiased: the targets leave visibility
+    /// out, the integrand and the MIS weights keep it).
+    Selected = 2,
+    /// Only the forward ray of the selected sample, no back rays (biased: a neighbour is
+    /// credited with samples occluded from it, which darkens the image).
+    Final = 3,
+}
+
+impl Visibility {
+    /// Every mode with its name, in declaration order.
+    pub const ALL: [(Visibility, &'static str); 4] = [
+        (Self::Off, "off"),
+        (Self::On, "on"),
+        (Self::Selected, "selected"),
+        (Self::Final, "final"),
+    ];
+
+    /// The mode's name as the knob takes it.
+    pub fn name(self) -> &'static str {
+        Self::ALL[self as usize].1
+    }
+
+    /// The WGSL constants the passes compare `knobs.visibility` with.
+    pub(crate) fn wgsl() -> String {
+        Self::ALL
+            .iter()
+            .map(|(v, name)| {
+                format!(
+                    "const GI_VISIBILITY_{}: u32 = {}u;\n",
+                    name.to_uppercase(),
+                    *v as u32
+                )
+            })
+            .collect()
+    }
+}
+
+const VISIBILITY_NAMES: [&str; 4] = [
+    Visibility::ALL[0].1,
+    Visibility::ALL[1].1,
+    Visibility::ALL[2].1,
+    Visibility::ALL[3].1,
+];
+
+impl crate::knobs::KnobValue for Visibility {
+    const KIND: crate::knobs::KnobKind = crate::knobs::KnobKind::Choice(&VISIBILITY_NAMES);
+    fn parse_knob(s: &str) -> Option<Self> {
+        Self::ALL.iter().find(|(_, n)| *n == s).map(|(v, _)| *v)
+    }
+    fn show_knob(&self) -> String {
+        self.name().into()
+    }
+    /// The allowed modes are those between the range's ends, in declaration order.
+    fn in_range(&self, range: &std::ops::RangeInclusive<Self>) -> bool {
+        (*range.start() as u32..=*range.end() as u32).contains(&(*self as u32))
+    }
+    fn gpu_word(&self) -> u32 {
+        *self as u32
+    }
+}
+
 /// Largest stored confidence M (10 bits of [`GiReservoir::normal_m`]); larger sums saturate.
 pub const MAX_M: u32 = 1023;
 
@@ -66,9 +138,10 @@ crate::knobs! {
         /// Combination weights (default pairwise MIS, unbiased; `biased` is the paper's 1/M,
         /// `one-over-z` Bitterli et al.'s 1/Z).
         [gpu] combine: Combination = Combination::Pairwise, "combine";
-        /// One visibility ray per reconnection (default on, unbiased). Off: none, the paper's
-        /// biased mode (a reused sample occluded from the receiver still lights it).
-        [gpu] visibility: bool = true, "visibility";
+        /// Visibility rays of the reconnections (default `on`: both ways per neighbour,
+        /// unbiased; `selected`: the receiver's ray only for the sample a pass selects,
+        /// unbiased; `final`: only that ray, biased; `off`: none, the paper's biased mode).
+        [gpu] visibility: Visibility = Visibility::On, "visibility";
     }
 }
 
@@ -79,9 +152,9 @@ pub fn variants() -> Vec<Variant> {
 }
 
 /// The reuse variants with `spatial_off` turning spatial reuse off; `biased` is 1/M weights
-/// without visibility rays.
+/// without visibility rays; the two visibility modes that trace fewer rays ([`Visibility`]).
 fn variants_with(spatial_off: &'static str) -> Vec<Variant> {
-    reuse_variants(spatial_off)
+    let mut v: Vec<Variant> = reuse_variants(spatial_off)
         .into_iter()
         .map(|v| match v.name {
             "biased" => Variant::new(
@@ -91,7 +164,18 @@ fn variants_with(spatial_off: &'static str) -> Vec<Variant> {
             ),
             _ => v,
         })
-        .collect()
+        .collect();
+    v.push(Variant::new(
+        "selected-visibility",
+        &["visibility=selected"],
+        "fewer rays, unbiased: the receiver's ray only for the sample a merge selects",
+    ));
+    v.push(Variant::new(
+        "final-visibility",
+        &["visibility=final"],
+        "biased: only the selected sample's ray, no rays for the MIS weights",
+    ));
+    v
 }
 
 impl RestirGiConfig {
@@ -124,7 +208,8 @@ impl GiReservoir {
 /// screen-space WGSL reads it.
 pub fn constants_wgsl() -> String {
     format!(
-        "const GI_MAX_M: u32 = {MAX_M}u;\n{}",
+        "const GI_MAX_M: u32 = {MAX_M}u;\n{}{}",
+        Visibility::wgsl(),
         RestirGiConfig::wgsl_struct("ScreenKnobs")
     )
 }
@@ -463,5 +548,36 @@ mod tests {
         assert_eq!(size_of::<GiReservoir>(), 32);
         assert!(constants_wgsl().contains("struct ScreenKnobs {\n    temporal_m_cap: u32,"));
         assert!(WGSL.contains("struct GiReservoir {\n    position: vec3<f32>,\n    ucw: f32,"));
+    }
+
+    /// The visibility knob takes each mode's name (and only those), shows it back, and the
+    /// WGSL constants the passes compare it with are the GPU words it writes.
+    #[test]
+    fn visibility_modes_round_trip() {
+        use crate::knobs::KnobValue;
+        let wgsl = constants_wgsl();
+        for (mode, name) in Visibility::ALL {
+            assert_eq!(Visibility::parse_knob(name), Some(mode));
+            assert_eq!(mode.show_knob(), name);
+            let line = format!(
+                "const GI_VISIBILITY_{}: u32 = {}u;",
+                name.to_uppercase(),
+                mode.gpu_word()
+            );
+            assert!(wgsl.contains(&line), "{line}");
+            let mut c = RestirGiConfig::default();
+            c.set("visibility", name).unwrap();
+            assert_eq!(
+                (c.visibility, c.get("visibility").unwrap()),
+                (mode, name.into())
+            );
+        }
+        assert_eq!(Visibility::parse_knob("maybe"), None);
+        let e = RestirGiConfig::default()
+            .set("visibility", "true")
+            .unwrap_err();
+        assert!(e.contains("off, on, selected, final"), "{e}");
+        assert_eq!(RestirGiConfig::default().visibility, Visibility::On);
+        assert_eq!(WorldRestirGiConfig::default().visibility, Visibility::On);
     }
 }

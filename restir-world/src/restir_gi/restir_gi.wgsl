@@ -137,15 +137,42 @@ fn gi_jacobian(s: GiSample, x1_from: vec3<f32>, x1_to: vec3<f32>) -> f32 {
     return j;
 }
 
+// The visibility modes (restir_gi::Visibility): whether each neighbour's sample is tested from
+// the receiver (the forward ray), whether the receiver's own sample is tested from each
+// neighbour (the back ray), whether the sample a merge selects is tested after it.
+fn gi_forward_rays() -> bool {
+    return screen_params.knobs.visibility == GI_VISIBILITY_ON;
+}
+
+fn gi_back_rays() -> bool {
+    let v = screen_params.knobs.visibility;
+    return v == GI_VISIBILITY_ON || v == GI_VISIBILITY_SELECTED;
+}
+
+fn gi_tests_selected() -> bool {
+    let v = screen_params.knobs.visibility;
+    return v == GI_VISIBILITY_SELECTED || v == GI_VISIBILITY_FINAL;
+}
+
+// Whether sample y, which a merge at g selected from a neighbour, may light g: false where the
+// visibility mode tests the selected sample and the ray from g finds it occluded. The merge
+// then counts it as 0: pairwise drops the neighbours' part (reuse_drop_neighbours) and keeps
+// the receiver's own sample, the other combinations keep W = 0. Unbiased with `selected`: the
+// targets leave visibility out, the integrand keeps it.
+fn gi_selected_visible(g: GVertex, y: GiSample) -> bool {
+    return !gi_tests_selected() || render_params.planted == PLANTED_SELECTED_UNTESTED
+        || render_visible(g.position, g.normal, y.position);
+}
+
 // Neighbour q's target at the receiver's sample y shifted to it from the receiver's x1 (at
-// x1_own), times that shift's Jacobian, with visibility from q when `visibility` is on.
+// x1_own), times that shift's Jacobian, with visibility from q where the mode traces back rays.
 fn gi_shifted_target(q: GVertex, y: GiSample, x1_own: vec3<f32>) -> f32 {
     let j = gi_jacobian(y, x1_own, q.position);
     if j == 0.0 {
         return 0.0;
     }
     let p = gi_target(q, y) * j;
-    if p > 0.0 && screen_params.knobs.visibility != 0u && !render_visible(q.position, q.normal, y.position) {
+    if p > 0.0 && gi_back_rays() && !render_visible(q.position, q.normal, y.position) {
         return 0.0;
     }
     return p;
@@ -153,7 +180,7 @@ fn gi_shifted_target(q: GVertex, y: GiSample, x1_own: vec3<f32>) -> f32 {
 
 // What a receiver (primary vertex g, own sample own_sample) needs of neighbour q's reservoir
 // src to merge it (reuse_neighbour_shifted): src's sample's target at g with its reconnection's
-// Jacobian (0 where the shift or, with `visibility`, the ray from g fails), its target at q, and
+// Jacobian (0 where the shift or, with `visibility=on`, the ray from g fails), its target at q, and
 // (`pairwise`) the receiver's own sample's shifted to q.
 struct GiPair {
     p_target: f32,
@@ -170,7 +197,7 @@ fn gi_pair(g: GVertex, own_sample: GiSample, pairwise: bool, q: GVertex, src: Gi
         if pair.jacobian > 0.0 {
             pair.p_target = gi_target(g, y);
         }
-        if pair.p_target > 0.0 && screen_params.knobs.visibility != 0u
+        if pair.p_target > 0.0 && gi_forward_rays()
             && !render_visible(g.position, g.normal, y.position) {
             pair.p_target = 0.0;
         }

@@ -2,11 +2,13 @@
 // canonical reservoir, reuse_self) merges the reservoirs of the neighbours screen_neighbours
 // finds (last frame's pixel through last frame's camera, or spatial_k pixels in a disc).
 // A neighbour's sample is shifted to the receiver by reconnection (gi_jacobian). With
-// `visibility` on, targets include visibility: one ray from the receiver's x1 to the
+// `visibility=on`, targets include visibility: one ray from the receiver's x1 to the
 // neighbour's x2 (an occluded sample has target 0 here), and for the MIS weights one from the
 // neighbour's x1 to the receiver's own x2 (gi_shifted_target: a pixel only ever holds samples
 // visible from its x1, so the neighbour could not have produced an occluded one; leaving that
-// ray out darkened cornell's indirect image by 5-6%). Combination
+// ray out darkened cornell's indirect image by 5-6%). With `selected` the first ray is traced
+// for the selected sample only (gi_selected_visible; occluded, pairwise falls back to the
+// receiver's own sample), `final` traces only that one. Combination
 // (knobs.combine): the reservoir crate's reuse_* with the shift's Jacobian kept apart
 // (reuse_neighbour_shifted). Adds the merged neighbours and the rejected
 // reconnections (shift or visibility failed) to gi_debug.
@@ -51,9 +53,20 @@ fn screen_merge(i: u32, own: GiReservoir, g: GVertex, temporal: bool, nb: Screen
             reuse_count_z(&c, nb.ms[n], gi_shifted_target(q, y, g.position));
         }
     }
-    let stored = reuse_finish(&c);
+    // `selected` and `final`: the selected neighbour's sample is tested now.
+    var occluded = false;
+    if reuse_selected(c) != REUSE_CANONICAL && !gi_selected_visible(g, gi_sample(out)) {
+        occluded = true;
+        rejected += 1u;
+        if combine == REUSE_PAIRWISE {
+            reuse_drop_neighbours(&c);
+        }
+    }
+    var stored = reuse_finish(&c);
     if reuse_selected(c) == REUSE_CANONICAL {
         out = own;
+    } else if occluded {
+        stored.ucw = 0.0;
     }
     gi_debug[i] += nb.k | (rejected << 8u);
     return gi_reweighted(out, stored);

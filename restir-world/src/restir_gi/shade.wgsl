@@ -1,8 +1,8 @@
 // Pass "gi-shade": indirect light at the primary vertex = f(Y) W of the final reservoir's path
 // sample -> render_indirect_frame (replacing the radiance the renderer's passes left there).
-// With `visibility` on, every sample a pixel can hold is unoccluded from its x1 (its own, or
-// one whose reconnection ray was traced), so no ray is traced; off (the paper's biased mode),
-// none was, and none is.
+// With `visibility` on, `selected` or `final`, every sample a pixel holds with weight is
+// unoccluded from its x1 (its own, or one whose reconnection ray was traced), so no ray is
+// traced; off (the paper's biased mode), none was, and none is.
 
 @compute @workgroup_size(WORKGROUP_SIZE)
 fn screen_shade(id: Invocation) {

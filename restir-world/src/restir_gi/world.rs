@@ -34,7 +34,7 @@ use gpu_hash::{CellSizing, TableConfig};
 use gpu_scan::{Scan, ScanBinding, ScanDescriptor, ScanKind};
 use reservoir::reuse::Combination;
 
-use super::{DEBUG, GiReservoir, INITIAL_WGSL, MAX_M, REUSE_WGSL, SHADE_WGSL};
+use super::{DEBUG, GiReservoir, INITIAL_WGSL, MAX_M, REUSE_WGSL, SHADE_WGSL, Visibility};
 use crate::gpu::{
     Access, FrameEncoder, GpuContext, GpuError, Pass, Resource, Tracer, WgslModule, buffers,
 };
@@ -86,8 +86,9 @@ crate::knobs! {
         [gpu] max_jacobian: f32 = 10.0, "max-jacobian", 1.0..=f32::MAX;
         /// Combination weights (default pairwise MIS, unbiased; `biased`: 1/M).
         [gpu] combine: Combination = Combination::Pairwise, "combine";
-        /// One visibility ray per reconnection (default on, unbiased).
-        [gpu] visibility: bool = true, "visibility";
+        /// Visibility rays of the reconnections (default `on`; `selected`, `final`, `off`:
+        /// [`Visibility`]).
+        [gpu] visibility: Visibility = Visibility::On, "visibility";
         /// Targeted projected cell size in pixels (default 8: a cell holds about 8 x 8 pixels'
         /// primary vertices where it faces the camera).
         projected_size: f32 = 8.0, "projected-size", 0.5..=4096.0;
@@ -156,7 +157,8 @@ impl WorldRestirGiConfig {
 /// Generated constants header: the largest M and the knobs' struct.
 pub fn constants_wgsl() -> String {
     format!(
-        "const GI_MAX_M: u32 = {MAX_M}u;\n{}",
+        "const GI_MAX_M: u32 = {MAX_M}u;\n{}{}",
+        Visibility::wgsl(),
         WorldRestirGiConfig::wgsl_struct("ScreenKnobs")
     )
 }

@@ -89,9 +89,19 @@ fn screen_subpath(id: Invocation) {
             reuse_count_z(&c, 1u, gi_shifted_target(q, chosen, x2.position));
         }
     }
-    let stored = reuse_finish(&c);
+    // `selected` and `final`: the selected candidate's sample is tested now (as screen_merge).
+    var occluded = false;
+    if reuse_selected(c) != REUSE_CANONICAL && !gi_selected_visible(x2, chosen) {
+        occluded = true;
+        if combine == REUSE_PAIRWISE {
+            reuse_drop_neighbours(&c);
+        }
+    }
+    var stored = reuse_finish(&c);
     if reuse_selected(c) == REUSE_CANONICAL {
         chosen = own_sample;
+    } else if occluded {
+        stored.ucw = 0.0;
     }
     var reflected = vec3<f32>(0.0);
     if stored.ucw > 0.0 {
