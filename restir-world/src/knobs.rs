@@ -124,28 +124,40 @@ impl KnobValue for Option<u32> {
     }
 }
 
-const COMBINATION_NAMES: [&str; 3] = [
-    Combination::ALL[0].1,
-    Combination::ALL[1].1,
-    Combination::ALL[2].1,
-];
-
-impl KnobValue for Combination {
-    const KIND: KnobKind = KnobKind::Choice(&COMBINATION_NAMES);
-    fn parse_knob(s: &str) -> Option<Self> {
-        s.parse().ok()
-    }
-    fn show_knob(&self) -> String {
-        self.name().into()
-    }
-    /// The allowed modes are those between the range's ends, in declaration order.
-    fn in_range(&self, range: &RangeInclusive<Self>) -> bool {
-        (*range.start() as u32..=*range.end() as u32).contains(&(*self as u32))
-    }
-    fn gpu_word(&self) -> u32 {
-        *self as u32
-    }
+/// [`KnobValue`] for a choice enum `$t` with `$t::ALL: [($t, &str); N]` (each mode and its
+/// name, in declaration order, each mode's value its index) and `$t::name`: parsed by name, its
+/// GPU word the mode's value, a range allowing the modes between its ends.
+#[macro_export]
+macro_rules! choice_knob {
+    ($t:ty) => {
+        impl $crate::knobs::KnobValue for $t {
+            const KIND: $crate::knobs::KnobKind = $crate::knobs::KnobKind::Choice(&{
+                const ALL: &[($t, &str)] = &<$t>::ALL;
+                let mut names = [""; <$t>::ALL.len()];
+                let mut i = 0;
+                while i < names.len() {
+                    names[i] = ALL[i].1;
+                    i += 1;
+                }
+                names
+            });
+            fn parse_knob(s: &str) -> Option<Self> {
+                <$t>::ALL.iter().find(|(_, n)| *n == s).map(|(v, _)| *v)
+            }
+            fn show_knob(&self) -> String {
+                self.name().into()
+            }
+            fn in_range(&self, range: &std::ops::RangeInclusive<Self>) -> bool {
+                (*range.start() as u32..=*range.end() as u32).contains(&(*self as u32))
+            }
+            fn gpu_word(&self) -> u32 {
+                *self as u32
+            }
+        }
+    };
 }
+
+choice_knob!(Combination);
 
 /// A configuration declared with [`knobs!`](crate::knobs!).
 pub trait Knobs: Default + Copy + PartialEq + std::fmt::Debug + 'static {

@@ -83,29 +83,7 @@ impl Visibility {
     }
 }
 
-const VISIBILITY_NAMES: [&str; 4] = [
-    Visibility::ALL[0].1,
-    Visibility::ALL[1].1,
-    Visibility::ALL[2].1,
-    Visibility::ALL[3].1,
-];
-
-impl crate::knobs::KnobValue for Visibility {
-    const KIND: crate::knobs::KnobKind = crate::knobs::KnobKind::Choice(&VISIBILITY_NAMES);
-    fn parse_knob(s: &str) -> Option<Self> {
-        Self::ALL.iter().find(|(_, n)| *n == s).map(|(v, _)| *v)
-    }
-    fn show_knob(&self) -> String {
-        self.name().into()
-    }
-    /// The allowed modes are those between the range's ends, in declaration order.
-    fn in_range(&self, range: &std::ops::RangeInclusive<Self>) -> bool {
-        (*range.start() as u32..=*range.end() as u32).contains(&(*self as u32))
-    }
-    fn gpu_word(&self) -> u32 {
-        *self as u32
-    }
-}
+crate::choice_knob!(Visibility);
 
 /// Largest stored confidence M (10 bits of [`GiReservoir::normal_m`]); larger sums saturate.
 pub const MAX_M: u32 = 1023;
