@@ -155,13 +155,39 @@ fn gi_tests_selected() -> bool {
 }
 
 // Whether sample y, which a merge at g selected from a neighbour, may light g: false where the
-// visibility mode tests the selected sample and the ray from g finds it occluded. The merge
-// then counts it as 0: pairwise drops the neighbours' part (reuse_drop_neighbours) and keeps
-// the receiver's own sample, the other combinations keep W = 0. Unbiased with `selected`: the
-// targets leave visibility out, the integrand keeps it.
+// visibility mode tests the selected sample and the ray from g finds it occluded. Unbiased
+// with `selected`: the targets leave visibility out, the integrand keeps it.
 fn gi_selected_visible(g: GVertex, y: GiSample) -> bool {
     return !gi_tests_selected() || render_params.planted == PLANTED_SELECTED_UNTESTED
         || render_visible(g.position, g.normal, y.position);
+}
+
+// How a merge ended (gi_finish): the reservoir to store, whether the receiver's own sample is
+// the selection, and whether a selected neighbour's sample was found occluded.
+struct GiFinished {
+    stored: PackedReservoir,
+    canonical: bool,
+    occluded: bool,
+}
+
+// Ends a merge at g (reuse_finish) whose selected neighbour's sample, if one is selected, is y.
+// With `selected` and `final` y is tested now; occluded, it counts as 0: pairwise drops the
+// neighbours' part (reuse_drop_neighbours) and the receiver keeps its own sample, the other
+// combinations store W = 0.
+fn gi_finish(c: ptr<function, Reuse>, g: GVertex, y: GiSample) -> GiFinished {
+    var occluded = false;
+    if reuse_selected(*c) != REUSE_CANONICAL && !gi_selected_visible(g, y) {
+        occluded = true;
+        if (*c).mode == REUSE_PAIRWISE {
+            reuse_drop_neighbours(c);
+        }
+    }
+    var stored = reuse_finish(c);
+    let canonical = reuse_selected(*c) == REUSE_CANONICAL;
+    if !canonical && occluded {
+        stored.ucw = 0.0;
+    }
+    return GiFinished(stored, canonical, occluded);
 }
 
 // Neighbour q's target at the receiver's sample y shifted to it from the receiver's x1 (at

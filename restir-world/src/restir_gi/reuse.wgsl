@@ -7,7 +7,7 @@
 // neighbour's x1 to the receiver's own x2 (gi_shifted_target: a pixel only ever holds samples
 // visible from its x1, so the neighbour could not have produced an occluded one; leaving that
 // ray out darkened cornell's indirect image by 5-6%). With `selected` the first ray is traced
-// for the selected sample only (gi_selected_visible; occluded, pairwise falls back to the
+// for the selected sample only (gi_finish; occluded, pairwise falls back to the
 // receiver's own sample), `final` traces only that one. Combination
 // (knobs.combine): the reservoir crate's reuse_* with the shift's Jacobian kept apart
 // (reuse_neighbour_shifted). Adds the merged neighbours and the rejected
@@ -53,21 +53,11 @@ fn screen_merge(i: u32, own: GiReservoir, g: GVertex, temporal: bool, nb: Screen
             reuse_count_z(&c, nb.ms[n], gi_shifted_target(q, y, g.position));
         }
     }
-    // `selected` and `final`: the selected neighbour's sample is tested now.
-    var occluded = false;
-    if reuse_selected(c) != REUSE_CANONICAL && !gi_selected_visible(g, gi_sample(out)) {
-        occluded = true;
-        rejected += 1u;
-        if combine == REUSE_PAIRWISE {
-            reuse_drop_neighbours(&c);
-        }
-    }
-    var stored = reuse_finish(&c);
-    if reuse_selected(c) == REUSE_CANONICAL {
+    let end = gi_finish(&c, g, gi_sample(out));
+    if end.canonical {
         out = own;
-    } else if occluded {
-        stored.ucw = 0.0;
     }
+    rejected += select(0u, 1u, end.occluded);
     gi_debug[i] += nb.k | (rejected << 8u);
-    return gi_reweighted(out, stored);
+    return gi_reweighted(out, end.stored);
 }

@@ -89,23 +89,13 @@ fn screen_subpath(id: Invocation) {
             reuse_count_z(&c, 1u, gi_shifted_target(q, chosen, x2.position));
         }
     }
-    // `selected` and `final`: the selected candidate's sample is tested now (as screen_merge).
-    var occluded = false;
-    if reuse_selected(c) != REUSE_CANONICAL && !gi_selected_visible(x2, chosen) {
-        occluded = true;
-        if combine == REUSE_PAIRWISE {
-            reuse_drop_neighbours(&c);
-        }
-    }
-    var stored = reuse_finish(&c);
-    if reuse_selected(c) == REUSE_CANONICAL {
+    let end = gi_finish(&c, x2, chosen);
+    if end.canonical {
         chosen = own_sample;
-    } else if occluded {
-        stored.ucw = 0.0;
     }
     var reflected = vec3<f32>(0.0);
-    if stored.ucw > 0.0 {
-        reflected = gi_contribution(x2, chosen) * stored.ucw;
+    if end.stored.ucw > 0.0 {
+        reflected = gi_contribution(x2, chosen) * end.stored.ucw;
     }
     render_path_radiance[i] = vec4<f32>(split.direct + reflected, render_path_radiance[i].w);
 }
