@@ -46,8 +46,9 @@ pub enum Visibility {
     /// Both rays for every neighbour: the targets include visibility (unbiased).
     On = 1,
     /// The back rays for every neighbour and the forward ray only for the sample the merge
-    /// selects, whose W becomes 0 where it is occluded (unbiased: the targets leave visibility
-    /// out, the integrand and the MIS weights keep it).
+    /// selects: where it is occluded the neighbours' part counts as 0 and the receiver keeps its
+    /// own sample (unbiased: the targets leave visibility out, the integrand and the MIS
+    /// weights keep it).
     Selected = 2,
     /// Only the forward ray of the selected sample, no back rays (biased: a neighbour is
     /// credited with samples occluded from it, which darkens the image).
