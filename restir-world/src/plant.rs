@@ -15,7 +15,7 @@
 //! - defects of an estimator ([`Planted::is_defect`]): a wrong Jacobian, a merge that drops
 //!   the neighbours' M, Russian roulette without its division, an overstated light pdf, a path
 //!   one bounce short, cache updates without their tail, sub-path reuse one bounce too deep or without its
-//!   escaped candidates, a selected sample left untested.
+//!   escaped candidates, the reuse's forward ray untested.
 //!   These are the controls of the bias tests: each must fail the check its test makes.
 //! - power checks ([`Planted::Scale`]): the finished frames scaled as they are accumulated.
 //!   They show only that a bound can see a shift of that size, never that a check catches a
@@ -71,9 +71,11 @@ pub enum Planted {
     /// hold no sample) while it weighs the others as if every candidate had been drawn: the
     /// kept ones' weights are too large by the share that escaped.
     SubpathSkipsEscaped,
-    /// ReSTIR GI's `visibility=selected` leaves the sample a merge selects untested: the
-    /// targets leave visibility out, so an occluded neighbour's sample lights the receiver.
-    SelectedUntested,
+    /// ReSTIR GI's forward ray (the receiver's x1 to a neighbour's x2) is never traced: with
+    /// `visibility=on` the neighbours' samples enter the receiver's target untested, with
+    /// `selected` (the default) the sample a merge selects is left untested; either way an
+    /// occluded neighbour's sample lights the receiver.
+    ForwardUntested,
 }
 
 impl Planted {
@@ -93,7 +95,7 @@ impl Planted {
             Self::DenoiseNoLuminanceStop => 10,
             Self::SubpathFullDepth => 11,
             Self::SubpathSkipsEscaped => 12,
-            Self::SelectedUntested => 13,
+            Self::ForwardUntested => 13,
         }
     }
 
@@ -142,7 +144,7 @@ impl Planted {
             ("DENOISE_NO_LUMINANCE_STOP", Self::DenoiseNoLuminanceStop),
             ("SUBPATH_FULL_DEPTH", Self::SubpathFullDepth),
             ("SUBPATH_SKIPS_ESCAPED", Self::SubpathSkipsEscaped),
-            ("SELECTED_UNTESTED", Self::SelectedUntested),
+            ("FORWARD_UNTESTED", Self::ForwardUntested),
         ];
         let mut s = String::from(
             "// Planted defects (restir_world::plant), compared with render_params.planted.\n",

@@ -51,7 +51,7 @@ fn specs() -> Vec<(&'static str, String)> {
             .map(|m| (m, "default".to_string())),
         )
         .chain(
-            ["subpath", "selected-visibility", "final-visibility"]
+            ["subpath", "all-visibility", "final-visibility"]
                 .map(|v| ("world-restir-gi", v.to_string())),
         )
         .collect()

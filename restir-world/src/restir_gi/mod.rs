@@ -43,10 +43,11 @@ use world::{Pool, PoolBuffers};
 pub enum Visibility {
     /// None: an occluded sample lights the receiver (the paper's biased mode).
     Off = 0,
-    /// Both rays for every neighbour: the targets include visibility (unbiased).
+    /// Both rays for every neighbour: the targets include visibility (unbiased; the default
+    /// until 2026-12-05).
     On = 1,
-    /// The back rays for every neighbour and the forward ray only for the sample the merge
-    /// selects: where it is occluded the neighbours' part counts as 0 and the receiver keeps its
+    /// The default: the back rays for every neighbour and the forward ray only for the sample
+    /// the merge selects: where it is occluded the neighbours' part counts as 0 and the receiver keeps its
     /// own sample (unbiased: the targets leave visibility out, the integrand and the MIS
     /// weights keep it).
     Selected = 2,
@@ -117,10 +118,11 @@ crate::knobs! {
         /// Combination weights (default pairwise MIS, unbiased; `biased` is the paper's 1/M,
         /// `one-over-z` Bitterli et al.'s 1/Z).
         [gpu] combine: Combination = Combination::Pairwise, "combine";
-        /// Visibility rays of the reconnections (default `on`: both ways per neighbour,
-        /// unbiased; `selected`: the receiver's ray only for the sample a pass selects,
-        /// unbiased; `final`: only that ray, biased; `off`: none, the paper's biased mode).
-        [gpu] visibility: Visibility = Visibility::On, "visibility";
+        /// Visibility rays of the reconnections (default `selected`: the back ray per neighbour
+        /// and the receiver's ray only for the sample a pass selects, unbiased; `on`: both
+        /// ways per neighbour, unbiased; `final`: only the selected sample's ray, biased;
+        /// `off`: none, the paper's biased mode).
+        [gpu] visibility: Visibility = Visibility::Selected, "visibility";
     }
 }
 
@@ -131,7 +133,8 @@ pub fn variants() -> Vec<Variant> {
 }
 
 /// The reuse variants with `spatial_off` turning spatial reuse off; `biased` is 1/M weights
-/// without visibility rays; the two visibility modes that trace fewer rays ([`Visibility`]).
+/// without visibility rays; the two other visibility modes ([`Visibility`]): every ray, and
+/// only the final sample's.
 fn variants_with(spatial_off: &'static str) -> Vec<Variant> {
     let mut v: Vec<Variant> = reuse_variants(spatial_off)
         .into_iter()
@@ -145,9 +148,10 @@ fn variants_with(spatial_off: &'static str) -> Vec<Variant> {
         })
         .collect();
     v.push(Variant::new(
-        "selected-visibility",
-        &["visibility=selected"],
-        "fewer rays, unbiased: the receiver's ray only for the sample a merge selects",
+        "all-visibility",
+        &["visibility=on"],
+        "both rays for every neighbour (unbiased; the default traces the receiver's ray only \
+         for the sample a merge selects)",
     ));
     v.push(Variant::new(
         "final-visibility",
@@ -556,7 +560,10 @@ mod tests {
             .set("visibility", "true")
             .unwrap_err();
         assert!(e.contains("off, on, selected, final"), "{e}");
-        assert_eq!(RestirGiConfig::default().visibility, Visibility::On);
-        assert_eq!(WorldRestirGiConfig::default().visibility, Visibility::On);
+        assert_eq!(RestirGiConfig::default().visibility, Visibility::Selected);
+        assert_eq!(
+            WorldRestirGiConfig::default().visibility,
+            Visibility::Selected
+        );
     }
 }

@@ -141,7 +141,8 @@ fn gi_jacobian(s: GiSample, x1_from: vec3<f32>, x1_to: vec3<f32>) -> f32 {
 // the receiver (the forward ray), whether the receiver's own sample is tested from each
 // neighbour (the back ray), whether the sample a merge selects is tested after it.
 fn gi_forward_rays() -> bool {
-    return screen_params.knobs.visibility == GI_VISIBILITY_ON;
+    return screen_params.knobs.visibility == GI_VISIBILITY_ON
+        && render_params.planted != PLANTED_FORWARD_UNTESTED;
 }
 
 fn gi_back_rays() -> bool {
@@ -158,7 +159,7 @@ fn gi_tests_selected() -> bool {
 // visibility mode tests the selected sample and the ray from g finds it occluded. Unbiased
 // with `selected`: the targets leave visibility out, the integrand keeps it.
 fn gi_selected_visible(g: GVertex, y: GiSample) -> bool {
-    return !gi_tests_selected() || render_params.planted == PLANTED_SELECTED_UNTESTED
+    return !gi_tests_selected() || render_params.planted == PLANTED_FORWARD_UNTESTED
         || render_visible(g.position, g.normal, y.position);
 }
 

@@ -86,9 +86,9 @@ crate::knobs! {
         [gpu] max_jacobian: f32 = 10.0, "max-jacobian", 1.0..=f32::MAX;
         /// Combination weights (default pairwise MIS, unbiased; `biased`: 1/M).
         [gpu] combine: Combination = Combination::Pairwise, "combine";
-        /// Visibility rays of the reconnections (default `on`; `selected`, `final`, `off`:
+        /// Visibility rays of the reconnections (default `selected`; `on`, `final`, `off`:
         /// [`Visibility`]).
-        [gpu] visibility: Visibility = Visibility::On, "visibility";
+        [gpu] visibility: Visibility = Visibility::Selected, "visibility";
         /// Targeted projected cell size in pixels (default 8: a cell holds about 8 x 8 pixels'
         /// primary vertices where it faces the camera).
         projected_size: f32 = 8.0, "projected-size", 0.5..=4096.0;
