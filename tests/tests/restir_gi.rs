@@ -392,10 +392,12 @@ fn world_restir_unbiased_on_cornell_and_colonnade_orbiting() {
 /// secondary vertex x2 resamples a path sample this frame's pixels left in its cell, its
 /// radiance one vertex short, before the initial pass) converges to the reference by
 /// [`assert_unbiased_on`]'s check (128 frames at 48x48, 2% per channel) on cornell, static,
-/// seeds 1-9 (measured -1.1/-0.4/-1.0%; seeds 1-18 -0.1/-0.5/-0.8%: 9 keep the suite's time, a
-/// 9-seed mean scattering by about 0.8% here). Control by the same check: the candidates whose GI
-/// ray escaped left out of the sub-path pass's MIS (planted on the GPU, seeds 20-25, measured
-/// +5.5/+4.1/+3.5%), the defect this check caught while the pass was written. Measured beside
+/// seeds 1-9 (measured at the default `visibility=selected` -1.0/+0.1/+0.6%; at `on`
+/// -1.1/-0.4/-1.0%, seeds 1-18 -0.1/-0.5/-0.8%: 9 keep the suite's time, a 9-seed mean
+/// scattering by about 0.8% here). Control by the same check: the candidates whose GI ray
+/// escaped left out of the sub-path pass's MIS (planted on the GPU, seeds 20-25, measured
+/// +3.5/+4.3/+3.1%, at `on` +5.5/+4.1/+3.5%), the defect this check caught while the pass was
+/// written. Measured beside
 /// it and not checked (the suite's time): many-lights static and orbiting (seeds 1-9)
 /// -0.3/-0.6/-2.4% and -0.4/-0.2/-0.3%, colonnade static -0.7/-0.7/-0.9%; there the planted
 /// defects show less (the escaped candidates +1.6/+1.7/+2.3% on colonnade and none on the closed
