@@ -300,7 +300,12 @@ const DOLLY: CameraPath = CameraPath::Dolly {
 /// +1.7/+1.4/+1.3%, many-lights (seeds 1-3) -0.2/+0.7/+0.3%, +0.8/+0.8/+1.4%, -1.7/-0.8/-1.6%;
 /// dollying, seeds 1-9 measured -1.3/-1.2/-1.4% then and restir-gi -0.5/-0.1/-1.3%. The motion runs
 /// are on the scenes whose seeds scatter least (many-lights, furnace); cornell and colonnade (the
-/// slowest) are static only: cornell's noise and the suite's time are the limits. Control on every
+/// slowest) are static only: cornell's noise and the suite's time are the limits. Measured and
+/// not checked, at `selected` (2026-12-05): cornell orbiting and dollying +0.5/+0.6/+1.1% and
+/// +1.0/-0.4/-0.7% (seeds 1-18); colonnade orbiting -1.0/-1.1/-1.0% (seeds 1-9), dollying
+/// -1.6/-1.8/-1.8% over seeds 1-45, whose 9-seed means scatter from -3.6/-3.8/-4.0% (seeds
+/// 1-9; at `on` -3.5/-3.7/-3.9%) to -0.3/-0.5/-0.7% (restir-gi dollying, seeds 1-27,
+/// -0.9/-1.0/-1.1%): checking it would take about 45 seeds. Control on every
 /// scene: merging without M (static, seed 20, 32 frames: -85% to -95%) must leave the bound. The
 /// Jacobian that loses its distance ratio is restir-gi's shift, the same code, caught by
 /// `wrong_jacobian_and_one_over_m_are_caught_on_cornell` (with world-space neighbours, whose
