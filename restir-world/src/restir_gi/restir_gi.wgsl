@@ -155,12 +155,20 @@ fn gi_tests_selected() -> bool {
     return v == GI_VISIBILITY_SELECTED || v == GI_VISIBILITY_FINAL;
 }
 
-// Whether sample y, which a merge at g selected from a neighbour, may light g: false where the
-// visibility mode tests the selected sample and the ray from g finds it occluded. Unbiased
-// with `selected`: the targets leave visibility out, the integrand keeps it.
-fn gi_selected_visible(g: GVertex, y: GiSample) -> bool {
+// Whether a vertex that holds reservoir `held` sees point x2 without a ray: a reservoir's
+// sample is visible from its own primary vertex (it was traced from there or tested there, in
+// every mode that traces rays; the scenes are static), and reuse copies samples, so a receiver
+// and its neighbours often hold the very same x2.
+fn gi_holds(held: GiReservoir, x2: vec3<f32>) -> bool {
+    return gi_has_sample(held) && all(held.position == x2);
+}
+
+// Whether sample y, which a merge at g (holding `own`) selected from a neighbour, may light g:
+// false where the visibility mode tests the selected sample and the ray from g finds it
+// occluded. Unbiased with `selected`: the targets leave visibility out, the integrand keeps it.
+fn gi_selected_visible(g: GVertex, own: GiReservoir, y: GiSample) -> bool {
     return !gi_tests_selected() || render_params.planted == PLANTED_FORWARD_UNTESTED
-        || render_visible(g.position, g.normal, y.position);
+        || gi_holds(own, y.position) || render_visible(g.position, g.normal, y.position);
 }
 
 // How a merge ended (gi_finish): the reservoir to store, whether the receiver's own sample is
@@ -171,13 +179,13 @@ struct GiFinished {
     occluded: bool,
 }
 
-// Ends a merge at g (reuse_finish) whose selected neighbour's sample, if one is selected, is y.
-// With `selected` and `final` y is tested now; occluded, it counts as 0: pairwise drops the
-// neighbours' part (reuse_drop_neighbours) and the receiver keeps its own sample, the other
-// combinations store W = 0.
-fn gi_finish(c: ptr<function, Reuse>, g: GVertex, y: GiSample) -> GiFinished {
+// Ends a merge at g (holding `own`, reuse_finish) whose selected neighbour's sample, if one is
+// selected, is y. With `selected` and `final` y is tested now; occluded, it counts as 0:
+// pairwise drops the neighbours' part (reuse_drop_neighbours) and the receiver keeps its own
+// sample, the other combinations store W = 0.
+fn gi_finish(c: ptr<function, Reuse>, g: GVertex, own: GiReservoir, y: GiSample) -> GiFinished {
     var occluded = false;
-    if reuse_selected(*c) != REUSE_CANONICAL && !gi_selected_visible(g, y) {
+    if reuse_selected(*c) != REUSE_CANONICAL && !gi_selected_visible(g, own, y) {
         occluded = true;
         if (*c).mode == REUSE_PAIRWISE {
             reuse_drop_neighbours(c);
@@ -192,20 +200,22 @@ fn gi_finish(c: ptr<function, Reuse>, g: GVertex, y: GiSample) -> GiFinished {
 }
 
 // Neighbour q's target at the receiver's sample y shifted to it from the receiver's x1 (at
-// x1_own), times that shift's Jacobian, with visibility from q where the mode traces back rays.
-fn gi_shifted_target(q: GVertex, y: GiSample, x1_own: vec3<f32>) -> f32 {
+// x1_own), times that shift's Jacobian, with visibility from q where the mode traces back rays
+// (no ray where q holds y's x2 in `q_holds`, gi_holds).
+fn gi_shifted_target(q: GVertex, q_holds: GiReservoir, y: GiSample, x1_own: vec3<f32>) -> f32 {
     let j = gi_jacobian(y, x1_own, q.position);
     if j == 0.0 {
         return 0.0;
     }
     let p = gi_target(q, y) * j;
-    if p > 0.0 && gi_back_rays() && !render_visible(q.position, q.normal, y.position) {
+    if p > 0.0 && gi_back_rays() && !gi_holds(q_holds, y.position)
+        && !render_visible(q.position, q.normal, y.position) {
         return 0.0;
     }
     return p;
 }
 
-// What a receiver (primary vertex g, own sample own_sample) needs of neighbour q's reservoir
+// What a receiver (primary vertex g, own reservoir own) needs of neighbour q's reservoir
 // src to merge it (reuse_neighbour_shifted): src's sample's target at g with its reconnection's
 // Jacobian (0 where the shift or, with `visibility=on`, the ray from g fails), its target at q, and
 // (`pairwise`) the receiver's own sample's shifted to q.
@@ -216,7 +226,7 @@ struct GiPair {
     p_n_own: f32,
 }
 
-fn gi_pair(g: GVertex, own_sample: GiSample, pairwise: bool, q: GVertex, src: GiReservoir) -> GiPair {
+fn gi_pair(g: GVertex, own: GiReservoir, pairwise: bool, q: GVertex, src: GiReservoir) -> GiPair {
     var pair = GiPair(0.0, 0.0, 0.0, 0.0);
     if gi_has_sample(src) {
         let y = gi_sample(src);
@@ -224,14 +234,14 @@ fn gi_pair(g: GVertex, own_sample: GiSample, pairwise: bool, q: GVertex, src: Gi
         if pair.jacobian > 0.0 {
             pair.p_target = gi_target(g, y);
         }
-        if pair.p_target > 0.0 && gi_forward_rays()
+        if pair.p_target > 0.0 && gi_forward_rays() && !gi_holds(own, y.position)
             && !render_visible(g.position, g.normal, y.position) {
             pair.p_target = 0.0;
         }
         pair.p_n_y = gi_target(q, y);
     }
     if pairwise {
-        pair.p_n_own = gi_shifted_target(q, own_sample, g.position);
+        pair.p_n_own = gi_shifted_target(q, src, gi_sample(own), g.position);
     }
     return pair;
 }

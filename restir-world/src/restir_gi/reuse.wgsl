@@ -37,7 +37,7 @@ fn screen_merge(i: u32, own: GiReservoir, g: GVertex, temporal: bool, nb: Screen
         let u_merge = rng_next_f32(rng);
         let src = reuse_src[nb.idx[n]];
         let q = screen_source_vertex(nb.idx[n], temporal);
-        let pair = gi_pair(g, own_sample, has_own && combine == REUSE_PAIRWISE, q, src);
+        let pair = gi_pair(g, own, has_own && combine == REUSE_PAIRWISE, q, src);
         rejected += select(0u, 1u, gi_has_sample(src) && pair.p_target == 0.0);
         let packed = PackedReservoir(src.ucw, render_planted_m(nb.ms[n]));
         if reuse_neighbour_shifted(&c, n, packed, pair.p_target, pair.jacobian, pair.p_n_y,
@@ -50,10 +50,10 @@ fn screen_merge(i: u32, own: GiReservoir, g: GVertex, temporal: bool, nb: Screen
         let y = gi_sample(out);
         for (var n = 0u; n < nb.k; n++) {
             let q = screen_source_vertex(nb.idx[n], temporal);
-            reuse_count_z(&c, nb.ms[n], gi_shifted_target(q, y, g.position));
+            reuse_count_z(&c, nb.ms[n], gi_shifted_target(q, reuse_src[nb.idx[n]], y, g.position));
         }
     }
-    let end = gi_finish(&c, g, gi_sample(out));
+    let end = gi_finish(&c, g, own, gi_sample(out));
     if end.canonical {
         out = own;
     }

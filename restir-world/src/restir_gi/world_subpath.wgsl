@@ -30,6 +30,7 @@ fn screen_subpath(id: Invocation) {
         own.ucw = gi_own_ucw(x2, own_sample);
     }
     let has_own = own.ucw > 0.0;
+    let own_held = gi_store(own_sample, own);
     var p_own = 0.0;
     if has_own {
         p_own = gi_target(x2, own_sample);
@@ -75,7 +76,7 @@ fn screen_subpath(id: Invocation) {
             let y = GiSample(y2.position, y2.normal, radiance);
             src = gi_store(y, PackedReservoir(gi_own_ucw(q, y), 1u));
         }
-        let pair = gi_pair(x2, own_sample, has_own && combine == REUSE_PAIRWISE, q, src);
+        let pair = gi_pair(x2, own_held, has_own && combine == REUSE_PAIRWISE, q, src);
         let packed = PackedReservoir(src.ucw, render_planted_m(1u));
         if reuse_neighbour_shifted(&c, n, packed, pair.p_target, pair.jacobian, pair.p_n_y,
                                    pair.p_n_own, u_merge) {
@@ -86,10 +87,10 @@ fn screen_subpath(id: Invocation) {
         // Z: x2 and every candidate whose x1 could have produced the chosen sample.
         for (var n = 0u; n < k; n++) {
             let q = render_unpack_vertex(render_gbuffer[idx[n]]);
-            reuse_count_z(&c, 1u, gi_shifted_target(q, chosen, x2.position));
+            reuse_count_z(&c, 1u, gi_shifted_target(q, GiReservoir(), chosen, x2.position));
         }
     }
-    let end = gi_finish(&c, x2, chosen);
+    let end = gi_finish(&c, x2, own_held, chosen);
     if end.canonical {
         chosen = own_sample;
     }
