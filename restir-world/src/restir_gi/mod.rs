@@ -47,9 +47,9 @@ pub enum Visibility {
     /// until 2026-12-05).
     On = 1,
     /// The default: the back rays for every neighbour and the forward ray only for the sample
-    /// the merge selects: where it is occluded the neighbours' part counts as 0 and the receiver keeps its
-    /// own sample (unbiased: the targets leave visibility out, the integrand and the MIS
-    /// weights keep it).
+    /// the merge selects: where it is occluded the neighbours' part counts as 0 and the
+    /// receiver keeps its own sample (unbiased: the targets leave visibility out, the integrand
+    /// and the MIS weights keep it).
     Selected = 2,
     /// Only the forward ray of the selected sample, no back rays (biased: a neighbour is
     /// credited with samples occluded from it, which darkens the image).
