@@ -10,7 +10,8 @@
 //! - [`gpu`]: device acquisition, timestamp spans, upload/readback, and the vocabulary every
 //!   pass is written in (`BindingSet`, `WgslModule`, `Kernel`, `Pass`, `FrameEncoder`);
 //!   [`image_io`] and [`knobs`](mod@knobs) (a method's settings declared once).
-//! - [`scene`], then [`sampling`], [`trace`] (the BVH tracer), [`framing`] (a default camera),
+//! - [`scene`], then [`sampling`], [`brdf`] (glTF's metallic-roughness BRDF: WGSL and its f64
+//!   twin), [`trace`] (the BVH tracer), [`framing`] (a default camera),
 //!   [`lights`] (light sampling); [`reference`](mod@reference) (the CPU reference renderer),
 //!   [`images`] (the one image set) and [`metrics`].
 //! - [`render`]: the renderer's shared passes and the `nee`/`ris` baselines.
@@ -23,6 +24,7 @@
 //! - [`methods`]: the registry, which composes the stages into methods, the one frame loop
 //!   (`run_frames`) and readback; [`gpu_reference`]: converged GPU references.
 
+pub mod brdf;
 pub mod cache;
 pub mod denoise;
 pub mod framing;
@@ -72,6 +74,7 @@ pub fn wgsl_modules() -> Vec<(String, String)> {
     let lights = gpu::compose(&lights::modules(0)).expect("the lights' modules compose");
     let mut modules = vec![
         ("restir-world/sampling".into(), sampling::WGSL.into()),
+        ("restir-world/brdf".into(), brdf::wgsl_with_table_buffer()),
         ("restir-world/lights".into(), lights),
     ];
     modules.extend(trace::wgsl_modules());
