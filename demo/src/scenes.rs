@@ -59,6 +59,17 @@ pub struct SceneArgs {
     #[arg(long, value_name = "K", default_value_t = 1.0, value_parser = non_negative_f32,
           allow_hyphen_values = true)]
     pub punctual_intensity: f32,
+    /// The surfaces' materials: `scene` as the scene has them (glTF metallic-roughness where a
+    /// file gives it), `diffuse` every surface matte with its base colour (for comparison).
+    #[arg(long, value_enum, default_value_t = Materials::Scene)]
+    pub materials: Materials,
+}
+
+/// `--materials`.
+#[derive(clap::ValueEnum, Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Materials {
+    Scene,
+    Diffuse,
 }
 
 fn non_negative_f32(s: &str) -> Result<f32, String> {
@@ -131,8 +142,11 @@ pub fn load(name: &str, opts: &SceneArgs, size: Option<(u32, u32)>) -> Result<Sc
     Ok(s)
 }
 
-/// Applies `--camera`, `--add-lights`, `--sky` and `--env`.
+/// Applies `--materials`, `--camera`, `--add-lights`, `--sky` and `--env`.
 fn prepare(s: &mut Scene, opts: &SceneArgs) -> Result<()> {
+    if opts.materials == Materials::Diffuse {
+        *s = std::mem::take(s).with_diffuse_materials();
+    }
     if opts.punctual_intensity == 0.0 {
         s.lights.clear();
     }

@@ -445,6 +445,25 @@ impl Lights {
         t.prob / t.area
     }
 
+    /// Twin of `lights_pdf_hit`: the solid-angle density at p with which [`Lights::sample`]
+    /// draws the point q (normal nq) of scene triangle `triangle` (0 when it is no light).
+    pub fn pdf_hit(&self, triangle: u32, p: Vec3, q: Vec3, nq: Vec3) -> f32 {
+        match self.triangle_light.get(triangle as usize) {
+            Some(&light) if light != NO_LIGHT => pdf_solid_angle(self.pdf_area(light), q - p, nq),
+            _ => 0.0,
+        }
+    }
+
+    /// Twin of `lights_pdf_env`: the solid-angle density with which [`Lights::sample`] draws
+    /// the environment direction `dir` (0 without an environment).
+    pub fn pdf_env(&self, dir: Vec3) -> f32 {
+        let Some(t) = self.triangles.iter().find(|t| t.kind == KIND_ENV) else {
+            return 0.0;
+        };
+        let k = environment::pixel_of(self.env_width, self.env_height, dir);
+        t.prob * self.env[k].pdf
+    }
+
     /// Twin of `lights_env_radiance`: the environment's radiance from unit direction `dir`
     /// (0 without an environment).
     pub fn env_radiance(&self, dir: Vec3) -> Vec3 {

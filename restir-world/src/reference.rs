@@ -23,6 +23,14 @@
 //! In the furnace (closed box, albedo rho, emission Le everywhere) this gives:
 //! direct = Le + rho Le, indirect = rho^2 Le, exactly in expectation.
 //!
+//! Glossy surfaces (glTF metallic-roughness, [`crate::brdf`]'s f64 twin of the GPU's BRDF)
+//! replace the albedo / pi above by their BRDF towards the vertex before, their cosine ray by
+//! the BRDF's sampler (three uniforms, weight f cos / pdf), and weigh the light estimate and
+//! the emission their ray finds (an emitter, or the environment where it escapes) by the power
+//! heuristic of the light table's density against the sampler's; after the last bounce a
+//! glossy vertex traces one more ray for that share. Diffuse surfaces are as above, their
+//! random numbers unchanged.
+//!
 //! Surfaces are two-sided (see [`crate::scene`]). Shading uses the interpolated vertex normals
 //! where a triangle has them (turned to the side of the geometric normal): the cosine of the
 //! BRDF and the GI ray's cosine distribution; the geometric normal keeps the ray offsets and
@@ -36,10 +44,11 @@ use glam::{Vec2, Vec3, Vec3A};
 use obvhs::{BvhBuildParams, cwbvh::CwBvh, ray::Ray, ray::RayHit};
 use reservoir::rng::Rng;
 
+use crate::brdf::{Brdf, BrdfSurface};
 use crate::image_io::Image;
 use crate::lights::{self, LightSample, Lights};
 use crate::sampling::{self, CameraGpu, Estimator, Paths};
-use crate::scene::{Camera, Scene, SceneError, luminance};
+use crate::scene::{Camera, MaterialModel, Scene, SceneError, luminance};
 
 /// Options of [`ReferenceRenderer::render`].
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -87,6 +96,12 @@ pub struct ReferenceRenderer {
     units: f32,
 }
 
+/// The BRDF's energy-compensation tables (computed once per process).
+fn brdf_tables() -> &'static crate::brdf::BrdfTables {
+    static TABLES: std::sync::OnceLock<crate::brdf::BrdfTables> = std::sync::OnceLock::new();
+    TABLES.get_or_init(crate::brdf::BrdfTables::compute)
+}
+
 fn u4(rng: &mut Rng) -> [f32; 4] {
     [0; 4].map(|_| rng.next_f32())
 }
@@ -106,13 +121,34 @@ fn barycentrics(v: [Vec3; 3], x: Vec3) -> Vec2 {
 }
 
 /// A surface point: position, geometric normal facing the incoming ray (offsets, light
-/// sidedness), shading normal, albedo, emission.
+/// sidedness), shading normal, albedo (base colour), emission, the direction towards whoever
+/// sees it, and its glossy BRDF (None: diffuse).
 struct Surface {
     x: Vec3,
     n: Vec3,
     ns: Vec3,
     albedo: Vec3,
     emission: Vec3,
+    wo: Vec3,
+    glossy: Option<BrdfSurface>,
+}
+
+/// One step of a path from a surface: the surface it reaches (None: the path ends), its weight
+/// f cos / pdf, and the emission it finds MIS-weighted against the light table (only from a
+/// glossy surface: a diffuse one leaves all of that light to next-event estimation).
+struct Step {
+    next: Option<Surface>,
+    weight: Vec3,
+    found: Vec3,
+}
+
+/// The power heuristic's weight of strategy a against b.
+fn power_heuristic(a: f32, b: f32) -> f32 {
+    if a > 0.0 {
+        a * a / (a * a + b * b)
+    } else {
+        0.0
+    }
 }
 
 /// Twin of `render_shading_normal`: the interpolated vertex normals at barycentrics b,
@@ -229,8 +265,62 @@ impl ReferenceRenderer {
                 s.emission *= self.texture(m.emissive_texture, uv, b);
             }
         }
-        let f = self.lights.contribution(v.x, v.n, v.ns, v.albedo, &s);
+        // A glossy surface's BRDF as the albedo whose / pi it is.
+        let a = match v.glossy {
+            Some(_) => self.brdf(v, self.light_direction(v.x, &s)) * std::f32::consts::PI,
+            None => v.albedo,
+        };
+        let f = self.lights.contribution(v.x, v.n, v.ns, a, &s);
         (f != Vec3::ZERO).then_some((f, s))
+    }
+
+    /// The unit direction from x towards light sample s.
+    fn light_direction(&self, x: Vec3, s: &LightSample) -> Vec3 {
+        match lights::at_infinity(s.kind) {
+            true => s.position,
+            false => (s.position - x).normalize_or_zero(),
+        }
+    }
+
+    /// v's BRDF from direction wi towards v.wo, without the cosine.
+    fn brdf(&self, v: &Surface, wi: Vec3) -> Vec3 {
+        match &v.glossy {
+            Some(g) => {
+                let (n, wo) = (v.ns.as_dvec3(), v.wo.as_dvec3());
+                Brdf::new(brdf_tables())
+                    .eval(g, n, wo, wi.as_dvec3())
+                    .as_vec3()
+            }
+            None => v.albedo * std::f32::consts::FRAC_1_PI,
+        }
+    }
+
+    /// The density of direction wi from v's step (cosine where diffuse, the BRDF's sampler
+    /// where glossy).
+    fn step_pdf(&self, v: &Surface, wi: Vec3) -> f32 {
+        match &v.glossy {
+            Some(g) => {
+                let (n, wo) = (v.ns.as_dvec3(), v.wo.as_dvec3());
+                Brdf::new(brdf_tables()).pdf(g, n, wo, wi.as_dvec3()) as f32
+            }
+            None => v.ns.dot(wi).max(0.0) * std::f32::consts::FRAC_1_PI,
+        }
+    }
+
+    /// The light sample's MIS weight at a glossy surface against its step's density (the
+    /// light table's density on the light side, as the GPU's with no estimate); 1 where
+    /// diffuse (next-event estimation takes all of the light there) and for punctual lights.
+    fn light_mis(&self, v: &Surface, s: &LightSample) -> f32 {
+        if v.glossy.is_none() || s.kind == lights::KIND_POINT || s.kind == lights::KIND_DIRECTIONAL
+        {
+            return 1.0;
+        }
+        let wi = self.light_direction(v.x, s);
+        let p_light = match s.kind {
+            lights::KIND_ENV => self.lights.pdf_env(wi),
+            _ => lights::pdf_solid_angle(self.lights.pdf_area(s.light), s.position - v.x, s.normal),
+        };
+        power_heuristic(p_light, self.step_pdf(v, wi))
     }
 
     /// Whether sample `s` is unoccluded from x (normal n): the segment to its point, or the ray
@@ -255,7 +345,9 @@ impl ReferenceRenderer {
             Estimator::Nee => {
                 let u = u4(rng);
                 match self.light_term(v, u, rng) {
-                    Some((f, s)) if self.visible(x, n, &s) => f / s.pdf_area,
+                    Some((f, s)) if self.visible(x, n, &s) => {
+                        f * self.light_mis(v, &s) / s.pdf_area
+                    }
                     _ => Vec3::ZERO,
                 }
             }
@@ -280,7 +372,7 @@ impl ReferenceRenderer {
                 }
                 match chosen {
                     Some((f, s, p_hat)) if self.visible(x, n, &s) => {
-                        f * (w_sum / (k as f32 * p_hat))
+                        f * self.light_mis(v, &s) * (w_sum / (k as f32 * p_hat))
                     }
                     _ => Vec3::ZERO,
                 }
@@ -303,6 +395,7 @@ impl ReferenceRenderer {
             None => n,
         };
         let (mut albedo, mut emission) = (Vec3::from(m.albedo), Vec3::from(m.emission));
+        let (mut metallic, mut roughness) = (m.metallic, m.roughness);
         if let Some(uv) = t.uv {
             if m.base_color_texture != 0 {
                 albedo *= self.texture(m.base_color_texture, uv, b);
@@ -310,13 +403,78 @@ impl ReferenceRenderer {
             if m.emissive_texture != 0 {
                 emission *= self.texture(m.emissive_texture, uv, b);
             }
+            if m.metallic_roughness_texture != 0 {
+                let mr = self.texture(m.metallic_roughness_texture, uv, b);
+                (metallic, roughness) = (metallic * mr.z, roughness * mr.y);
+            }
         }
+        // The GPU keeps metallic in 8 bits and roughness in 16 (render::pack_material).
+        let glossy = (m.model() == MaterialModel::MetalRoughness).then(|| BrdfSurface {
+            base: albedo.as_dvec3(),
+            metallic: f64::from((metallic.clamp(0.0, 1.0) * 255.0).round()) / 255.0,
+            roughness: f64::from((roughness.clamp(0.0, 1.0) * 65535.0).round()) / 65535.0,
+            diffuse: false,
+        });
         Surface {
             x,
             n,
             ns,
             albedo,
             emission,
+            wo: -dir,
+            glossy,
+        }
+    }
+
+    /// One step of a path from v ([`Step`]): a cosine-distributed direction about v's shading
+    /// normal where diffuse (two uniforms), the BRDF's sample where glossy (three); the path
+    /// ends where the direction is below the geometric surface or escapes.
+    fn step(&self, v: &Surface, rng: &mut Rng) -> Step {
+        let u = Vec2::new(rng.next_f32(), rng.next_f32());
+        let (wi, weight) = match &v.glossy {
+            None => (sampling::cosine_hemisphere(v.ns, u), v.albedo),
+            Some(g) => {
+                let u3 =
+                    glam::DVec3::new(f64::from(u.x), f64::from(u.y), f64::from(rng.next_f32()));
+                let (n, wo) = (v.ns.as_dvec3(), v.wo.as_dvec3());
+                let s = Brdf::new(brdf_tables()).sample(g, n, wo, u3);
+                (s.wi.as_vec3(), s.weight.as_vec3())
+            }
+        };
+        let ends = match v.glossy {
+            Some(_) => wi.dot(v.n) <= 0.0 || weight == Vec3::ZERO,
+            // Cosine-distributed about the shading normal but below the surface: no path.
+            None => wi.dot(v.n) <= 0.0 && v.ns != v.n,
+        };
+        let none = Step {
+            next: None,
+            weight,
+            found: Vec3::ZERO,
+        };
+        if ends {
+            return none;
+        }
+        let o = v.x + v.n * self.eps;
+        let Some(h) = self.closest(o, wi) else {
+            let found = match v.glossy {
+                Some(_) => {
+                    let p_light = self.lights.pdf_env(wi);
+                    self.lights.env_radiance(wi) * power_heuristic(self.step_pdf(v, wi), p_light)
+                }
+                None => Vec3::ZERO,
+            };
+            return Step { found, ..none };
+        };
+        let w = self.surface(o, wi, &h);
+        let mut found = Vec3::ZERO;
+        if v.glossy.is_some() && w.emission != Vec3::ZERO {
+            let p_light = self.lights.pdf_hit(h.triangle as u32, v.x, w.x, w.n);
+            found = w.emission * power_heuristic(self.step_pdf(v, wi), p_light);
+        }
+        Step {
+            next: Some(w),
+            weight,
+            found,
         }
     }
 
@@ -343,17 +501,12 @@ impl ReferenceRenderer {
             return (self.lights.env_radiance(dir), Vec3::ZERO);
         };
         let v1 = self.surface(eye, dir, &h1);
-        let direct = v1.emission + self.estimate(opts.method, &v1, rng);
-        let wi = sampling::cosine_hemisphere(v1.ns, Vec2::new(rng.next_f32(), rng.next_f32()));
-        if wi.dot(v1.n) <= 0.0 && v1.ns != v1.n {
-            // Cosine-distributed about the shading normal but below the surface: no path.
-            return (direct, Vec3::ZERO);
-        }
-        let o1 = v1.x + v1.n * self.eps;
-        let indirect = match self.closest(o1, wi) {
-            Some(h2) => {
-                let v2 = self.surface(o1, wi, &h2);
-                v1.albedo * (self.estimate(opts.method, &v2, rng) + self.path(opts, v2, rng))
+        let mut direct = v1.emission + self.estimate(opts.method, &v1, rng);
+        let step = self.step(&v1, rng);
+        direct += step.weight * step.found;
+        let indirect = match step.next {
+            Some(v2) => {
+                step.weight * (self.estimate(opts.method, &v2, rng) + self.path(opts, v2, rng))
             }
             None => Vec3::ZERO,
         };
@@ -361,32 +514,50 @@ impl ReferenceRenderer {
     }
 
     /// Bounces 2..=opts.paths.bounces beyond the secondary vertex v2: radiance towards x1 from the
-    /// light estimates at x3, x4, ... (cosine-sampled directions, throughput = the albedos of
-    /// the vertices left behind after x1), Russian roulette as the GPU's `render_path`.
+    /// light estimates at x3, x4, ... (each vertex's step, throughput = the step weights of
+    /// the vertices left behind after x1: their albedos where diffuse), and from glossy
+    /// vertices the emission their steps find; Russian roulette as the GPU's `render_path`.
     fn path(&self, opts: &ReferenceOptions, v2: Surface, rng: &mut Rng) -> Vec3 {
         let (mut v, mut throughput, mut l) = (v2, Vec3::ONE, Vec3::ZERO);
         let paths = opts.paths;
         for bounce in 2..=paths.bounces {
             if paths.roulette_from != 0 && bounce >= paths.roulette_from {
-                let q = v.albedo.max_element().min(1.0);
+                let q = self.survival(&v);
                 if rng.next_f32() >= q {
-                    break;
+                    return l;
                 }
                 throughput /= q;
             }
-            throughput *= v.albedo;
-            let wi = sampling::cosine_hemisphere(v.ns, Vec2::new(rng.next_f32(), rng.next_f32()));
-            if wi.dot(v.n) <= 0.0 && v.ns != v.n {
-                break;
-            }
-            let o = v.x + v.n * self.eps;
-            let Some(h) = self.closest(o, wi) else {
-                break;
+            let step = self.step(&v, rng);
+            throughput *= step.weight;
+            l += throughput * step.found;
+            let Some(w) = step.next else {
+                return l;
             };
-            v = self.surface(o, wi, &h);
+            v = w;
             l += throughput * self.estimate(opts.method, &v, rng);
         }
+        // The last vertex's light estimate is MIS-weighted where it is glossy: its step's
+        // share of the emission is part of the last bounce.
+        if v.glossy.is_some() {
+            let step = self.step(&v, rng);
+            l += throughput * step.weight * step.found;
+        }
         l
+    }
+
+    /// The probability that a path survives Russian roulette at v (twin of
+    /// `render_roulette_survival`): the largest channel of v's albedo, or of its BRDF's
+    /// directional albedo where glossy; at most 1.
+    fn survival(&self, v: &Surface) -> f32 {
+        let a = match &v.glossy {
+            Some(g) => {
+                let (n, wo) = (v.ns.as_dvec3(), v.wo.as_dvec3());
+                Brdf::new(brdf_tables()).albedo(g, n, wo).as_vec3()
+            }
+            None => v.albedo,
+        };
+        a.max_element().min(1.0)
     }
 
     /// The radiance a white diffuse surface at `x` with unit normal `n` reflects towards any
@@ -401,6 +572,8 @@ impl ReferenceRenderer {
             ns: n,
             albedo: Vec3::ONE,
             emission: Vec3::ZERO,
+            wo: n,
+            glossy: None,
         };
         let mut sum = glam::DVec3::ZERO;
         for s in 0..opts.spp {

@@ -268,7 +268,7 @@ fn render_structs_match_wgsl_layout() {
         GVertex,
         src,
         "PackedVertex",
-        [position, prim, normal, albedo, emission, shading]
+        [position, prim, normal, albedo, emission, shading, material]
     );
     tests::assert_wgsl_layout!(
         RenderParams,
@@ -311,7 +311,16 @@ fn render_structs_match_wgsl_layout() {
         restir_world::scene::Material,
         src,
         "Material",
-        [albedo, base_color_texture, emission, emissive_texture]
+        [
+            albedo,
+            base_color_texture,
+            emission,
+            emissive_texture,
+            model,
+            metallic,
+            roughness,
+            metallic_roughness_texture
+        ]
     );
 }
 

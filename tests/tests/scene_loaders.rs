@@ -575,3 +575,104 @@ fn builtin_scene_names_and_options() {
     let zero = scene::BuiltinOptions { width: 0, ..opts };
     assert!(scene::builtin("cornell", &zero).is_err());
 }
+
+/// Guards glTF's metallic-roughness materials as the loader reads them: the factors into the
+/// material (the file's default metallic and roughness are glTF's 1), its model glossy;
+/// factors outside [0, 1] (or NaN, which JSON cannot carry but a hand-built scene can) warn
+/// naming the material and are clamped by sanitize; `--materials diffuse` keeps the base
+/// colour and drops the rest.
+#[test]
+fn gltf_metallic_roughness_is_read_clamped_and_can_be_dropped() {
+    let d = temp_dir("gltf-pbr");
+    let bin = triangle_bin(2);
+    let uri = format!("data:application/octet-stream;base64,{}", base64(&bin));
+    let json = gltf_json(Some(&uri), 42, false).replace(
+        r#""baseColorFactor": [0.2, 0.4, 0.6, 1.0]"#,
+        r#""baseColorFactor": [0.2, 0.4, 0.6, 1.0], "metallicFactor": 0.25, "roughnessFactor": 1.5"#,
+    );
+    let p = write(&d, "pbr.gltf", json);
+    let l = scene::load(&p).unwrap();
+    let m = l.scene.materials[l.scene.triangles[0].material as usize];
+    assert_eq!(m.model(), scene::MaterialModel::MetalRoughness);
+    assert_eq!(
+        (m.metallic, m.roughness),
+        (0.25, 1.0),
+        "roughness clamped to 1"
+    );
+    assert_eq!(l.report.clamped_materials, 1, "{}", l.report);
+    assert!(
+        l.warnings
+            .iter()
+            .any(|w| w.contains("material 0") && w.contains("roughnessFactor 1.5")),
+        "{:?}",
+        l.warnings
+    );
+    // Without the fields: glTF's defaults, a rough metal.
+    let p = write(&d, "default.gltf", gltf_json(Some(&uri), 42, false));
+    let l = scene::load(&p).unwrap();
+    let m = l.scene.materials[0];
+    assert_eq!(
+        (m.model(), m.metallic, m.roughness),
+        (scene::MaterialModel::MetalRoughness, 1.0, 1.0)
+    );
+    let matte = l.scene.with_diffuse_materials();
+    assert_eq!(matte.materials[0].model(), scene::MaterialModel::Diffuse);
+    assert_eq!(matte.materials[0].albedo, [0.2, 0.4, 0.6]);
+    assert_eq!(matte.materials[0].emission, [8.0, 4.0, 2.0]);
+    // A hand-built NaN factor is clamped to 1 and counted.
+    let mut s = matte;
+    s.materials[0] = scene::Material::metal_roughness([0.5; 3], f32::NAN, -2.0);
+    let r = s.sanitize("hand-built").unwrap();
+    assert_eq!(r.clamped_materials, 1);
+    assert_eq!(
+        (s.materials[0].metallic, s.materials[0].roughness),
+        (1.0, 0.0)
+    );
+}
+
+/// Guards the MTL PBR extension's mapping (the same model as glTF's): `Pm`/`Pr` make a
+/// material metallic-roughness with Kd as its base colour; `Ns` stands in for a missing `Pr`
+/// (GGX alpha = sqrt(2 / (Ns + 2)), roughness = sqrt(alpha)); a material without `Pm` and `Pr`
+/// stays diffuse whatever its `Ns`; a bad `Pm` is an error naming the line.
+#[test]
+fn mtl_pbr_extension_maps_to_metallic_roughness() {
+    let d = temp_dir("obj-pbr");
+    write(
+        &d,
+        "pbr.mtl",
+        "newmtl metal\nKd 0.9 0.8 0.7\nPm 1\nPr 0.3\n\
+         newmtl phong\nKd 0.5 0.5 0.5\nPm 0.5\nNs 98\n\
+         newmtl matte\nKd 0.4 0.4 0.4\nNs 10\n",
+    );
+    let l = load_written(
+        &d,
+        "pbr.obj",
+        "mtllib pbr.mtl\nv 0 0 0\nv 1 0 0\nv 1 1 0\nusemtl metal\nf 1 2 3\nusemtl phong\nf 1 2 3\n\
+         usemtl matte\nf 1 2 3\n",
+    );
+    let m = |k: usize| l.scene.materials[l.scene.triangles[k].material as usize];
+    assert_eq!(m(0).model(), scene::MaterialModel::MetalRoughness);
+    assert_eq!(
+        (m(0).albedo, m(0).metallic, m(0).roughness),
+        ([0.9, 0.8, 0.7], 1.0, 0.3)
+    );
+    // Ns 98: alpha = sqrt(2 / 100) = 0.1414, roughness = 0.376.
+    assert_eq!(m(1).metallic, 0.5);
+    assert!(
+        (m(1).roughness - 0.02f32.sqrt().sqrt()).abs() < 1e-6,
+        "{}",
+        m(1).roughness
+    );
+    assert_eq!(m(2).model(), scene::MaterialModel::Diffuse);
+    write(&d, "bad.mtl", "newmtl x\nKd 1 1 1\nPm metal\n");
+    let p = write(
+        &d,
+        "bad.obj",
+        "mtllib bad.mtl\nv 0 0 0\nv 1 0 0\nv 1 1 0\nusemtl x\nf 1 2 3\n",
+    );
+    let e = scene::load(&p).unwrap_err();
+    assert!(
+        e.to_string().contains("MTL line 3: Pm expects one number"),
+        "{e}"
+    );
+}

@@ -289,7 +289,7 @@ fn no_nan_over_many_frames_overflow_and_camera_cut() {
     let ctx = gpu::context();
     let side = 24;
     let frames = 60;
-    for name in restir_world::scene::BUILTIN_NAMES {
+    for name in diffuse_builtins() {
         let (s, cam) = scene(name, side);
         for (label, config) in [("default", small()), ("tiny table", tiny_table())] {
             let mut wr = Composed::world_restir(ctx, &s, &cam, config, 1).expect("world-restir");
@@ -412,7 +412,7 @@ fn other_knobs_render_finite_non_black() {
 fn five_hundred_frames_every_scene_overflowing_with_cut() {
     let ctx = gpu::context();
     let side = 16;
-    for name in restir_world::scene::BUILTIN_NAMES {
+    for name in diffuse_builtins() {
         let (s, cam) = scene(name, side);
         let tiny = WorldRestirConfig {
             projected_size: 2.0,
@@ -435,4 +435,13 @@ fn five_hundred_frames_every_scene_overflowing_with_cut() {
         assert_finite(&format!("{name} 500 frames"), &img.indirect);
         assert_finite(&format!("{name} 500 frames"), &img.direct);
     }
+}
+
+/// The built-in scenes without glossy materials: world-restir refuses the others (its light
+/// reuse does not model glossy BRDFs yet), and their geometry is cornell's or a hall like
+/// many-lights'.
+fn diffuse_builtins() -> impl Iterator<Item = &'static str> {
+    restir_world::scene::BUILTIN_NAMES
+        .into_iter()
+        .filter(|n| !n.contains("glossy"))
 }

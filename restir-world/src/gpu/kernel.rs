@@ -73,6 +73,26 @@ impl Kernel {
         entry_points: &[&str],
         workgroup_size: u32,
     ) -> Self {
+        let constants = Constants {
+            workgroup_size,
+            overrides: &[],
+        };
+        Self::specialized(device, label, source, layouts, entry_points, constants)
+    }
+
+    /// [`Kernel::with_workgroup_size`] with values for the module's other pipeline-overridable
+    /// constants ([`Constants::overrides`]).
+    pub fn specialized(
+        device: &wgpu::Device,
+        label: &str,
+        source: &str,
+        layouts: &[&BindGroupLayout],
+        entry_points: &[&str],
+        constants: Constants,
+    ) -> Self {
+        let workgroup_size = constants.workgroup_size;
+        let mut values = vec![("WORKGROUP_SIZE", f64::from(workgroup_size))];
+        values.extend_from_slice(constants.overrides);
         let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
             label: Some(label),
             source: wgpu::ShaderSource::Wgsl(source.into()),
@@ -93,7 +113,7 @@ impl Kernel {
                     module: &module,
                     entry_point: Some(entry),
                     compilation_options: wgpu::PipelineCompilationOptions {
-                        constants: &[("WORKGROUP_SIZE", f64::from(workgroup_size))],
+                        constants: &values,
                         ..Default::default()
                     },
                     cache: None,
@@ -140,14 +160,26 @@ impl Kernel {
     }
 }
 
+/// The pipeline-overridable constants (WGSL `override`) a kernel's pipelines are created with.
+#[derive(Debug, Clone, Copy)]
+pub struct Constants<'a> {
+    /// `WORKGROUP_SIZE` ([`workgroup_size_wgsl`]).
+    pub workgroup_size: u32,
+    /// The module's other overrides, by name: the driver folds the branches they decide, so a
+    /// feature a scene does not use costs its kernels nothing.
+    pub overrides: &'a [(&'a str, f64)],
+}
+
 /// What makes a kernel's pipelines: the device, the composed source, the entry points, the
-/// workgroup size and the entries of each bind group layout.
+/// workgroup size, the other overrides (values as bits) and the entries of each bind group
+/// layout.
 #[derive(Debug, PartialEq, Eq, Hash)]
 struct KernelKey {
     device: wgpu::Device,
     source: String,
     entry_points: Vec<String>,
     workgroup_size: u32,
+    overrides: Vec<(String, u64)>,
     layouts: Vec<Vec<wgpu::BindGroupLayoutEntry>>,
 }
 
@@ -160,7 +192,7 @@ struct KernelKey {
 pub struct KernelCache(Arc<Mutex<HashMap<KernelKey, Kernel>>>);
 
 impl KernelCache {
-    /// [`Kernel::with_workgroup_size`], created once per distinct key.
+    /// [`Kernel::specialized`], created once per distinct key.
     pub fn kernel(
         &self,
         device: &wgpu::Device,
@@ -168,27 +200,25 @@ impl KernelCache {
         source: &str,
         layouts: &[&BindGroupLayout],
         entry_points: &[&str],
-        workgroup_size: u32,
+        constants: Constants,
     ) -> Kernel {
         let key = KernelKey {
             device: device.clone(),
             source: source.to_owned(),
             entry_points: entry_points.iter().map(|e| (*e).to_owned()).collect(),
-            workgroup_size,
+            workgroup_size: constants.workgroup_size,
+            overrides: constants
+                .overrides
+                .iter()
+                .map(|(k, v)| ((*k).to_owned(), v.to_bits()))
+                .collect(),
             layouts: layouts.iter().map(|l| l.entries()).collect(),
         };
         let mut kernels = self.0.lock().unwrap_or_else(|e| e.into_inner());
         kernels
             .entry(key)
             .or_insert_with(|| {
-                Kernel::with_workgroup_size(
-                    device,
-                    label,
-                    source,
-                    layouts,
-                    entry_points,
-                    workgroup_size,
-                )
+                Kernel::specialized(device, label, source, layouts, entry_points, constants)
             })
             .clone()
     }

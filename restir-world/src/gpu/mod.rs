@@ -24,6 +24,8 @@ mod wgsl;
 pub use binding::{Access, BindGroupLayout, BindingSet, Resource, count_storage_buffers};
 pub use context::{GpuContext, GpuError, OptionalFeatures, Tracer};
 pub use frame::FrameEncoder;
-pub use kernel::{Kernel, KernelCache, Pass, WORKGROUP_SIZE, dispatch_2d, workgroup_size_wgsl};
+pub use kernel::{
+    Constants, Kernel, KernelCache, Pass, WORKGROUP_SIZE, dispatch_2d, workgroup_size_wgsl,
+};
 pub use timing::{GpuTimer, PassTimes, SPANS_PER_SET, SpanTimes};
 pub use wgsl::{WgslModule, compose};

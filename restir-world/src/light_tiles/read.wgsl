@@ -17,14 +17,14 @@ fn light_tiles_first(pixel: u32, tiles: u32, tile_size: u32) -> u32 {
 // render_ris_lights with the candidates drawn uniformly from the tile of tile_size entries at
 // `first` instead of from the light table: each entry is a draw of the power pdf, so the RIS
 // weight stays p_hat / pdf.
-fn light_tiles_ris(p: vec3<f32>, n: vec3<f32>, ns: vec3<f32>, albedo: vec3<f32>, first: u32,
-                   tile_size: u32, candidates: u32, rng: ptr<function, u32>) -> RisLightSample {
+fn light_tiles_ris(v: GVertex, first: u32, tile_size: u32, candidates: u32,
+                   rng: ptr<function, u32>) -> RisLightSample {
     var r = reservoir_empty();
     var out: RisLightSample;
     out.p_hat = 0.0;
     for (var k = 0u; k < candidates; k++) {
         let s = light_tiles[first + rng_next_u32(rng) % tile_size];
-        render_ris_candidate(&r, &out, p, n, ns, albedo, s, rng_next_f32(rng));
+        render_ris_candidate(&r, &out, v, s, rng_next_f32(rng));
     }
     reservoir_finalize(&r, out.p_hat);
     out.reservoir = r;

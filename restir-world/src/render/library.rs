@@ -7,11 +7,17 @@ use crate::plant::Planted;
 use crate::scene::LUMINANCE;
 use crate::trace;
 
+use super::records::{SHADING_FLAT, TEXTURE_LINEAR};
 use super::streams::{STREAM_COUNT, Stream};
 use super::{RAY_EPS, T_MAX};
 
 /// The renderer's library (structs + functions).
 pub const WGSL: &str = include_str!("render.wgsl");
+/// The BRDF ([`crate::brdf::WGSL`]) with its `brdf_table` hook over `render_brdf_tables`.
+const BRDF_WGSL: &str = concat!(
+    "fn brdf_table(index: u32) -> f32 {\n    return render_brdf_tables[index];\n}\n",
+    include_str!("../brdf/brdf.wgsl")
+);
 /// The pass kernels.
 pub const PASSES_WGSL: &str = include_str!("passes.wgsl");
 /// The indirect path beyond the secondary vertex (`render_path_pixel`), shared with the
@@ -26,13 +32,18 @@ pub const PATH_LIGHT: &str = "path-light";
 pub(super) const METHOD_NEE: u32 = 0;
 pub(super) const METHOD_RIS: u32 = 1;
 
-/// Constants header of the render WGSL, with the planted defects' ids ([`Planted::wgsl`]).
+/// Constants header of the render WGSL, with the planted defects' ids ([`Planted::wgsl`]) and
+/// the override `RENDER_GLOSSY` (false unless a scene's glossy materials specialize the
+/// kernels: [`super::SharedGroups::glossy`]).
 pub fn constants_wgsl() -> String {
     let mut s = format!(
         "const RENDER_METHOD_NEE: u32 = {METHOD_NEE}u;\nconst RENDER_METHOD_RIS: u32 = {METHOD_RIS}u;\n\
          const STREAM_COUNT: u32 = {STREAM_COUNT}u;\nconst RENDER_RAY_EPS: f32 = {RAY_EPS:e};\n\
          const RENDER_T_MAX: f32 = {T_MAX:e};\nconst RENDER_NO_PIXEL: u32 = 0xffffffffu;\n\
-         const RENDER_LUMINANCE: vec3<f32> = vec3<f32>({:?}, {:?}, {:?});\n{}",
+         const RENDER_LUMINANCE: vec3<f32> = vec3<f32>({:?}, {:?}, {:?});\n\
+         const RENDER_TEXTURE_LINEAR: u32 = {TEXTURE_LINEAR}u;\n\
+         const RENDER_SHADING_FLAT: f32 = {SHADING_FLAT:?};\n\
+         override RENDER_GLOSSY: bool = false;\n{}",
         LUMINANCE[0],
         LUMINANCE[1],
         LUMINANCE[2],
@@ -68,6 +79,7 @@ pub fn bindings() -> BindingSet {
         )
         .buffer("render_textures", "array<TextureGpu>", Access::Read)
         .buffer("render_texels", "array<u32>", Access::Read)
+        .buffer("render_brdf_tables", "array<f32>", Access::Read)
 }
 
 /// The bind groups every pixel pass binds first: render buffers, the tracer's, lights.
@@ -86,6 +98,12 @@ pub fn library(tracer: Tracer) -> Vec<WgslModule> {
         WgslModule::new("workgroup", &[], workgroup_size_wgsl()),
         WgslModule::new("render-constants", &[], constants_wgsl()),
         WgslModule::new("render-bindings", &[], bindings().wgsl(0)),
+        WgslModule::new("brdf-constants", &[], crate::brdf::constants_wgsl()),
+        WgslModule::new(
+            "brdf",
+            &["sampling", "brdf-constants", "render-bindings"],
+            BRDF_WGSL,
+        ),
         WgslModule::new(
             "render",
             &[
@@ -94,6 +112,7 @@ pub fn library(tracer: Tracer) -> Vec<WgslModule> {
                 "trace",
                 "lights",
                 "reservoir",
+                "brdf",
             ],
             WGSL,
         ),

@@ -54,8 +54,9 @@ pub use library::{
     shared_bindings,
 };
 pub use records::{
-    ATTR_NORMALS, ATTR_UV, GVertex, RenderParams, RenderState, StoredReservoir, TextureGpu,
-    TriangleAttributes, ray_offset_floor, texture_tables, triangle_attributes,
+    ATTR_NORMALS, ATTR_UV, GVertex, RenderParams, RenderState, SHADING_FLAT, StoredReservoir,
+    TEXTURE_LINEAR, TextureGpu, TriangleAttributes, pack_material, ray_offset_floor,
+    texture_tables, triangle_attributes,
 };
 pub(crate) use render_buffers::RenderBuffers;
 pub use stage::{
@@ -181,6 +182,12 @@ impl Passes {
     }
 }
 
+/// The BRDF's energy-compensation tables, computed once per process (the first glossy scene).
+fn brdf_tables() -> &'static crate::brdf::BrdfTables {
+    static TABLES: std::sync::OnceLock<crate::brdf::BrdfTables> = std::sync::OnceLock::new();
+    TABLES.get_or_init(crate::brdf::BrdfTables::compute)
+}
+
 /// The GPU renderer of one scene and camera.
 #[derive(Debug)]
 pub struct Renderer {
@@ -274,7 +281,19 @@ impl Renderer {
         };
         let dummy = [bytemuck::Zeroable::zeroed()];
         let attributes = attributes.as_deref().unwrap_or(&dummy);
-        let buffers = RenderBuffers::new(&ctx.device, &params, materials, attributes, &textures);
+        let glossy = scene.glossy_materials() > 0;
+        let brdf_tables = match glossy {
+            true => brdf_tables().as_f32(),
+            false => &[0.0][..],
+        };
+        let buffers = RenderBuffers::new(
+            &ctx.device,
+            &params,
+            materials,
+            attributes,
+            &textures,
+            brdf_tables,
+        );
         let layouts = sets.map(|s| s.layout(&ctx.device));
         let groups = [
             layouts[0].bind(&ctx.device, buffers.resources())?,
@@ -287,6 +306,7 @@ impl Renderer {
             tracer: ctx.tracer,
             pixels,
             kernels: ctx.kernels.clone(),
+            glossy,
         };
         let passes = Passes::new(&ctx.device, &shared);
         Ok(Self {

@@ -18,13 +18,14 @@ fn render_primary(id: Invocation) {
     render_gbuffer[i] = render_pack_vertex(render_surface(ray.dir, trace_closest(ray)));
 }
 
-// One GI ray from each primary hit, cosine-weighted about the shading normal -> secondary
-// vertex (none when the direction is below the geometric surface).
+// One GI ray from each primary hit, drawn by its path step (render_path_step: cosine-weighted
+// about the shading normal where diffuse) -> secondary vertex (none when the direction is
+// below the geometric surface).
 @compute @workgroup_size(WORKGROUP_SIZE)
 fn render_gi(id: Invocation) {
     let i = item_index(id);
     if i >= render_params.pixel_count { return; }
-    let g = render_unpack_vertex(render_gbuffer[i]);
+    let g = render_primary_vertex(i);
     if g.prim == BVH_NO_HIT {
         var none: GVertex;
         none.prim = BVH_NO_HIT;
@@ -42,32 +43,33 @@ fn render_gi(id: Invocation) {
 fn render_shade_direct(id: Invocation) {
     let i = item_index(id);
     if i >= render_params.pixel_count { return; }
-    let g = render_unpack_vertex(render_gbuffer[i]);
+    let g = render_primary_vertex(i);
     var c = g.emission;
     if g.prim != BVH_NO_HIT {
         var rng = render_rng(i, STREAM_DIRECT);
         c = g.emission + render_nee(g, &rng);
         if render_params.mis != 0u {
-            c += g.albedo * render_hit_emission(g, render_unpack_vertex(render_secondary[i]));
+            let s = render_secondary_vertex(i, g);
+            c += render_throughput(g, s) * render_hit_emission(g, s);
         }
     }
     render_direct_frame[i] = vec4<f32>(c, 1.0);
 }
 
 // One-bounce indirect light: NEE at the secondary vertex is the radiance leaving it towards the
-// primary (the path sample's, PathLight); the primary reflects its albedo x that (the cosine pdf
-// of the GI ray cancels the cosine and 1/pi of the primary's BRDF).
+// primary (the path sample's, PathLight); the primary reflects the GI ray's weight x that
+// (render_throughput: its albedo where diffuse, the cosine pdf cancelling the cosine and 1/pi).
 @compute @workgroup_size(WORKGROUP_SIZE)
 fn render_shade_indirect(id: Invocation) {
     let i = item_index(id);
     if i >= render_params.pixel_count { return; }
-    let g = render_unpack_vertex(render_gbuffer[i]);
-    let s = render_unpack_vertex(render_secondary[i]);
+    let g = render_primary_vertex(i);
+    let s = render_secondary_vertex(i, g);
     var light = PathLight(vec3<f32>(0.0), vec3<f32>(0.0));
     if g.prim != BVH_NO_HIT && s.prim != BVH_NO_HIT {
         var rng = render_rng(i, STREAM_INDIRECT);
         let nee = render_nee(s, &rng);
-        light = PathLight(g.albedo * nee, nee);
+        light = PathLight(render_throughput(g, s) * nee, nee);
     }
     render_store_path_light(i, light, 0.0);
 }

@@ -13,20 +13,26 @@
 //     fn path_light_nee(i: u32, w: GVertex, bounce: u32, e: f32, rng: ptr<function, u32>) -> vec3<f32>
 // the light reflected at w by its light sample (render_nee_at without a stage's own).
 
-// The spread a cosine-sampled segment from v (direction dir, sampled about v's shading normal)
-// to w adds to a path's footprint (Mueller et al. 2021, neural radiance caching: the square
-// root of the area term |v - w|^2 / (p(dir) |cos at w|), p = cos at v / pi): a length, at
-// least the segment's.
+// The spread a segment from v (direction dir, drawn by v's path step) to w adds to a path's
+// footprint (Mueller et al. 2021, neural radiance caching: the square root of the area term
+// |v - w|^2 / (p(dir) |cos at w|), p the step's density, cos at v / pi for a diffuse surface):
+// a length, at least the segment's for a diffuse surface (a glossy lobe's is narrower).
 fn render_path_spread(v: GVertex, w: GVertex, dir: vec3<f32>) -> f32 {
-    let cos_v = max(dot(v.shading, dir), 0.01);
     let cos_w = max(abs(dot(w.normal, dir)), 0.01);
+    if RENDER_GLOSSY && v.material != 0u {
+        let p = max(render_brdf_pdf(v, dir), 0.01 * SAMPLING_INV_PI);
+        return length(w.position - v.position) * sqrt(1.0 / (p * cos_w));
+    }
+    let cos_v = max(dot(v.shading, dir), 0.01);
     return length(w.position - v.position) * sqrt(SAMPLING_PI / (cos_v * cos_w));
 }
 
 // Bounces 2..=render_params.bounces of pixel i: the path goes on from the secondary vertex by
-// cosine sampling, with the render's light estimate (render_nee) at every vertex, weighted by
-// the throughput (albedo products: the cosine pdf cancels the BRDF's cos / pi); Russian
-// roulette from bounce roulette_from on. Adds what it finds to both parts of the pixel's
+// its vertices' path steps (render_path_step: cosine sampling on a diffuse surface, the BRDF's
+// sampler on a glossy one), with the render's light estimate (render_nee) at every vertex,
+// weighted by the throughput (products of render_throughput: albedos where diffuse, the cosine
+// pdf cancelling the BRDF's cos / pi); Russian roulette from bounce roulette_from on
+// (render_roulette_survival). Adds what it finds to both parts of the pixel's
 // PathLight, the radiance leaving the secondary vertex (render_path_radiance, throughput from 1)
 // and the primary's reflected light (render_indirect_frame, throughput from the primary's
 // albedo), which the secondary vertex's pass wrote. Emission the path hits is not added (NEE at
@@ -36,14 +42,14 @@ fn render_path_spread(v: GVertex, w: GVertex, dir: vec3<f32>) -> f32 {
 // radiance stands for its light estimate and every bounce beyond it. With
 // render_params.path_split on, also records the pixel's path split (RenderPathSplit).
 fn render_path_pixel(i: u32) {
-    let g = render_unpack_vertex(render_gbuffer[i]);
-    var v = render_unpack_vertex(render_secondary[i]);
+    let g = render_primary_vertex(i);
+    var v = render_secondary_vertex(i, g);
     if g.prim == BVH_NO_HIT || v.prim == BVH_NO_HIT {
         return;
     }
     // The two throughputs: leaving the secondary vertex, and reflected at the primary.
     var leaving = vec3<f32>(1.0);
-    var reflected = g.albedo;
+    var reflected = render_throughput(g, v);
     var light = PathLight(vec3<f32>(0.0), vec3<f32>(0.0));
     var footprint = render_path_spread(g, v, normalize(v.position - g.position));
     // The MIS estimate of v's light sample (x2's, as its pass stored it: render_store_path_light).
@@ -61,7 +67,7 @@ fn render_path_pixel(i: u32) {
     for (var bounce = 2u; bounce <= last; bounce++) {
         var rng = render_rng_salted(i, STREAM_PATH, bounce);
         if render_params.roulette_from != 0u && bounce >= render_params.roulette_from {
-            let q = min(max(v.albedo.x, max(v.albedo.y, v.albedo.z)), 1.0);
+            let q = render_roulette_survival(v);
             if !(rng_next_f32(&rng) < q) {
                 break;
             }
@@ -69,12 +75,13 @@ fn render_path_pixel(i: u32) {
             reflected /= render_roulette_divisor(q);
             beyond /= render_roulette_divisor(q);
         }
-        leaving *= v.albedo;
-        reflected *= v.albedo;
-        if bounce > 2u {
-            beyond *= v.albedo;
-        }
         let w = render_path_step(v, &rng);
+        let t = render_throughput(v, w);
+        leaving *= t;
+        reflected *= t;
+        if bounce > 2u {
+            beyond *= t;
+        }
         // The ray from v weighs what it finds as v's light sample was.
         let found = render_hit_emission_at(v, w, e_v);
         render_path_add(&light, leaving, reflected, found);
@@ -125,9 +132,10 @@ fn render_path_add(light: ptr<function, PathLight>, leaving: vec3<f32>, reflecte
     (*light).reflected += reflected * l;
 }
 
-// One diffuse bounce from v: the vertex a cosine-sampled ray about v's shading normal finds
-// (prim = BVH_NO_HIT where it escapes or, with vertex normals, points below the geometric
-// surface: then emission is 0 and the path ends).
+// One bounce from v: the vertex a ray drawn by v's BRDF finds, cosine-sampled about v's shading
+// normal on a diffuse surface (two random numbers), by brdf_sample on a glossy one (three); its
+// density is render_brdf_pdf, its weight render_throughput. prim = BVH_NO_HIT where the ray
+// escapes or points below the geometric surface (then emission is 0 and the path ends).
 fn render_path_step(v: GVertex, rng: ptr<function, u32>) -> GVertex {
     let u = vec2<f32>(rng_next_f32(rng), rng_next_f32(rng));
     var ray: Ray;
@@ -135,6 +143,16 @@ fn render_path_step(v: GVertex, rng: ptr<function, u32>) -> GVertex {
     ray.tmin = 0.0;
     ray.dir = sampling_cosine_hemisphere(v.shading, u);
     ray.tmax = RENDER_T_MAX;
+    if RENDER_GLOSSY && v.material != 0u {
+        let u3 = vec3<f32>(u, rng_next_f32(rng));
+        let s = brdf_sample(render_vertex_brdf(v), v.shading, v.wo, u3);
+        ray.dir = s.wi;
+        if !(s.pdf > 0.0) || dot(ray.dir, v.normal) <= 0.0 {
+            var none: GVertex;
+            none.prim = BVH_NO_HIT;
+            return none;
+        }
+    }
     if render_params.attributes != 0u && dot(ray.dir, v.normal) <= 0.0 {
         var none: GVertex;
         none.prim = BVH_NO_HIT;

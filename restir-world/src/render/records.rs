@@ -1,7 +1,7 @@
 //! The Rust twins of the render library's WGSL structs, and the tables the renderer uploads.
 
 use crate::sampling::{CameraGpu, Estimator};
-use crate::scene::{Camera, Scene};
+use crate::scene::{Camera, MaterialModel, Scene};
 
 use super::RenderOptions;
 use super::library::{METHOD_NEE, METHOD_RIS};
@@ -30,12 +30,31 @@ pub struct GVertex {
     pub normal: [f32; 3],
     pub albedo: [f32; 3],
     pub emission: [f32; 3],
-    /// Unit shading normal (interpolated vertex normals, on the side of `normal`; equal to
-    /// `normal` for a triangle without them).
-    pub shading: [f32; 3],
+    /// The unit shading normal (interpolated vertex normals, on the side of `normal`) as its
+    /// octahedral coordinates, or `[SHADING_FLAT, 0]` where it is `normal` (a triangle
+    /// without vertex normals).
+    pub shading: [f32; 2],
+    /// The rest of the surface's BRDF: [`pack_material`]'s word (0: diffuse).
+    pub material: u32,
 }
 
 const _: () = assert!(size_of::<GVertex>() == 64);
+
+/// [`GVertex::shading`]'s first coordinate where the shading normal is the geometric normal
+/// (WGSL `RENDER_SHADING_FLAT`).
+pub const SHADING_FLAT: f32 = 2.0;
+
+/// A vertex's material word (twin of WGSL `render_pack_material`): perceptual roughness as
+/// unorm16 (bits 0-15), metallic as unorm8 (16-23), the [`MaterialModel`] above; 0 for a
+/// diffuse surface.
+pub fn pack_material(model: MaterialModel, metallic: f32, roughness: f32) -> u32 {
+    if model == MaterialModel::Diffuse {
+        return 0;
+    }
+    let r = (roughness.clamp(0.0, 1.0) * 65535.0).round() as u32;
+    let m = (metallic.clamp(0.0, 1.0) * 255.0).round() as u32;
+    r | (m << 16) | ((model as u32) << 24)
+}
 
 /// [`TriangleAttributes::flags`]: the vertex normals are set.
 pub const ATTR_NORMALS: u32 = 1;
@@ -96,8 +115,8 @@ pub fn triangle_attributes(scene: &Scene) -> Option<Vec<TriangleAttributes>> {
 }
 
 /// WGSL `TextureGpu`: one texture ref (a material's use of a texture): its affine map of the
-/// texture coordinates, its texels' offset in `render_texels`, size, and wrap modes
-/// (s | t << 8, [`crate::scene::Wrap`] values).
+/// texture coordinates, its texels' offset in `render_texels`, size, wrap modes and encoding
+/// (s | t << 8, [`crate::scene::Wrap`] values, | [`TEXTURE_LINEAR`] for linear data).
 #[repr(C)]
 #[derive(Debug, Clone, Copy, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
 pub struct TextureGpu {
@@ -109,7 +128,11 @@ pub struct TextureGpu {
     pub wrap: u32,
 }
 
-/// The scene's texture refs and all texels (RGBA8 sRGB, one u32 each, textures one after the
+/// `TextureGpu::wrap`'s flag of a texture ref whose texels are linear data (value / 255), not
+/// sRGB-encoded colour ([`crate::scene::TextureRef::linear`]).
+pub const TEXTURE_LINEAR: u32 = 1 << 16;
+
+/// The scene's texture refs and all texels (RGBA8, one u32 each, textures one after the
 /// other); one dummy each when the scene has none.
 pub fn texture_tables(scene: &Scene) -> (Vec<TextureGpu>, Vec<u32>) {
     let mut texels = Vec::new();
@@ -129,7 +152,9 @@ pub fn texture_tables(scene: &Scene) -> (Vec<TextureGpu>, Vec<u32>) {
                 offset: offsets[r.texture as usize],
                 width: t.width,
                 height: t.height,
-                wrap: r.wrap[0] as u32 | (r.wrap[1] as u32) << 8,
+                wrap: r.wrap[0] as u32
+                    | (r.wrap[1] as u32) << 8
+                    | if r.linear { TEXTURE_LINEAR } else { 0 },
             }
         })
         .collect();

@@ -6,16 +6,21 @@
 // CPU reference with the same estimators: restir_world::reference.
 
 // Material, as restir_world::scene::Material. The textures are 1 + a texture ref index (0:
-// none); the texture multiplies the factor.
+// none); the texture multiplies the factor. model: 0 diffuse, 1 glTF metallic-roughness.
 struct Material {
     albedo: vec3<f32>,
     base_color_texture: u32,
     emission: vec3<f32>,
     emissive_texture: u32,
+    model: u32,
+    metallic: f32,
+    roughness: f32,
+    metallic_roughness_texture: u32,
 }
 
 // A material's use of a texture (Rust: render::TextureGpu): (s, t) = (row0, row1) . (u, v, 1);
-// texels at render_texels[offset ..], wrap = s | t << 8 (0 repeat, 1 mirrored, 2 clamp).
+// texels at render_texels[offset ..], wrap = s | t << 8 (0 repeat, 1 mirrored, 2 clamp), |
+// RENDER_TEXTURE_LINEAR for linear data (value / 255) rather than sRGB-encoded colour.
 struct TextureGpu {
     row0: vec4<f32>,
     row1: vec4<f32>,
@@ -28,7 +33,12 @@ struct TextureGpu {
 // A surface vertex: `prim` is the BVH-order triangle (BVH_NO_HIT: the ray escaped), `normal`
 // the unit geometric normal turned towards the incoming ray (ray offsets, light sidedness),
 // `shading` the unit shading normal (interpolated vertex normals turned to the side of
-// `normal`; `normal` itself for a triangle without them).
+// `normal`; `normal` itself for a triangle without them), `albedo` the base colour and
+// `material` the rest of the surface's BRDF (render_pack_material: 0 is diffuse). `wo` is the
+// unit direction towards whoever sees the vertex (the ray's origin), which a glossy BRDF
+// depends on; buffers do not store it: render_surface sets it, and a pass that unpacks a
+// vertex sets it from the vertex before (render_primary_vertex, render_secondary_vertex;
+// render_unpack_vertex leaves the shading normal, which a diffuse surface never reads).
 struct GVertex {
     position: vec3<f32>,
     prim: u32,
@@ -36,18 +46,24 @@ struct GVertex {
     albedo: vec3<f32>,
     emission: vec3<f32>,
     shading: vec3<f32>,
+    material: u32,
+    wo: vec3<f32>,
 }
 
 // A GVertex as buffers store it (the G-buffer, the secondary vertices, the histories; Rust:
 // render::GVertex): 64 bytes without padding, so that a 1920x1080 frame's vertices fit one
-// 128 MiB storage binding (a vec3's 16-byte alignment made it 80).
+// 128 MiB storage binding (a vec3's 16-byte alignment made it 80). The shading normal is kept
+// as its octahedral coordinates (sampling_oct_encode, f32: exact to about 1e-7), or with
+// RENDER_SHADING_FLAT (outside [-1, 1]) first where it is the geometric normal (then exactly
+// that).
 struct PackedVertex {
     position: array<f32, 3>,
     prim: u32,
     normal: array<f32, 3>,
     albedo: array<f32, 3>,
     emission: array<f32, 3>,
-    shading: array<f32, 3>,
+    shading: array<f32, 2>,
+    material: u32,
 }
 
 fn render_vec3(a: array<f32, 3>) -> vec3<f32> {
@@ -59,14 +75,60 @@ fn render_array3(v: vec3<f32>) -> array<f32, 3> {
 }
 
 fn render_unpack_vertex(p: PackedVertex) -> GVertex {
-    return GVertex(render_vec3(p.position), p.prim, render_vec3(p.normal), render_vec3(p.albedo),
-                   render_vec3(p.emission), render_vec3(p.shading));
+    let normal = render_vec3(p.normal);
+    var shading = normal;
+    if p.shading[0] != RENDER_SHADING_FLAT {
+        shading = sampling_oct_decode(vec2<f32>(p.shading[0], p.shading[1]));
+    }
+    return GVertex(render_vec3(p.position), p.prim, normal, render_vec3(p.albedo),
+                   render_vec3(p.emission), shading, p.material, shading);
+}
+
+// Pixel i's primary vertex (the G-buffer's), seen from this frame's camera.
+fn render_primary_vertex(i: u32) -> GVertex {
+    var g = render_unpack_vertex(render_gbuffer[i]);
+    g.wo = normalize(render_params.camera.eye - g.position);
+    return g;
+}
+
+// Pixel i's secondary vertex, seen from its primary vertex g (from the origin of g's GI ray).
+fn render_secondary_vertex(i: u32, g: GVertex) -> GVertex {
+    var s = render_unpack_vertex(render_secondary[i]);
+    s.wo = normalize(render_offset(g.position, g.normal) - s.position);
+    return s;
 }
 
 fn render_pack_vertex(v: GVertex) -> PackedVertex {
+    var shading = array<f32, 2>(RENDER_SHADING_FLAT, 0.0);
+    if any(v.shading != v.normal) {
+        let e = sampling_oct_encode(v.shading);
+        shading = array<f32, 2>(e.x, e.y);
+    }
     return PackedVertex(render_array3(v.position), v.prim, render_array3(v.normal),
-                        render_array3(v.albedo), render_array3(v.emission),
-                        render_array3(v.shading));
+                        render_array3(v.albedo), render_array3(v.emission), shading,
+                        v.material);
+}
+
+// A GVertex's material word: perceptual roughness as unorm16 (bits 0-15), metallic as unorm8
+// (16-23), the model above (0 diffuse, 1 metallic-roughness); 0 for a diffuse surface (whose
+// roughness and metallic are not read). Rust twin: render::pack_material.
+fn render_pack_material(model: u32, metallic: f32, roughness: f32) -> u32 {
+    if model == 0u {
+        return 0u;
+    }
+    let r = u32(round(clamp(roughness, 0.0, 1.0) * 65535.0));
+    let m = u32(round(clamp(metallic, 0.0, 1.0) * 255.0));
+    return r | (m << 16u) | (model << 24u);
+}
+
+// The BRDF of vertex v (brdf.wgsl): its base colour and material word unpacked.
+fn render_vertex_brdf(v: GVertex) -> BrdfSurface {
+    var s: BrdfSurface;
+    s.base = v.albedo;
+    s.diffuse = (v.material >> 24u) == 0u;
+    s.metallic = f32((v.material >> 16u) & 255u) / 255.0;
+    s.roughness = f32(v.material & 65535u) / 65535.0;
+    return s;
 }
 
 // Per scene triangle: vertex normals (flags & 1) and texture coordinates (flags & 2)
@@ -200,6 +262,7 @@ fn render_rand4(rng: ptr<function, u32>) -> vec4<f32> {
 fn render_surface(dir: vec3<f32>, hit: Hit) -> GVertex {
     var v: GVertex;
     v.prim = hit.prim;
+    v.wo = -dir;
     if hit.prim == BVH_NO_HIT {
         // The ray escaped: it sees the environment. The direction is kept in `shading` (for
         // multiple importance sampling of what it sees).
@@ -220,6 +283,8 @@ fn render_surface(dir: vec3<f32>, hit: Hit) -> GVertex {
     let m = render_materials[tri.material];
     v.albedo = m.albedo;
     v.emission = m.emission;
+    var metallic = m.metallic;
+    var roughness = m.roughness;
     if render_params.attributes != 0u {
         let a = render_attributes[tri.index];
         if (a.flags & 1u) != 0u {
@@ -233,7 +298,16 @@ fn render_surface(dir: vec3<f32>, hit: Hit) -> GVertex {
             if m.emissive_texture != 0u {
                 v.emission *= render_texture(m.emissive_texture, uv);
             }
+            if RENDER_GLOSSY && m.metallic_roughness_texture != 0u {
+                // glTF: blue is metallic, green roughness.
+                let t = render_texture(m.metallic_roughness_texture, uv);
+                metallic *= t.z;
+                roughness *= t.y;
+            }
         }
+    }
+    if RENDER_GLOSSY {
+        v.material = render_pack_material(m.model, metallic, roughness);
     }
     return v;
 }
@@ -266,8 +340,11 @@ fn render_srgb_to_linear(c: u32) -> f32 {
 
 fn render_texel(t: TextureGpu, i: i32, j: i32) -> vec3<f32> {
     let x = u32(render_wrap(i, i32(t.width), t.wrap & 255u));
-    let y = u32(render_wrap(j, i32(t.height), t.wrap >> 8u));
+    let y = u32(render_wrap(j, i32(t.height), (t.wrap >> 8u) & 255u));
     let p = render_texels[t.offset + y * t.width + x];
+    if (t.wrap & RENDER_TEXTURE_LINEAR) != 0u {
+        return vec3<f32>(f32(p & 255u), f32((p >> 8u) & 255u), f32((p >> 16u) & 255u)) / 255.0;
+    }
     return vec3<f32>(render_srgb_to_linear(p & 255u), render_srgb_to_linear((p >> 8u) & 255u),
                      render_srgb_to_linear((p >> 16u) & 255u));
 }
@@ -321,6 +398,18 @@ fn render_light_sample(u: vec4<f32>, rng: ptr<function, u32>) -> LightSample {
 // 1 under the planted defect MERGE_WITHOUT_M (restir_world::plant).
 fn render_planted_m(m: u32) -> u32 {
     return select(m, min(m, 1u), render_params.planted == PLANTED_MERGE_WITHOUT_M);
+}
+
+// The probability that a path survives Russian roulette at vertex v: the share of the light
+// its next step carries on average, v's albedo's largest channel where diffuse (the step's
+// weight render_throughput), the BRDF's directional albedo's (brdf_albedo) where glossy; at
+// most 1. Positive wherever a step can carry light, so that every path keeps a chance.
+fn render_roulette_survival(v: GVertex) -> f32 {
+    var a = v.albedo;
+    if RENDER_GLOSSY && v.material != 0u {
+        a = brdf_albedo(render_vertex_brdf(v), v.shading, v.wo);
+    }
+    return min(max(a.x, max(a.y, a.z)), 1.0);
 }
 
 // The survival probability a path's throughput is divided by after Russian roulette: q, but 1
@@ -396,12 +485,6 @@ fn render_power_heuristic(a: f32, b: f32) -> f32 {
     return select(0.0, a2 / (a2 + b * b), a2 > 0.0);
 }
 
-// The light-sample strategy's weight of sample s at point p (shading normal ns), with the
-// light table's density.
-fn render_light_mis(p: vec3<f32>, ns: vec3<f32>, s: LightSample) -> f32 {
-    return render_light_mis_at(p, ns, s, 0.0);
-}
-
 // MIS from the resampled density (world-restir's vertices). A light sample resampled from M
 // candidates of the light table (density p_table) towards the target p_hat (the unshadowed
 // reflected luminance) has about the density M p_hat(y) / (w(y) + (M - 1) I), w = p_hat /
@@ -439,21 +522,23 @@ const RENDER_ESTIMATE_SALT: u32 = 0xffeu;
 // (nothing reads it).
 fn render_light_estimate(v: GVertex, k: u32, rng: ptr<function, u32>) -> f32 {
     let a = render_luminance(v.albedo);
-    if k == 0u || render_params.mis == 0u || !(a > 0.0) {
+    // A glossy vertex weighs with the light table's density (render_light_density's
+    // approximation assumes a cosine lobe).
+    if k == 0u || render_params.mis == 0u || !(a > 0.0) || v.material != 0u {
         return 0.0;
     }
     var sum = 0.0;
     for (var c = 0u; c < k; c++) {
         let s = render_light_sample(render_rand4(rng), rng);
         if s.pdf_area > 0.0 {
-            sum += render_luminance(render_light_contribution(v.position, v.normal, v.shading, v.albedo, s)) / s.pdf_area;
+            sum += render_luminance(render_vertex_light(v, s)) / s.pdf_area;
         }
     }
     return sum / (f32(k) * a);
 }
 
 // render_light_mis with the resampled density where the vertex has an estimate e > 0.
-fn render_light_mis_at(p: vec3<f32>, ns: vec3<f32>, s: LightSample, e: f32) -> f32 {
+fn render_light_mis_at(v: GVertex, s: LightSample, e: f32) -> f32 {
     if render_params.mis == 0u || s.kind == LIGHTS_KIND_POINT || s.kind == LIGHTS_KIND_DIRECTIONAL {
         return 1.0;
     }
@@ -462,11 +547,11 @@ fn render_light_mis_at(p: vec3<f32>, ns: vec3<f32>, s: LightSample, e: f32) -> f
     if s.kind == LIGHTS_KIND_ENV {
         p_table = lights_pdf_env(wi);
     } else {
-        let to = s.position - p;
+        let to = s.position - v.position;
         wi = normalize(to);
         p_table = lights_pdf_solid_angle(lights_pdf_area(s.light), to, s.normal);
     }
-    let p_ray = max(dot(ns, wi), 0.0) * SAMPLING_INV_PI;
+    let p_ray = render_brdf_pdf(v, wi);
     var p_light = render_light_density(p_table, p_ray, s.emission, e);
     if e > 0.0 && render_params.planted == PLANTED_LIGHT_MIS_DOUBLED {
         // Planted defect: the light side's density doubled, the ray side's not.
@@ -475,10 +560,10 @@ fn render_light_mis_at(p: vec3<f32>, ns: vec3<f32>, s: LightSample, e: f32) -> f
     return render_power_heuristic(p_light, p_ray);
 }
 
-// The emission a cosine-sampled ray from v found at w (a hit, or an escaped ray whose emission
-// is the environment's radiance in direction w.shading), weighted by the ray strategy's MIS
-// weight against the light table's density; 0 without MIS (next-event estimation then counts
-// all of it).
+// The emission a ray from v drawn by its path step (render_path_step) found at w (a hit, or an
+// escaped ray whose emission is the environment's radiance in direction w.shading), weighted
+// by the ray strategy's MIS weight against the light table's density; 0 without MIS
+// (next-event estimation then counts all of it).
 fn render_hit_emission(v: GVertex, w: GVertex) -> vec3<f32> {
     return render_hit_emission_at(v, w, 0.0);
 }
@@ -497,7 +582,7 @@ fn render_hit_emission_at(v: GVertex, w: GVertex, e: f32) -> vec3<f32> {
         dir = normalize(w.position - v.position);
         p_table = lights_pdf_hit(bvh_triangles[w.prim].index, v.position, w.position, w.normal);
     }
-    let p_ray = max(dot(v.shading, dir), 0.0) * SAMPLING_INV_PI;
+    let p_ray = render_brdf_pdf(v, dir);
     return w.emission * render_power_heuristic(p_ray, render_light_density(p_table, p_ray, w.emission, e));
 }
 
@@ -515,7 +600,7 @@ fn render_stored_light(v: GVertex, res: StoredReservoir, e: f32) -> vec3<f32> {
         return vec3<f32>(0.0);
     }
     if render_params.mis != 0u {
-        f *= render_light_mis_at(v.position, v.shading, y, e);
+        f *= render_light_mis_at(v, y, e);
     }
     return f;
 }
@@ -557,6 +642,26 @@ fn render_reuse_store(c: ptr<function, Reuse>, own: StoredReservoir,
     return out;
 }
 
+// The weight f cos / pdf of the step from vertex v to vertex w (a hit, or an escaped ray whose
+// direction is w.shading) that v's path step (render_path_step) drew: v's albedo for a diffuse
+// surface (the cosine density cancels the cosine and 1 / pi), the BRDF's ratio otherwise.
+fn render_throughput(v: GVertex, w: GVertex) -> vec3<f32> {
+    if !RENDER_GLOSSY || v.material == 0u {
+        return v.albedo;
+    }
+    var dir = w.shading;
+    if w.prim != BVH_NO_HIT {
+        // From the ray's origin, not from v: a narrow lobe's weight at a direction off by
+        // offset / distance (near where two surfaces meet) lost 2% of a smooth metal's light.
+        dir = normalize(w.position - render_offset(v.position, v.normal));
+    }
+    let pdf = render_brdf_pdf(v, dir);
+    if !(pdf > 0.0) {
+        return vec3<f32>(0.0);
+    }
+    return render_brdf(v, dir) * (max(dot(v.shading, dir), 0.0) / pdf);
+}
+
 // Direct light at primary vertex g from a stored reservoir: the emission seen + f(y) W with one
 // shadow ray (restir-di's and the unified cache's shading), + with MIS the emission its GI ray
 // found at `secondary`, both weighted with g's estimate e (render_light_mis_at).
@@ -565,7 +670,7 @@ fn render_direct_from_stored(g: GVertex, res: StoredReservoir, secondary: GVerte
     if g.prim != BVH_NO_HIT {
         c += render_shade_stored(render_stored_light(g, res, e), res, vec3<f32>(1.0));
         if render_params.mis != 0u {
-            c += g.albedo * render_hit_emission_at(g, secondary, e);
+            c += render_throughput(g, secondary) * render_hit_emission_at(g, secondary, e);
         }
     }
     return c;
@@ -647,33 +752,48 @@ fn render_offset(p: vec3<f32>, n: vec3<f32>) -> vec3<f32> {
     return p + n * (RENDER_RAY_EPS * scale);
 }
 
-// Unshadowed reflected radiance integrand in the sample's measure (no pdf): BRDF * Le * G for
-// a triangle point (area), BRDF * I * falloff * cos / d^2 for a point or spot light (discrete),
-// BRDF * L (or E) * cos for a direction at infinity (solid angle, or discrete for a directional
-// light). Twin: lights::Lights::contribution.
-// n is the geometric normal (the light must be on its side), ns the shading normal (the
-// cosine).
-fn render_light_contribution(p: vec3<f32>, n: vec3<f32>, ns: vec3<f32>, albedo: vec3<f32>, s: LightSample) -> vec3<f32> {
-    if s.kind != LIGHTS_KIND_TRIANGLE {
-        return render_other_light_contribution(p, n, ns, albedo, s);
+// The BRDF of vertex v towards the viewer (v.wo) from direction wi (unit, towards the light),
+// without the cosine: albedo / pi for a diffuse surface (the same product as before glossy
+// materials, so diffuse images are unchanged), brdf_eval otherwise.
+fn render_brdf(v: GVertex, wi: vec3<f32>) -> vec3<f32> {
+    if !RENDER_GLOSSY || v.material == 0u {
+        return v.albedo * SAMPLING_INV_PI;
     }
-    let to_light = s.position - p;
+    let f = brdf_eval(render_vertex_brdf(v), v.shading, v.wo, wi);
+    // Planted defect GLOSSY_ENERGY_LOSS (restir_world::plant).
+    return f * select(1.0, 0.99, render_params.planted == PLANTED_GLOSSY_ENERGY_LOSS);
+}
+
+// The density (solid angle) with which vertex v's path step (render_path_step) draws the
+// direction wi: the cosine's for a diffuse surface, brdf_pdf otherwise.
+fn render_brdf_pdf(v: GVertex, wi: vec3<f32>) -> f32 {
+    if !RENDER_GLOSSY || v.material == 0u {
+        return max(dot(v.shading, wi), 0.0) * SAMPLING_INV_PI;
+    }
+    return brdf_pdf(render_vertex_brdf(v), v.shading, v.wo, wi);
+}
+
+// Unshadowed reflected radiance integrand of light sample s at vertex v, in the sample's
+// measure (no pdf): BRDF * Le * G for a triangle point (area), BRDF * I * falloff * cos / d^2
+// for a point or spot light (discrete), BRDF * L (or E) * cos for a direction at infinity
+// (solid angle, or discrete for a directional light). The light must be on the side of v's
+// geometric normal; the cosine is the shading normal's. Twin: lights::Lights::contribution.
+fn render_vertex_light(v: GVertex, s: LightSample) -> vec3<f32> {
+    if s.kind != LIGHTS_KIND_TRIANGLE {
+        return render_other_light_contribution(v, s);
+    }
+    let to_light = s.position - v.position;
     let d2 = dot(to_light, to_light);
     if d2 <= 0.0 {
         return vec3<f32>(0.0);
     }
     let wi = to_light * inverseSqrt(d2);
-    let cos_x = dot(ns, wi);
+    let cos_x = dot(v.shading, wi);
     let cos_l = abs(dot(s.normal, wi));
-    if cos_x <= 0.0 || dot(n, wi) <= 0.0 {
+    if cos_x <= 0.0 || dot(v.normal, wi) <= 0.0 {
         return vec3<f32>(0.0);
     }
-    return albedo * SAMPLING_INV_PI * s.emission * (cos_x * cos_l / d2);
-}
-
-// Unshadowed reflected radiance of light sample s at vertex v.
-fn render_vertex_light(v: GVertex, s: LightSample) -> vec3<f32> {
-    return render_light_contribution(v.position, v.normal, v.shading, v.albedo, s);
+    return render_brdf(v, wi) * s.emission * (cos_x * cos_l / d2);
 }
 
 // The target p_hat of every light-sample resampling (ris, world-restir, restir-di): luminance
@@ -682,26 +802,26 @@ fn render_light_target(v: GVertex, s: LightSample) -> f32 {
     return render_luminance(render_vertex_light(v, s));
 }
 
-fn render_other_light_contribution(p: vec3<f32>, n: vec3<f32>, ns: vec3<f32>, albedo: vec3<f32>, s: LightSample) -> vec3<f32> {
+fn render_other_light_contribution(v: GVertex, s: LightSample) -> vec3<f32> {
     if lights_at_infinity(s.kind) {
-        let cos_x = dot(ns, s.position);
-        if cos_x <= 0.0 || dot(n, s.position) <= 0.0 {
+        let cos_x = dot(v.shading, s.position);
+        if cos_x <= 0.0 || dot(v.normal, s.position) <= 0.0 {
             return vec3<f32>(0.0);
         }
-        return albedo * SAMPLING_INV_PI * s.emission * cos_x;
+        return render_brdf(v, s.position) * s.emission * cos_x;
     }
-    let to_light = s.position - p;
+    let to_light = s.position - v.position;
     let d2 = dot(to_light, to_light);
     if d2 <= 0.0 {
         return vec3<f32>(0.0);
     }
     let d = sqrt(d2);
-    let cos_x = dot(ns, to_light) / d;
-    if cos_x <= 0.0 || dot(n, to_light) <= 0.0 {
+    let cos_x = dot(v.shading, to_light) / d;
+    if cos_x <= 0.0 || dot(v.normal, to_light) <= 0.0 {
         return vec3<f32>(0.0);
     }
     let falloff = lights_point_falloff(s.light, -to_light / d, d2);
-    return albedo * SAMPLING_INV_PI * s.emission * (cos_x * falloff / d2);
+    return render_brdf(v, to_light / d) * s.emission * (cos_x * falloff / d2);
 }
 
 // What ray offsets at p are relative to: the point's largest coordinate (float precision
@@ -741,25 +861,24 @@ fn render_visible_sample(p: vec3<f32>, n: vec3<f32>, s: LightSample) -> bool {
     return !trace_any(ray);
 }
 
-// Reflected direct light at (p, n, albedo) from one light sample with a shadow ray.
-fn render_nee_one(p: vec3<f32>, n: vec3<f32>, ns: vec3<f32>, albedo: vec3<f32>, e: f32,
-                  rng: ptr<function, u32>) -> vec3<f32> {
+// Reflected direct light at vertex v from one light sample with a shadow ray.
+fn render_nee_one(v: GVertex, e: f32, rng: ptr<function, u32>) -> vec3<f32> {
     let s = render_light_sample(render_rand4(rng), rng);
     if s.pdf_area <= 0.0 {
         return vec3<f32>(0.0);
     }
-    var f = render_light_contribution(p, n, ns, albedo, s);
-    if all(f == vec3<f32>(0.0)) || !render_visible_sample(p, n, s) {
+    var f = render_vertex_light(v, s);
+    if all(f == vec3<f32>(0.0)) || !render_visible_sample(v.position, v.normal, s) {
         return vec3<f32>(0.0);
     }
     if render_params.mis != 0u {
-        f *= render_light_mis_at(p, ns, s, e);
+        f *= render_light_mis_at(v, s, e);
     }
     return f / s.pdf_area;
 }
 
-// Resampled importance sampling over `candidates` light samples at (p, n, albedo), target =
-// luminance of the unshadowed reflected radiance. The reservoir crate does the resampling; the
+// Resampled importance sampling over `candidates` light samples at vertex v, target =
+// luminance of the unshadowed reflected radiance (render_light_target). The reservoir crate does the resampling; the
 // chosen light sample is the caller's payload. Shared by the `ris` baseline and world-space
 // ReSTIR's initial reservoirs.
 struct RisLightSample {
@@ -768,8 +887,7 @@ struct RisLightSample {
     p_hat: f32,
 }
 
-fn render_ris_lights(p: vec3<f32>, n: vec3<f32>, ns: vec3<f32>, albedo: vec3<f32>, candidates: u32,
-                     rng: ptr<function, u32>) -> RisLightSample {
+fn render_ris_lights(v: GVertex, candidates: u32, rng: ptr<function, u32>) -> RisLightSample {
     // A whole local reservoir (not a pointer into a struct field): naga's SPIR-V backend
     // rejects the latter as a function argument.
     var r = reservoir_empty();
@@ -777,7 +895,7 @@ fn render_ris_lights(p: vec3<f32>, n: vec3<f32>, ns: vec3<f32>, albedo: vec3<f32
     out.p_hat = 0.0;
     for (var k = 0u; k < candidates; k++) {
         let s = render_light_sample(render_rand4(rng), rng);
-        render_ris_candidate(&r, &out, p, n, ns, albedo, s, rng_next_f32(rng));
+        render_ris_candidate(&r, &out, v, s, rng_next_f32(rng));
     }
     reservoir_finalize(&r, out.p_hat);
     out.reservoir = r;
@@ -785,14 +903,13 @@ fn render_ris_lights(p: vec3<f32>, n: vec3<f32>, ns: vec3<f32>, albedo: vec3<f32
 }
 
 // One RIS candidate: light sample s, drawn with density s.pdf_area, into r with uniform u, at
-// (p, n, ns, albedo); out keeps the selected sample and its target.
+// vertex v; out keeps the selected sample and its target.
 fn render_ris_candidate(r: ptr<function, Reservoir>, out: ptr<function, RisLightSample>,
-                        p: vec3<f32>, n: vec3<f32>, ns: vec3<f32>, albedo: vec3<f32>,
-                        s: LightSample, u: f32) {
+                        v: GVertex, s: LightSample, u: f32) {
     var w = 0.0;
     var p_hat = 0.0;
     if s.pdf_area > 0.0 {
-        p_hat = render_luminance(render_light_contribution(p, n, ns, albedo, s));
+        p_hat = render_light_target(v, s);
         w = p_hat / s.pdf_area;
     }
     if reservoir_update(r, w, u) {
@@ -803,15 +920,14 @@ fn render_ris_candidate(r: ptr<function, Reservoir>, out: ptr<function, RisLight
 
 // Reflected direct light by RIS over `candidates` light samples, then one shadow ray for the
 // selected sample.
-fn render_nee_ris(p: vec3<f32>, n: vec3<f32>, ns: vec3<f32>, albedo: vec3<f32>, candidates: u32,
-                  e: f32, rng: ptr<function, u32>) -> vec3<f32> {
-    let ris = render_ris_lights(p, n, ns, albedo, candidates, rng);
-    if ris.reservoir.ucw <= 0.0 || !render_visible_sample(p, n, ris.light) {
+fn render_nee_ris(v: GVertex, candidates: u32, e: f32, rng: ptr<function, u32>) -> vec3<f32> {
+    let ris = render_ris_lights(v, candidates, rng);
+    if ris.reservoir.ucw <= 0.0 || !render_visible_sample(v.position, v.normal, ris.light) {
         return vec3<f32>(0.0);
     }
-    var f = render_light_contribution(p, n, ns, albedo, ris.light);
+    var f = render_vertex_light(v, ris.light);
     if render_params.mis != 0u {
-        f *= render_light_mis_at(p, ns, ris.light, e);
+        f *= render_light_mis_at(v, ris.light, e);
     }
     return f * ris.reservoir.ucw;
 }
@@ -828,9 +944,9 @@ fn render_nee_at(v: GVertex, rng: ptr<function, u32>, e: f32) -> vec3<f32> {
         return vec3<f32>(0.0);
     }
     if render_params.method == RENDER_METHOD_RIS {
-        return render_nee_ris(v.position, v.normal, v.shading, v.albedo, render_params.candidates, e, rng);
+        return render_nee_ris(v, render_params.candidates, e, rng);
     }
-    return render_nee_one(v.position, v.normal, v.shading, v.albedo, e, rng);
+    return render_nee_one(v, e, rng);
 }
 
 // The debug views' heat map of t in [0, 1]: blue .. cyan .. yellow .. red (twin: render::heat).

@@ -33,6 +33,9 @@ pub(crate) struct RenderBuffers {
     /// Per texture ref, and all texels.
     pub textures: wgpu::Buffer,
     pub texels: wgpu::Buffer,
+    /// The BRDF's energy-compensation tables ([`crate::brdf::BrdfTables`]) for a scene with
+    /// glossy materials; one dummy value for a diffuse scene, whose kernels never read them.
+    pub brdf_tables: wgpu::Buffer,
 }
 
 impl RenderBuffers {
@@ -42,6 +45,7 @@ impl RenderBuffers {
         materials: &[Material],
         attributes: &[TriangleAttributes],
         textures: &(Vec<TextureGpu>, Vec<u32>),
+        brdf_tables: &[f32],
     ) -> Self {
         let px = u64::from(params.pixel_count);
         let vertices = px * size_of::<GVertex>() as u64;
@@ -69,6 +73,7 @@ impl RenderBuffers {
             attributes: buffers::storage_from(device, "render_attributes", attributes),
             textures: buffers::storage_from(device, "render_textures", &textures.0),
             texels: buffers::storage_from(device, "render_texels", &textures.1),
+            brdf_tables: buffers::storage_from(device, "render_brdf_tables", brdf_tables),
         }
     }
 
@@ -90,7 +95,7 @@ impl RenderBuffers {
     }
 
     /// The buffers of [`bindings`], by name.
-    pub(super) fn resources(&self) -> [(&'static str, Resource<'_>); 14] {
+    pub(super) fn resources(&self) -> [(&'static str, Resource<'_>); 15] {
         [
             ("render_params", (&self.params).into()),
             ("render_state", (&self.state).into()),
@@ -106,6 +111,7 @@ impl RenderBuffers {
             ("render_attributes", (&self.attributes).into()),
             ("render_textures", (&self.textures).into()),
             ("render_texels", (&self.texels).into()),
+            ("render_brdf_tables", (&self.brdf_tables).into()),
         ]
     }
 }

@@ -3,8 +3,8 @@
 
 use super::library::{compose_with_library, shared_bindings};
 use crate::gpu::{
-    Access, BindGroupLayout, BindingSet, GpuContext, GpuError, Kernel, KernelCache, Pass, Resource,
-    Tracer, WgslModule, buffers,
+    Access, BindGroupLayout, BindingSet, Constants, GpuContext, GpuError, Kernel, KernelCache,
+    Pass, Resource, Tracer, WgslModule, buffers,
 };
 
 /// The shared bind groups (render buffers, tracer, lights) with their layouts, the tracer
@@ -17,6 +17,9 @@ pub struct SharedGroups {
     pub pixels: u32,
     /// Where its kernels come from: the context's, so that a build again reuses them.
     pub kernels: KernelCache,
+    /// Whether the scene has glossy materials: its kernels are specialized with the render
+    /// library's `RENDER_GLOSSY` (a diffuse scene's kernels are today's, with no BRDF code).
+    pub glossy: bool,
 }
 
 impl SharedGroups {
@@ -33,9 +36,15 @@ impl SharedGroups {
         let mut layouts: Vec<&BindGroupLayout> = self.layouts.iter().collect();
         layouts.extend(own);
         let source = compose_with_library(self.tracer, modules);
-        let size = crate::gpu::WORKGROUP_SIZE;
+        let constants = Constants {
+            workgroup_size: crate::gpu::WORKGROUP_SIZE,
+            overrides: match self.glossy {
+                true => &[("RENDER_GLOSSY", 1.0)],
+                false => &[],
+            },
+        };
         self.kernels
-            .kernel(device, label, &source, &layouts, entry_points, size)
+            .kernel(device, label, &source, &layouts, entry_points, constants)
     }
 
     /// A kernel with its own group-3 bindings `own`, after checking that the stage's storage

@@ -22,8 +22,8 @@ fn screen_initial(id: Invocation) {
     }
     let first = light_tiles_first(i, screen_params.knobs.tiles, screen_params.knobs.tile_size);
     var rng = render_rng(i, STREAM_DI_INITIAL);
-    let ris = light_tiles_ris(g.position, g.normal, g.shading, g.albedo, first, screen_params.knobs.tile_size,
-                              screen_params.knobs.candidates, &rng);
+    let ris = light_tiles_ris(g, first, screen_params.knobs.tile_size, screen_params.knobs.candidates,
+                              &rng);
     out = render_store_reservoir(ris.light, PackedReservoir(ris.reservoir.ucw, 1u));
     screen_out[i] = out;
     var rng_e = render_rng_salted(i, STREAM_DI_INITIAL, RENDER_ESTIMATE_SALT);

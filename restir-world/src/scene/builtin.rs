@@ -1,5 +1,5 @@
-//! Built-in procedural scenes: `cornell`, `many-lights`, `colonnade`, `furnace` and
-//! `furnace-sphere`.
+//! Built-in procedural scenes: `cornell` (and `cornell-glossy`), `many-lights`, `colonnade`,
+//! `glossy`, `furnace` and `furnace-sphere`.
 
 use glam::Vec3;
 use reservoir::rng::Rng;
@@ -7,10 +7,12 @@ use reservoir::rng::Rng;
 use super::{Camera, Material, Scene, SceneError, luminance};
 
 /// Names accepted by [`builtin`].
-pub const BUILTIN_NAMES: [&str; 5] = [
+pub const BUILTIN_NAMES: [&str; 7] = [
     "cornell",
+    "cornell-glossy",
     "many-lights",
     "colonnade",
+    "glossy",
     "furnace",
     "furnace-sphere",
 ];
@@ -53,6 +55,8 @@ pub fn builtin(name: &str, opts: &BuiltinOptions) -> Result<Scene, SceneError> {
     }
     match name {
         "cornell" => Ok(cornell(opts.width, opts.height)),
+        "cornell-glossy" => Ok(cornell_glossy(opts.width, opts.height)),
+        "glossy" => Ok(glossy(opts.seed, opts.width, opts.height)),
         "many-lights" => many_lights(opts.lights, opts.seed, opts.width, opts.height),
         "colonnade" => Ok(colonnade(opts.seed, opts.width, opts.height)),
         "furnace" => furnace(opts.rho, opts.le, opts.width, opts.height),
@@ -229,6 +233,149 @@ pub fn cornell(width: u32, height: u32) -> Scene {
         height,
     });
     s
+}
+
+/// The Cornell box with glossy materials (glTF metallic-roughness): the floor a polished
+/// dielectric (its white, roughness 0.2), the tall block a smooth metal (base 0.9, roughness
+/// 0.1), the short block a rough gold (base (1.0, 0.78, 0.34), roughness 0.45); the walls,
+/// ceiling and light as in [`cornell`]. Triangle order and camera are [`cornell`]'s.
+pub fn cornell_glossy(width: u32, height: u32) -> Scene {
+    let mut s = cornell(width, height);
+    let floor = s.add_material(Material::metal_roughness([0.73; 3], 0.0, 0.2));
+    let mirror_metal = s.add_material(Material::metal_roughness([0.9; 3], 1.0, 0.1));
+    let gold = s.add_material(Material::metal_roughness([1.0, 0.78, 0.34], 1.0, 0.45));
+    // cornell's order: floor (2 triangles), ceiling (8), light (2), back, right and left walls
+    // (2 each), the short block (10), the tall block (10).
+    s.triangles[0].material = floor;
+    s.triangles[1].material = floor;
+    let blocks = 2 + 8 + 2 + 6;
+    for t in &mut s.triangles[blocks..blocks + 10] {
+        t.material = gold;
+    }
+    for t in &mut s.triangles[blocks + 10..blocks + 20] {
+        t.material = mirror_metal;
+    }
+    s
+}
+
+/// Size of the `glossy` hall (x, y, z), metres.
+pub const GLOSSY_SIZE: Vec3 = Vec3::new(16.0, 6.0, 12.0);
+
+/// Number of small lamps in the `glossy` hall (besides its one large panel).
+pub const GLOSSY_LAMPS: usize = 240;
+
+/// Where resampling is hard: a closed hall (16 x 6 x 12 m) with a polished dielectric floor
+/// (roughness 0.1), rough dielectric walls (roughness 0.7), a diffuse ceiling, six columns
+/// alternately smooth metal (silver, roughness 0.08) and rough metal (copper, roughness 0.4),
+/// a mirror (base 0.95, roughness 0: the smallest the BRDF keeps) on the far wall, and a low
+/// polished plinth (roughness 0.3). Lit by one large panel under the ceiling (1 x 3 m) and
+/// 240 small lamps (0.12 m quads, varied hue, power log-uniform over a decade) along the side
+/// walls at 2.5 and 4 m; the panel emits as much as all the lamps together. Deterministic in
+/// `seed` (the lamps' colours and powers). The camera looks along the hall at the mirror
+/// from a corner, the floor's reflections in view.
+pub fn glossy(seed: u32, width: u32, height: u32) -> Scene {
+    let size = GLOSSY_SIZE;
+    let mut s = Scene::default();
+    let wall = s.add_material(Material::metal_roughness([0.7, 0.68, 0.64], 0.0, 0.7));
+    let floor = s.add_material(Material::metal_roughness([0.3, 0.28, 0.26], 0.0, 0.1));
+    let ceiling = s.add_material(Material::new([0.7; 3], [0.0; 3]));
+    let silver = s.add_material(Material::metal_roughness([0.95, 0.93, 0.88], 1.0, 0.08));
+    let copper = s.add_material(Material::metal_roughness([0.95, 0.64, 0.54], 1.0, 0.4));
+    let mirror = s.add_material(Material::metal_roughness([0.95; 3], 1.0, 0.0));
+    let plinth = s.add_material(Material::metal_roughness([0.2, 0.3, 0.5], 0.0, 0.3));
+    s.push_box(Vec3::ZERO, size, wall);
+    // push_box's faces: bottom, top, then the sides.
+    for (t, m) in s.triangles[..4]
+        .iter_mut()
+        .zip([floor, floor, ceiling, ceiling])
+    {
+        t.material = m;
+    }
+    for i in 0..6 {
+        let c = Vec3::new(
+            3.0 + 2.0 * (i / 2) as f32 * 2.5,
+            0.0,
+            3.5 + 5.0 * (i % 2) as f32,
+        );
+        let m = if (i / 2 + i % 2) % 2 == 0 {
+            silver
+        } else {
+            copper
+        };
+        s.push_box(
+            c - Vec3::new(0.3, 0.0, 0.3),
+            c + Vec3::new(0.3, size.y, 0.3),
+            m,
+        );
+    }
+    // The mirror, 4 x 3 m, 2 cm off the far wall (x = size.x).
+    let (x, y0, y1, z0, z1) = (size.x - 0.02, 1.0, 4.0, 4.0, 8.0);
+    s.push_quad(
+        [
+            Vec3::new(x, y0, z0),
+            Vec3::new(x, y0, z1),
+            Vec3::new(x, y1, z1),
+            Vec3::new(x, y1, z0),
+        ],
+        mirror,
+    );
+    s.push_box(Vec3::new(6.5, 0.0, 5.0), Vec3::new(9.5, 0.4, 7.0), plinth);
+    glossy_lights(&mut s, seed);
+    s.camera = Some(Camera {
+        eye: Vec3::new(0.8, 1.7, 1.2),
+        target: Vec3::new(size.x, 1.6, 0.6 * size.z),
+        up: Vec3::Y,
+        vfov_deg: 60.0,
+        width,
+        height,
+    });
+    s
+}
+
+/// The `glossy` hall's lamps on its side walls and its ceiling panel, the total emitted power
+/// normalised as in [`many_lights`].
+fn glossy_lights(s: &mut Scene, seed: u32) {
+    let size = GLOSSY_SIZE;
+    let mut rng = Rng::seed(0x9105, seed, 5);
+    let side = 0.12;
+    let mut lamps = Vec::with_capacity(GLOSSY_LAMPS);
+    for k in 0..GLOSSY_LAMPS / 4 {
+        let x = 0.4 + (size.x - 0.8) * (k as f32 + 0.5) / (GLOSSY_LAMPS / 4) as f32;
+        for y in [2.5f32, 4.0] {
+            lamps.push((Vec3::new(x, y, 0.06), Vec3::Z));
+            lamps.push((Vec3::new(x, y, size.z - 0.06), Vec3::NEG_Z));
+        }
+    }
+    let drawn: Vec<(Vec3, f32)> = lamps
+        .iter()
+        .map(|_| {
+            let color = hue_rgb(rng.next_f32() * 6.0, 0.2 + 0.6 * rng.next_f32());
+            (color, 10f32.powf(rng.next_f32()))
+        })
+        .collect();
+    let power_sum: f64 = drawn.iter().map(|d| f64::from(d.1)).sum();
+    let surface = 2.0 * (size.x * size.y + size.y * size.z + size.x * size.z);
+    // Half of many-lights' sum A_i L_i to the lamps, half to the panel.
+    let target = f64::from(surface) * 0.0625;
+    for ((c, n), (color, power)) in lamps.into_iter().zip(drawn) {
+        let (a, b) = n.any_orthonormal_pair();
+        let (a, b) = (a * (0.5 * side), b * (0.5 * side));
+        let lum = (target * f64::from(power) / power_sum) as f32 / (side * side);
+        let m = s.add_material(Material::new([0.8; 3], (color * lum).to_array()));
+        s.push_quad([c - a - b, c + a - b, c + a + b, c - a + b], m);
+    }
+    let (y, x0, x1, z0, z1) = (size.y - 0.05, 7.5, 8.5, 4.5, 7.5);
+    let lum = (target / f64::from((x1 - x0) * (z1 - z0))) as f32;
+    let panel = s.add_material(Material::new([0.8; 3], [lum, lum * 0.95, lum * 0.85]));
+    s.push_quad(
+        [
+            Vec3::new(x0, y, z0),
+            Vec3::new(x1, y, z0),
+            Vec3::new(x1, y, z1),
+            Vec3::new(x0, y, z1),
+        ],
+        panel,
+    );
 }
 
 /// Side length (x, z) and height (y) of the `many-lights` hall, metres.

@@ -3,8 +3,10 @@
 //! glTF: meshes (triangle primitives) under the default scene's node hierarchy with their
 //! transforms, the first perspective camera met, baseColorFactor as albedo, emissiveFactor x
 //! KHR_materials_emissive_strength as emission. Buffers: the GLB binary chunk, base64 data
-//! URIs and files relative to the .gltf. OBJ: Kd as albedo, Ke as emission, polygons
-//! triangulated. glTF base colour and emissive textures (PNG, JPEG) are read into
+//! URIs and files relative to the .gltf; metallicFactor, roughnessFactor and the
+//! metallic-roughness texture (glTF's core material: [`super::MaterialModel`]). OBJ: Kd as
+//! albedo, Ke as emission, the PBR extension's Pm and Pr (else Ns) as metallic and roughness,
+//! polygons triangulated. glTF base colour and emissive textures (PNG, JPEG) are read into
 //! `Scene::textures`/`texture_refs` with their sampler's wrap modes and `KHR_texture_transform`;
 //! a texture without a `source` (DDS only), a missing image file, an undecodable image or one
 //! of another format, a data: uri, a `TEXCOORD_1` texture, unusable `TEXCOORD_0` data or a
@@ -278,12 +280,12 @@ pub fn extension_policy(name: &str) -> ExtensionPolicy {
             )
         }
         "KHR_materials_variants" => Ignored("material variants (the default is used)"),
-        "KHR_materials_unlit" => Ignored("unlit materials (shaded as diffuse)"),
+        "KHR_materials_unlit" => Ignored("unlit materials (shaded as lit)"),
         "EXT_lights_image_based" => Ignored("image-based (environment) lighting"),
         "KHR_xmp_json_ld" => Ignored("metadata"),
         "KHR_animation_pointer" => Ignored("animation"),
         n if n.starts_with("KHR_materials_") => {
-            Ignored("a material model beyond diffuse albedo and emission")
+            Ignored("a material model beyond glTF's core metallic-roughness and emission")
         }
         n if n.starts_with("KHR_texture_") || n.starts_with("EXT_texture_") => {
             Ignored("textures (not modelled)")
@@ -378,7 +380,13 @@ fn wrap_of(m: gltf::texture::WrappingMode) -> Wrap {
 impl GltfTextures {
     /// The texture ref (1 + index into `Scene::texture_refs`) of a material's texture, or 0
     /// with a warning when it cannot be used (its factor is then used alone).
-    fn reference(&mut self, c: &mut TextureContext, info: &gltf::texture::Info) -> u32 {
+    /// `linear`: the texels are data (metallic-roughness), not sRGB-encoded colour.
+    fn reference(
+        &mut self,
+        c: &mut TextureContext,
+        info: &gltf::texture::Info,
+        linear: bool,
+    ) -> u32 {
         let tex = info.texture();
         let transform = info.texture_transform();
         let set = transform
@@ -399,6 +407,7 @@ impl GltfTextures {
         let sampler = tex.sampler();
         let mut r = TextureRef {
             wrap: [wrap_of(sampler.wrap_s()), wrap_of(sampler.wrap_t())],
+            linear,
             ..TextureRef::plain(0)
         };
         if let Some(t) = transform {
@@ -808,7 +817,11 @@ impl GltfScene<'_> {
             return (uvs.len() == vertices).then_some(uvs);
         };
         let m = self.scene.materials.get(material as usize);
-        if m.is_some_and(|m| m.base_color_texture != 0 || m.emissive_texture != 0) {
+        if m.is_some_and(|m| {
+            m.base_color_texture != 0
+                || m.emissive_texture != 0
+                || m.metallic_roughness_texture != 0
+        }) {
             self.warnings.push(format!(
                 "{}: mesh {mesh}: TEXCOORD_0 accessor {} {problem}: its textures are not \
                  applied (the material's factors are)",
@@ -829,12 +842,20 @@ impl GltfScene<'_> {
         let base = pbr.base_color_factor();
         let strength = mat.emissive_strength().unwrap_or(1.0);
         let e = mat.emissive_factor().map(|x| x * strength);
-        let albedo = if key.is_none() {
-            DEFAULT_ALBEDO
-        } else {
-            [base[0], base[1], base[2]]
+        // A primitive without a material gets a diffuse grey (glTF's default material is a
+        // rough white metal, which no exporter means).
+        let mut material = match key {
+            None => Material::new(DEFAULT_ALBEDO, e),
+            Some(_) => Material {
+                emission: e,
+                ..Material::metal_roughness(
+                    [base[0], base[1], base[2]],
+                    pbr.metallic_factor(),
+                    pbr.roughness_factor(),
+                )
+            },
         };
-        let mut material = Material::new(albedo, e);
+        self.warn_out_of_range(mat, &material);
         let mut ctx = TextureContext {
             path: self.path,
             dir: self.dir,
@@ -843,10 +864,13 @@ impl GltfScene<'_> {
             warnings: self.warnings,
         };
         if let Some(info) = pbr.base_color_texture() {
-            material.base_color_texture = self.textures.reference(&mut ctx, &info);
+            material.base_color_texture = self.textures.reference(&mut ctx, &info, false);
         }
         if let Some(info) = mat.emissive_texture() {
-            material.emissive_texture = self.textures.reference(&mut ctx, &info);
+            material.emissive_texture = self.textures.reference(&mut ctx, &info, false);
+        }
+        if let Some(info) = pbr.metallic_roughness_texture() {
+            material.metallic_roughness_texture = self.textures.reference(&mut ctx, &info, true);
         }
         self.textures.normal_maps += usize::from(mat.normal_texture().is_some());
         self.textures.alpha_cutouts +=
@@ -854,6 +878,38 @@ impl GltfScene<'_> {
         let id = self.scene.add_material(material);
         self.materials.insert(key, id);
         id
+    }
+}
+
+impl GltfScene<'_> {
+    /// Warns, naming the material, about metallic or roughness factors outside [0, 1] or NaN
+    /// (`Scene::sanitize` clamps them).
+    fn warn_out_of_range(&mut self, mat: &gltf::Material, m: &Material) {
+        let bad: Vec<String> = [
+            ("metallicFactor", m.metallic),
+            ("roughnessFactor", m.roughness),
+        ]
+        .into_iter()
+        .filter(|(_, x)| !(0.0..=1.0).contains(x))
+        .map(|(name, x)| format!("{name} {x}"))
+        .collect();
+        if !bad.is_empty() {
+            self.warnings.push(format!(
+                "{}: material {}: {} outside [0, 1]: clamped (NaN: 1)",
+                self.path.display(),
+                material_name(mat),
+                bad.join(", ")
+            ));
+        }
+    }
+}
+
+/// A glTF material's name for messages: its name, else its index.
+fn material_name(mat: &gltf::Material) -> String {
+    match (mat.name(), mat.index()) {
+        (Some(name), _) => format!("{name:?}"),
+        (None, Some(i)) => i.to_string(),
+        (None, None) => "(default)".into(),
     }
 }
 
@@ -1025,7 +1081,7 @@ fn clean_mtl(file: &Path, text: &str) -> Result<String, SceneError> {
                 Ok([x]) => out.push_str(&format!("{key} {x} {x} {x}")),
                 _ => return Err(bad("1 or 3 numbers")),
             },
-            "Ns" | "Ni" | "d" | "Tr" => match numbers().as_deref() {
+            "Ns" | "Ni" | "d" | "Tr" | "Pm" | "Pr" => match numbers().as_deref() {
                 Ok([_]) => out.push_str(data.trim_end()),
                 _ => return Err(bad("one number")),
             },
@@ -1108,8 +1164,13 @@ pub fn load_obj(path: &Path, warnings: &mut Vec<String>) -> Result<Scene, SceneE
     Ok(scene)
 }
 
-/// Adds the MTL materials (Kd as albedo, Ke as emission) to `scene`; returns how many have
-/// textures (not modelled).
+/// MTL texture statements of the PBR extension and of emission (tobj keeps them as unknown
+/// parameters); textures of OBJ scenes are not read.
+const MTL_TEXTURE_KEYS: [&str; 5] = ["map_Ke", "map_Pm", "map_Pr", "norm", "map_Kn"];
+
+/// Adds the MTL materials (Kd as albedo, Ke as emission; with the PBR extension's `Pm` or `Pr`
+/// a metallic-roughness material, see [`obj_metal_roughness`]) to `scene`; returns how many
+/// have textures (not modelled).
 fn obj_materials(
     path: &Path,
     materials: &[tobj::Material],
@@ -1117,7 +1178,10 @@ fn obj_materials(
 ) -> Result<usize, SceneError> {
     let mut textured = 0usize;
     for m in materials {
-        if m.diffuse_texture.is_some() || m.unknown_param.contains_key("map_Ke") {
+        let has_texture = MTL_TEXTURE_KEYS
+            .iter()
+            .any(|k| m.unknown_param.contains_key(*k));
+        if m.diffuse_texture.is_some() || m.normal_texture.is_some() || has_texture {
             textured += 1;
         }
         let bad_ke = |s: &str| parse_err(path, format!("MTL: material {:?}: bad Ke {s:?}", m.name));
@@ -1137,9 +1201,38 @@ fn obj_materials(
             }
             (None, None) => [0.0; 3],
         };
-        scene.add_material(Material::new(m.diffuse.unwrap_or(DEFAULT_ALBEDO), ke));
+        let kd = m.diffuse.unwrap_or(DEFAULT_ALBEDO);
+        let material = match obj_metal_roughness(m) {
+            Some((metallic, roughness)) => Material {
+                emission: ke,
+                ..Material::metal_roughness(kd, metallic, roughness)
+            },
+            None => Material::new(kd, ke),
+        };
+        scene.add_material(material);
     }
     Ok(textured)
+}
+
+/// The metallic and roughness of an MTL material with the PBR extension (`Pm`, `Pr`, mapped
+/// as glTF's factors, Kd the base colour), or None for a material without them (diffuse, as
+/// before the extension). Without `Pr` the roughness comes from the Phong exponent `Ns`:
+/// GGX alpha = sqrt(2 / (Ns + 2)) (Walter et al. 2007's Phong-Beckmann correspondence), so
+/// roughness = alpha^(1/2); without either, 1. Without `Pm`, metallic 0.
+fn obj_metal_roughness(m: &tobj::Material) -> Option<(f32, f32)> {
+    // `clean_mtl` checked both as one number.
+    let number = |k: &str| {
+        m.unknown_param
+            .get(k)
+            .and_then(|v| v.trim().parse::<f32>().ok())
+    };
+    let (pm, pr) = (number("Pm"), number("Pr"));
+    if pm.is_none() && pr.is_none() {
+        return None;
+    }
+    let from_ns = |ns: f32| (2.0 / (ns.max(0.0) + 2.0)).sqrt().sqrt();
+    let roughness = pr.or(m.shininess.map(from_ns)).unwrap_or(1.0);
+    Some((pm.unwrap_or(0.0), roughness))
 }
 
 /// Adds the triangles of the OBJ models to `scene` (faces without a known material get a

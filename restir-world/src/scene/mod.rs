@@ -1,8 +1,8 @@
-//! The scene model: triangles, a diffuse albedo and an emitted radiance per material, and a
+//! The scene model: triangles, a material each (diffuse, or glTF's metallic-roughness), and a
 //! camera. Nothing else until a scene needs it.
 //!
 //! Conventions every consumer (GPU renderer, CPU reference) follows:
-//! - Surfaces are **two-sided**: both the diffuse reflection and the emission act on either side
+//! - Surfaces are **two-sided**: both the reflection and the emission act on either side
 //!   of a triangle; a renderer flips the geometric normal to face the incoming ray. Loaders
 //!   disagree about winding, and two-sided surfaces make that harmless.
 //! - Units are whatever the scene uses; the built-in scenes are in metres.
@@ -80,12 +80,26 @@ pub enum SceneError {
 /// was 33% low.
 pub const SCENE_EXTENT_RANGE: (f32, f32) = (5e-11, 5e9);
 
-/// A diffuse material: reflectance and emitted radiance, linear RGB, each optionally multiplied
-/// by a texture (`Scene::texture_refs[index - 1]`; 0: none).
+/// How a material reflects light ([`Material::model`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[repr(u32)]
+pub enum MaterialModel {
+    /// Lambertian: albedo / pi (the built-in scenes, OBJ materials without the PBR extension).
+    Diffuse = 0,
+    /// glTF 2.0's core metallic-roughness model (its Appendix B): a GGX specular lobe over a
+    /// diffuse base for dielectrics, a coloured GGX lobe for metals, mixed by `metallic`.
+    MetalRoughness = 1,
+}
+
+/// A material: base colour (reflectance), emitted radiance, and for
+/// [`MaterialModel::MetalRoughness`] the metallic and roughness factors; linear RGB, each
+/// factor optionally multiplied by a texture (`Scene::texture_refs[index - 1]`; 0: none). The
+/// GPU's `Material` has this layout (48 bytes).
 #[repr(C)]
 #[derive(Debug, Clone, Copy, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
 pub struct Material {
-    /// Diffuse albedo in [0, 1] per channel (the base colour factor with a texture).
+    /// Base colour in [0, 1] per channel (glTF's base colour factor; the diffuse albedo of a
+    /// diffuse material, the specular colour of a metal).
     pub albedo: [f32; 3],
     /// Base colour texture: 1 + its index in `Scene::texture_refs`, 0 for none.
     pub base_color_texture: u32,
@@ -94,21 +108,63 @@ pub struct Material {
     pub emission: [f32; 3],
     /// Emissive texture: 1 + its index in `Scene::texture_refs`, 0 for none.
     pub emissive_texture: u32,
+    /// A [`MaterialModel`] as its `u32` (Pod); read it with [`Material::model`].
+    pub model: u32,
+    /// Metallic factor in [0, 1] (glTF `metallicFactor`).
+    pub metallic: f32,
+    /// Perceptual roughness factor in [0, 1] (glTF `roughnessFactor`; GGX alpha = roughness^2).
+    pub roughness: f32,
+    /// glTF metallic-roughness texture (linear; blue = metallic, green = roughness, each
+    /// multiplying its factor): 1 + its texture ref index, 0 for none.
+    pub metallic_roughness_texture: u32,
 }
 
 impl Material {
+    /// A diffuse material.
     pub const fn new(albedo: [f32; 3], emission: [f32; 3]) -> Self {
         Self {
             albedo,
             base_color_texture: 0,
             emission,
             emissive_texture: 0,
+            model: MaterialModel::Diffuse as u32,
+            metallic: 0.0,
+            roughness: 1.0,
+            metallic_roughness_texture: 0,
+        }
+    }
+
+    /// A glTF metallic-roughness material without textures.
+    pub const fn metal_roughness(base: [f32; 3], metallic: f32, roughness: f32) -> Self {
+        Self {
+            model: MaterialModel::MetalRoughness as u32,
+            metallic,
+            roughness,
+            ..Self::new(base, [0.0; 3])
+        }
+    }
+
+    /// This material's model (an unknown value reads as diffuse; `Scene::sanitize` resets it).
+    pub fn model(&self) -> MaterialModel {
+        match self.model {
+            1 => MaterialModel::MetalRoughness,
+            _ => MaterialModel::Diffuse,
         }
     }
 
     /// Whether the material emits light.
     pub fn is_emissive(&self) -> bool {
         self.emission.iter().any(|&e| e > 0.0)
+    }
+
+    /// The texture refs this material uses (1-based, 0: none): base colour, emission,
+    /// metallic-roughness.
+    pub fn textures_mut(&mut self) -> [&mut u32; 3] {
+        [
+            &mut self.base_color_texture,
+            &mut self.emissive_texture,
+            &mut self.metallic_roughness_texture,
+        ]
     }
 }
 
@@ -359,11 +415,22 @@ pub struct Scene {
     pub lights: Vec<PunctualLight>,
     /// Light from infinity seen by rays that miss the scene (`None`: black).
     pub environment: Option<Environment>,
-    /// Texture images (8-bit sRGB) of the materials.
+    /// Texture images (8-bit) of the materials.
     pub textures: Vec<Texture>,
-    /// The materials' uses of the textures (`Material::base_color_texture` and
-    /// `emissive_texture` index them from 1).
+    /// The materials' uses of the textures (`Material`'s texture fields index them from 1).
     pub texture_refs: Vec<TextureRef>,
+}
+
+/// Clamps a material's model fields into range: an unknown model becomes diffuse, metallic and
+/// roughness into [0, 1] (NaN: glTF's default 1). Returns whether anything changed.
+fn sanitize_metal_roughness(m: &mut Material) -> bool {
+    let before = *m;
+    m.model = m.model() as u32;
+    for x in [&mut m.metallic, &mut m.roughness] {
+        *x = if x.is_nan() { 1.0 } else { x.clamp(0.0, 1.0) };
+    }
+    // Bitwise: a NaN factor counts as changed.
+    bytemuck::bytes_of(&before) != bytemuck::bytes_of(m)
 }
 
 /// What [`Scene::sanitize`] dropped or repaired. All counts are zero for a clean scene.
@@ -383,7 +450,8 @@ pub struct SanitizeReport {
     pub bad_uvs: usize,
     /// Materials whose albedo or emission was non-finite, negative, (albedo) above 1 or
     /// (emission) above [`MAX_EMISSION`], and was clamped into range (non-finite values
-    /// become 0).
+    /// become 0); or whose metallic or roughness was outside [0, 1] or NaN, model unknown,
+    /// or a texture unusable.
     pub clamped_materials: usize,
 }
 
@@ -404,7 +472,8 @@ impl std::fmt::Display for SanitizeReport {
             f,
             "dropped {} triangles ({} with NaN/Inf vertices, {} degenerate, {} with a bad material \
              index); removed bad shading normals on {}; removed bad texture coordinates on {}; \
-             clamped {} materials (albedo into [0, 1], emission into [0, {MAX_EMISSION:e}])",
+             clamped {} materials (albedo, metallic and roughness into [0, 1], emission into \
+             [0, {MAX_EMISSION:e}])",
             self.dropped(),
             self.non_finite,
             self.degenerate,
@@ -443,8 +512,9 @@ impl Scene {
                 changed |= c != *e || e.is_nan();
                 *e = c;
             }
+            changed |= sanitize_metal_roughness(m);
             let refs = self.texture_refs.len() as u32;
-            for tex in [&mut m.base_color_texture, &mut m.emissive_texture] {
+            for tex in m.textures_mut() {
                 if *tex > refs {
                     *tex = 0;
                     changed = true;
@@ -512,7 +582,7 @@ impl Scene {
         let ok: Vec<bool> = self.texture_refs.iter().map(valid).collect();
         for m in &mut self.materials {
             let mut changed = false;
-            for tex in [&mut m.base_color_texture, &mut m.emissive_texture] {
+            for tex in m.textures_mut() {
                 if *tex > 0 && !ok.get(*tex as usize - 1).copied().unwrap_or(false) {
                     *tex = 0;
                     changed = true;
@@ -520,6 +590,36 @@ impl Scene {
             }
             report.clamped_materials += usize::from(changed);
         }
+    }
+
+    /// How many materials are glossy ([`MaterialModel::MetalRoughness`]) and used by a
+    /// triangle: what the renderer specializes its kernels for.
+    pub fn glossy_materials(&self) -> usize {
+        let mut used = vec![false; self.materials.len()];
+        for t in &self.triangles {
+            if let Some(u) = used.get_mut(t.material as usize) {
+                *u = true;
+            }
+        }
+        self.materials
+            .iter()
+            .zip(used)
+            .filter(|(m, u)| *u && m.model() == MaterialModel::MetalRoughness)
+            .count()
+    }
+
+    /// This scene with every material diffuse (its base colour as the albedo; metallic,
+    /// roughness and their texture dropped): `--materials diffuse`, the matte rendering of
+    /// before glossy materials.
+    pub fn with_diffuse_materials(mut self) -> Scene {
+        for m in &mut self.materials {
+            *m = Material {
+                base_color_texture: m.base_color_texture,
+                emissive_texture: m.emissive_texture,
+                ..Material::new(m.albedo, m.emission)
+            };
+        }
+        self
     }
 
     /// Axis-aligned bounds of all vertices, `(min, max)`; `None` for an empty scene.

@@ -1,11 +1,13 @@
-//! Textures of glTF materials: base colour and emission, as the renderers sample them.
+//! Textures of glTF materials: base colour, emission, metallic-roughness and normals, as the
+//! renderers sample them.
 //!
-//! A [`Texture`] keeps the file's 8-bit sRGB-encoded texels (RGBA, row-major from the top row);
-//! a [`TextureRef`] is one material's use of it: the wrap mode of each axis and the
-//! `KHR_texture_transform` affine map of the texture coordinates. Sampling ([`TextureRef::sample`],
-//! twin of WGSL `render_texture`) is bilinear over texel centres on sRGB-decoded (linear)
-//! texels, at texture coordinates (s, t) = transform (u, v, 1); no mipmaps. The material's
-//! factor multiplies the result (the loader keeps it in `Material::albedo`/`emission`).
+//! A [`Texture`] keeps the file's 8-bit texels (RGBA, row-major from the top row); a
+//! [`TextureRef`] is one material's use of it: the wrap mode of each axis, the
+//! `KHR_texture_transform` affine map of the texture coordinates, and how its texels are
+//! read (sRGB-encoded colour, or linear data: metallic-roughness and normal textures).
+//! Sampling ([`TextureRef::sample`], twin of WGSL `render_texture`) is bilinear over texel
+//! centres on decoded (linear) texels, at texture coordinates (s, t) = transform (u, v, 1); no
+//! mipmaps. The material's factor multiplies the result (the loader keeps it in `Material`).
 
 use glam::Vec2;
 
@@ -17,7 +19,8 @@ pub enum Wrap {
     ClampToEdge = 2,
 }
 
-/// An image of 8-bit sRGB-encoded RGBA texels, row-major from the top row.
+/// An image of 8-bit RGBA texels, row-major from the top row (sRGB-encoded colour or linear
+/// data: its [`TextureRef`]s say which).
 #[derive(Debug, Clone, PartialEq)]
 pub struct Texture {
     /// The image's name or file, for messages.
@@ -27,9 +30,10 @@ pub struct Texture {
     pub texels: Vec<[u8; 4]>,
 }
 
-/// A material's use of a texture: which one, how it wraps, and the affine map
+/// A material's use of a texture: which one, how it wraps, the affine map
 /// (s, t) = (row0 . (u, v, 1), row1 . (u, v, 1)) of `KHR_texture_transform` (identity without
-/// it).
+/// it), and whether its texels are linear data (glTF's metallic-roughness and normal textures)
+/// rather than sRGB-encoded colour (base colour, emission).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct TextureRef {
     /// Index into `Scene::textures`.
@@ -37,6 +41,8 @@ pub struct TextureRef {
     pub wrap: [Wrap; 2],
     pub row0: [f32; 3],
     pub row1: [f32; 3],
+    /// Texels read as value / 255 (linear data), not sRGB-decoded.
+    pub linear: bool,
 }
 
 /// Largest side of a texture in texels.
@@ -60,7 +66,10 @@ pub fn linear_to_srgb(c: f32) -> u8 {
 
 impl Texture {
     /// The texture at half the size (rounded up) a side, each texel the mean of its 2 x 2
-    /// block in linear light (alpha averaged as is).
+    /// block in linear light (alpha averaged as is). A texture of linear data (metallic-roughness,
+    /// normals) is averaged through the same sRGB decoding: exact where its 2 x 2 blocks are
+    /// flat, a small bias at its edges, and only for scenes whose textures exceed
+    /// [`MAX_TEXEL_BYTES`].
     pub fn halved(&self) -> Texture {
         let (w, h) = (self.width.div_ceil(2), self.height.div_ceil(2));
         let mut texels = Vec::with_capacity((w * h) as usize);
@@ -150,6 +159,15 @@ impl TextureRef {
             wrap: [Wrap::Repeat; 2],
             row0: [1.0, 0.0, 0.0],
             row1: [0.0, 1.0, 0.0],
+            linear: false,
+        }
+    }
+
+    /// The same use with its texels read as linear data (value / 255).
+    pub fn linear(self) -> Self {
+        Self {
+            linear: true,
+            ..self
         }
     }
 
@@ -172,7 +190,8 @@ impl TextureRef {
         .clamp(Vec2::splat(-1e6), Vec2::splat(1e6))
     }
 
-    /// Bilinear linear-RGB sample at vertex coordinates uv (twin of `render_texture`).
+    /// Bilinear linear-RGB sample at vertex coordinates uv (twin of `render_texture`): texels
+    /// sRGB-decoded, or value / 255 for a linear use.
     pub fn sample(&self, textures: &[Texture], uv: Vec2) -> [f32; 3] {
         let t = &textures[self.texture as usize];
         let st = self.transform(uv);
@@ -185,11 +204,11 @@ impl TextureRef {
         let texel = |i: i32, j: i32| -> [f32; 3] {
             let (i, j) = (wrap(i, w, self.wrap[0]), wrap(j, h, self.wrap[1]));
             let p = t.texels[(j * w + i) as usize];
-            [
-                srgb_to_linear(p[0]),
-                srgb_to_linear(p[1]),
-                srgb_to_linear(p[2]),
-            ]
+            let decode = |c: u8| match self.linear {
+                true => f32::from(c) / 255.0,
+                false => srgb_to_linear(c),
+            };
+            [decode(p[0]), decode(p[1]), decode(p[2])]
         };
         let (a, b) = (texel(x0, y0), texel(x0 + 1, y0));
         let (c, d) = (texel(x0, y0 + 1), texel(x0 + 1, y0 + 1));

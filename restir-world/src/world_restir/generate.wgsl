@@ -24,10 +24,9 @@ fn wr_generate(id: Invocation) {
     if wr_params.tiles > 0u {
         // Candidates from the light tile of the pixel's block (shared with restir-di).
         let first = light_tiles_first(i % render_params.pixel_count, wr_params.tiles, wr_params.tile_size);
-        ris = light_tiles_ris(v.position, v.normal, v.shading, v.albedo, first, wr_params.tile_size,
-                              wr_params.knobs.candidates, &rng);
+        ris = light_tiles_ris(v, first, wr_params.tile_size, wr_params.knobs.candidates, &rng);
     } else {
-        ris = render_ris_lights(v.position, v.normal, v.shading, v.albedo, wr_params.knobs.candidates, &rng);
+        ris = render_ris_lights(v, wr_params.knobs.candidates, &rng);
     }
     wr_out[i] = render_store_reservoir(ris.light, reservoir_pack(ris.reservoir));
 }

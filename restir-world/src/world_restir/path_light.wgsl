@@ -38,7 +38,7 @@ fn path_light_nee(i: u32, w: GVertex, bounce: u32, e: f32, rng: ptr<function, u3
 // path (other pixels' vertices, numbers of their own), and so is e of the sample drawn here.
 fn wr_path_reservoir_light(w: GVertex, e: f32, rng: ptr<function, u32>,
                            rng_cell: ptr<function, u32>) -> vec3<f32> {
-    let ris = render_ris_lights(w.position, w.normal, w.shading, w.albedo, render_params.candidates, rng);
+    let ris = render_ris_lights(w, render_params.candidates, rng);
     let cell = grid_visit(w.position, w.normal, wr_params.knobs.max_count, rng_cell);
     // k merged neighbours and their total confidence.
     var k = 0u;
@@ -77,7 +77,7 @@ fn wr_path_reservoir_light(w: GVertex, e: f32, rng: ptr<function, u32>,
     }
     var f = render_vertex_light(w, y);
     if render_params.mis != 0u {
-        f *= render_light_mis_at(w.position, w.shading, y, e);
+        f *= render_light_mis_at(w, y, e);
     }
     return f * stored.ucw;
 }
