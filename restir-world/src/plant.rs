@@ -1,15 +1,17 @@
-//! Planted defects: the one test hook in shipped code.
+//! Planted defects: the one test hook in shipped code, compiled out of it.
 //!
 //! A statistical test's negative control runs an estimator with a known defect and checks that
 //! the test's own check fails on it. The defect is chosen per method build
-//! ([`RenderOptions::planted`](crate::render::RenderOptions)) and reaches every kernel of that
-//! build in the render parameters' uniform (WGSL `render_params.planted`, the defect's id, and
-//! the two power-check scales), which the kernels compare with the `PLANTED_*` ids
-//! ([`Planted::wgsl`]). A build without a defect gets 0 and scales of exactly 1: every planted
-//! branch is a uniform branch not taken and every scale a multiplication by 1, so images are bit
-//! for bit those of a tree without the hook; and a control runs the shipped kernels themselves,
-//! with no compilation of its own (on a CPU adapter a kernel set compiles for about a minute).
-//! Nothing a user types reaches it (no flag, knob or file sets it).
+//! ([`RenderOptions::planted`](crate::render::RenderOptions), which exists only with the
+//! crate's feature `planted-defects`: the workspace's test harness enables it, nothing a user
+//! types reaches it) and reaches that build's kernels twice: its kernels are specialized with
+//! the override `RENDER_PLANTED` (WGSL; false in every kernel built without a defect, so the
+//! driver folds every planted branch and scale away and shipped kernels carry none of them),
+//! and the render parameters' uniform names the defect (`render_params.planted`, the defect's
+//! id, and the two power-check scales), which the kernels compare with the `PLANTED_*` ids
+//! ([`Planted::wgsl`]) through `render_planted`. A control's kernels are compiled apart, once
+//! per process for each kernel set (the kernel cache's key holds the override; Mesa's shader
+//! cache keeps them between runs); all controls share them.
 //!
 //! Two kinds:
 //! - defects of an estimator ([`Planted::is_defect`]): a wrong Jacobian, a merge that drops

@@ -4,10 +4,9 @@
 //! estimator with a defect planted near its bound (`Planted::GlossyEnergyLoss`: the glossy
 //! BRDF losing 1% of its energy) and must fail it.
 
-use restir_world::methods;
 use restir_world::plant::Planted;
 use restir_world::reference::{ReferenceOptions, ReferenceRenderer};
-use restir_world::render::{Paths, RenderOptions};
+use restir_world::render::Paths;
 use restir_world::sampling::Estimator;
 use restir_world::scene::{Camera, Material, Scene, furnace_sphere};
 use tests::bias::channel_means;
@@ -50,17 +49,9 @@ fn gpu_images(
     frames: u32,
     planted: Planted,
 ) -> [Vec<[f32; 3]>; 2] {
-    let options = RenderOptions {
-        seed: 1,
-        planted,
-        ..Default::default()
-    };
-    let settings = methods::parse_spec(spec).expect(spec);
-    let mut m = settings
-        .build_with(gpu::context(), s, cam, &options)
-        .expect(spec);
-    gpu::render(m.as_mut(), frames);
-    let img = gpu::images(m.as_ref());
+    let mut m = gpu::build(spec, s, cam, gpu::planted(1, planted));
+    gpu::render(&mut m, frames);
+    let img = gpu::images(&m);
     [img.direct, img.indirect]
 }
 
@@ -199,17 +190,9 @@ fn glossy_cornell_gpu_matches_the_cpu_reference() {
         let mut got = [vec![[0.0f32; 3]; 1024], vec![[0.0f32; 3]; 1024]];
         for seed in 1..=6 {
             let spec = if seed % 2 == 1 { "nee" } else { "ris" };
-            let options = RenderOptions {
-                seed,
-                planted,
-                ..Default::default()
-            };
-            let settings = methods::parse_spec(spec).expect(spec);
-            let mut m = settings
-                .build_with(gpu::context(), &s, &cam, &options)
-                .expect(spec);
-            gpu::render(m.as_mut(), 512);
-            let img = gpu::images(m.as_ref());
+            let mut m = gpu::build(spec, &s, &cam, gpu::planted(seed, planted));
+            gpu::render(&mut m, 512);
+            let img = gpu::images(&m);
             add_scaled(&mut got[0], &img.direct, 1.0 / 6.0);
             add_scaled(&mut got[1], &img.indirect, 1.0 / 6.0);
         }

@@ -71,7 +71,7 @@ fn cache_update(id: Invocation) {
 // do (a light estimate at each vertex, Russian roulette from roulette_from, at most
 // MAX_BOUNCES in all), so that every sample is unbiased from the first frame on.
 fn cache_tail(w: GVertex, bounce: u32, rng: ptr<function, u32>) -> vec3<f32> {
-    if render_params.planted == PLANTED_CACHE_UPDATE_WITHOUT_TAIL {
+    if render_planted(PLANTED_CACHE_UPDATE_WITHOUT_TAIL) {
         return vec3<f32>(0.0);
     }
     if cache_params.knobs.feedback != 0u {

@@ -98,7 +98,7 @@ fn dn_same_surface(g: GVertex, s: DnState, eye: vec3<f32>) -> bool {
     if s.normal == DN_NO_SURFACE {
         return false;
     }
-    if render_params.planted == PLANTED_DENOISE_NO_DISOCCLUSION {
+    if render_planted(PLANTED_DENOISE_NO_DISOCCLUSION) {
         return true;
     }
     let plane = abs(dot(g.normal, s.position - g.position));
@@ -238,7 +238,7 @@ fn denoise_temporal(id: Invocation) {
     let alpha = select(1.0, max(1.0 / length, knobs.alpha), h.w > 0.0);
     let alpha_m = select(1.0, max(1.0 / length, knobs.moments_alpha), h.w > 0.0);
     var keep = 1.0 - alpha;
-    if render_params.planted == PLANTED_DENOISE_HISTORY_WEIGHT {
+    if render_planted(PLANTED_DENOISE_HISTORY_WEIGHT) {
         keep *= 0.9;
     }
     var out: DnPair;
@@ -361,7 +361,7 @@ fn denoise_atrous(id: Invocation) {
         // Every weight is one power of 2 per signal: exp2 of the sum of the edge-stopping
         // exponents (normal, plane distance, luminance).
         var stop = vec2<f32>(DN_LOG2E / knobs.phi_luminance);
-        if render_params.planted == PLANTED_DENOISE_NO_LUMINANCE_STOP {
+        if render_planted(PLANTED_DENOISE_NO_LUMINANCE_STOP) {
             stop = vec2<f32>(0.0);
         }
         let inv_z = DN_LOG2E / (knobs.phi_depth * pixel * f32(step) + 1e-20);

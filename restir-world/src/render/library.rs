@@ -33,8 +33,9 @@ pub(super) const METHOD_NEE: u32 = 0;
 pub(super) const METHOD_RIS: u32 = 1;
 
 /// Constants header of the render WGSL, with the planted defects' ids ([`Planted::wgsl`]) and
-/// the override `RENDER_GLOSSY` (false unless a scene's glossy materials specialize the
-/// kernels: [`super::SharedGroups::glossy`]).
+/// the overrides `RENDER_GLOSSY` (false unless a scene's glossy materials specialize the
+/// kernels: [`super::SharedGroups::glossy`]) and `RENDER_PLANTED` (false unless a test's
+/// negative control plants a defect: [`super::SharedGroups::planted`]).
 pub fn constants_wgsl() -> String {
     let mut s = format!(
         "const RENDER_METHOD_NEE: u32 = {METHOD_NEE}u;\nconst RENDER_METHOD_RIS: u32 = {METHOD_RIS}u;\n\
@@ -43,7 +44,7 @@ pub fn constants_wgsl() -> String {
          const RENDER_LUMINANCE: vec3<f32> = vec3<f32>({:?}, {:?}, {:?});\n\
          const RENDER_TEXTURE_LINEAR: u32 = {TEXTURE_LINEAR}u;\n\
          const RENDER_SHADING_FLAT: f32 = {SHADING_FLAT:?};\n\
-         override RENDER_GLOSSY: bool = false;\n{}",
+         override RENDER_GLOSSY: bool = false;\noverride RENDER_PLANTED: bool = false;\n{}",
         LUMINANCE[0],
         LUMINANCE[1],
         LUMINANCE[2],

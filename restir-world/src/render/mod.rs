@@ -103,7 +103,10 @@ pub use crate::sampling::{
 pub struct RenderOptions {
     pub seed: u32,
     pub paths: Paths,
-    /// [`Planted::None`] but in tests' negative controls (see [`crate::plant`]).
+    /// [`Planted::None`] but in tests' negative controls (see [`crate::plant`]): only with the
+    /// crate's feature `planted-defects`, which the workspace's test harness enables and a
+    /// library user has no reason to.
+    #[cfg(feature = "planted-defects")]
     pub planted: Planted,
     /// The path pass records each pixel's path split (`render_path_split`: x2's own light, the
     /// rest, the radiance one vertex short and x3; 64 bytes a pixel), what world-restir-gi's
@@ -118,6 +121,14 @@ impl RenderOptions {
             seed,
             ..Self::default()
         }
+    }
+
+    /// The planted defect ([`Planted::None`] without the feature `planted-defects`).
+    pub fn planted(&self) -> Planted {
+        #[cfg(feature = "planted-defects")]
+        return self.planted;
+        #[cfg(not(feature = "planted-defects"))]
+        Planted::None
     }
 }
 
@@ -307,6 +318,7 @@ impl Renderer {
             pixels,
             kernels: ctx.kernels.clone(),
             glossy,
+            planted: options.planted() != Planted::None,
         };
         let passes = Passes::new(&ctx.device, &shared);
         Ok(Self {

@@ -94,8 +94,8 @@ fn render_accumulate(id: Invocation) {
     if i >= render_params.pixel_count {
         return;
     }
-    let direct = render_direct_frame[i] * render_params.planted_direct_scale;
-    let indirect = render_indirect_frame[i] * render_params.planted_indirect_scale;
+    let direct = render_direct_frame[i] * select(1.0, render_params.planted_direct_scale, RENDER_PLANTED);
+    let indirect = render_indirect_frame[i] * select(1.0, render_params.planted_indirect_scale, RENDER_PLANTED);
     render_direct_frame[i] = direct;
     render_indirect_frame[i] = indirect;
     render_accum_direct[i] += direct;

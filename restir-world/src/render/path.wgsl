@@ -55,7 +55,7 @@ fn render_path_pixel(i: u32) {
     // The MIS estimate of v's light sample (x2's, as its pass stored it: render_store_path_light).
     var e_v = render_path_radiance[i].w;
     // One bounce fewer under the planted defect MISSING_BOUNCE (restir_world::plant).
-    let bounces = render_params.bounces - select(0u, 1u, render_params.planted == PLANTED_MISSING_BOUNCE);
+    let bounces = render_params.bounces - select(0u, 1u, render_planted(PLANTED_MISSING_BOUNCE));
     // With MIS one more ray: the emission the last vertex's ray finds is part of the last bounce.
     let last = bounces + render_params.mis;
     // The path split (render_params.path_split): x2's light so far is its light sample's.

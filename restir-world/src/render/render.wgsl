@@ -388,7 +388,7 @@ fn render_textured_emission(sample: LightSample) -> LightSample {
 // lights_sample with the emission of a textured emissive triangle at the sampled point.
 fn render_light_sample(u: vec4<f32>, rng: ptr<function, u32>) -> LightSample {
     var s = render_textured_emission(lights_sample(u, rng));
-    if render_params.planted == PLANTED_LIGHT_PDF_OVERSTATED {
+    if render_planted(PLANTED_LIGHT_PDF_OVERSTATED) {
         s.pdf_area *= 1.1;
     }
     return s;
@@ -397,7 +397,7 @@ fn render_light_sample(u: vec4<f32>, rng: ptr<function, u32>) -> LightSample {
 // The confidence a reuse pass merges a neighbour's reservoir with: its (capped) M, but at most
 // 1 under the planted defect MERGE_WITHOUT_M (restir_world::plant).
 fn render_planted_m(m: u32) -> u32 {
-    return select(m, min(m, 1u), render_params.planted == PLANTED_MERGE_WITHOUT_M);
+    return select(m, min(m, 1u), render_planted(PLANTED_MERGE_WITHOUT_M));
 }
 
 // The probability that a path survives Russian roulette at vertex v: the share of the light
@@ -412,10 +412,18 @@ fn render_roulette_survival(v: GVertex) -> f32 {
     return min(max(a.x, max(a.y, a.z)), 1.0);
 }
 
+// Whether the planted defect `id` (restir_world::plant) is compiled in and chosen: never in
+// the kernels the library builds for users, where the override RENDER_PLANTED is false and
+// the driver folds every planted branch away; the test harness's negative controls build
+// theirs with it true and choose the defect in render_params.planted.
+fn render_planted(id: u32) -> bool {
+    return RENDER_PLANTED && render_params.planted == id;
+}
+
 // The survival probability a path's throughput is divided by after Russian roulette: q, but 1
 // under the planted defect ROULETTE_WITHOUT_DIVISION (restir_world::plant).
 fn render_roulette_divisor(q: f32) -> f32 {
-    return select(q, 1.0, render_params.planted == PLANTED_ROULETTE_WITHOUT_DIVISION);
+    return select(q, 1.0, render_planted(PLANTED_ROULETTE_WITHOUT_DIVISION));
 }
 
 // lights_sample_at with the emission of a textured emissive triangle at the point.
@@ -553,7 +561,7 @@ fn render_light_mis_at(v: GVertex, s: LightSample, e: f32) -> f32 {
     }
     let p_ray = render_brdf_pdf(v, wi);
     var p_light = render_light_density(p_table, p_ray, s.emission, e);
-    if e > 0.0 && render_params.planted == PLANTED_LIGHT_MIS_DOUBLED {
+    if e > 0.0 && render_planted(PLANTED_LIGHT_MIS_DOUBLED) {
         // Planted defect: the light side's density doubled, the ray side's not.
         p_light *= 2.0;
     }
@@ -761,7 +769,7 @@ fn render_brdf(v: GVertex, wi: vec3<f32>) -> vec3<f32> {
     }
     let f = brdf_eval(render_vertex_brdf(v), v.shading, v.wo, wi);
     // Planted defect GLOSSY_ENERGY_LOSS (restir_world::plant).
-    return f * select(1.0, 0.99, render_params.planted == PLANTED_GLOSSY_ENERGY_LOSS);
+    return f * select(1.0, 0.99, render_planted(PLANTED_GLOSSY_ENERGY_LOSS));
 }
 
 // The density (solid angle) with which vertex v's path step (render_path_step) draws the

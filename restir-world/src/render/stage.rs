@@ -20,6 +20,10 @@ pub struct SharedGroups {
     /// Whether the scene has glossy materials: its kernels are specialized with the render
     /// library's `RENDER_GLOSSY` (a diffuse scene's kernels are today's, with no BRDF code).
     pub glossy: bool,
+    /// Whether a test's negative control planted a defect ([`crate::plant`]): its kernels
+    /// are specialized with `RENDER_PLANTED`, which the library's own builds never set, so
+    /// their planted branches are compiled out.
+    pub planted: bool,
 }
 
 impl SharedGroups {
@@ -36,12 +40,16 @@ impl SharedGroups {
         let mut layouts: Vec<&BindGroupLayout> = self.layouts.iter().collect();
         layouts.extend(own);
         let source = compose_with_library(self.tracer, modules);
+        let overrides: Vec<(&str, f64)> = [
+            ("RENDER_GLOSSY", self.glossy),
+            ("RENDER_PLANTED", self.planted),
+        ]
+        .into_iter()
+        .filter_map(|(name, on)| on.then_some((name, 1.0)))
+        .collect();
         let constants = Constants {
             workgroup_size: crate::gpu::WORKGROUP_SIZE,
-            overrides: match self.glossy {
-                true => &[("RENDER_GLOSSY", 1.0)],
-                false => &[],
-            },
+            overrides: &overrides,
         };
         self.kernels
             .kernel(device, label, &source, &layouts, entry_points, constants)

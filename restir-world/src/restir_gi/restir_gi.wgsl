@@ -127,7 +127,7 @@ fn gi_jacobian(s: GiSample, x1_from: vec3<f32>, x1_to: vec3<f32>) -> f32 {
         return 0.0;
     }
     var j = cos_b / cos_a * (da / db);
-    if render_params.planted == PLANTED_JACOBIAN_WITHOUT_DISTANCE {
+    if render_planted(PLANTED_JACOBIAN_WITHOUT_DISTANCE) {
         j = cos_b / cos_a;
     }
     let t = screen_params.knobs.max_jacobian;
@@ -142,7 +142,7 @@ fn gi_jacobian(s: GiSample, x1_from: vec3<f32>, x1_to: vec3<f32>) -> f32 {
 // neighbour (the back ray), whether the sample a merge selects is tested after it.
 fn gi_forward_rays() -> bool {
     return screen_params.knobs.visibility == GI_VISIBILITY_ON
-        && render_params.planted != PLANTED_FORWARD_UNTESTED;
+        && !render_planted(PLANTED_FORWARD_UNTESTED);
 }
 
 fn gi_back_rays() -> bool {
@@ -167,7 +167,7 @@ fn gi_holds(held: GiReservoir, x2: vec3<f32>) -> bool {
 // false where the visibility mode tests the selected sample and the ray from g finds it
 // occluded. Unbiased with `selected`: the targets leave visibility out, the integrand keeps it.
 fn gi_selected_visible(g: GVertex, own: GiReservoir, y: GiSample) -> bool {
-    return !gi_tests_selected() || render_params.planted == PLANTED_FORWARD_UNTESTED
+    return !gi_tests_selected() || render_planted(PLANTED_FORWARD_UNTESTED)
         || gi_holds(own, y.position) || render_visible(g.position, g.normal, y.position);
 }
 

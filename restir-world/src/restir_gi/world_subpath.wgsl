@@ -44,7 +44,7 @@ fn screen_subpath(id: Invocation) {
         let j = grid_visited(visit, n);
         // A candidate whose GI ray escaped stays one (with no sample): leaving it out would
         // make the others' weights depend on its sample, and bias them up.
-        if j == i || j >= render_params.pixel_count || (render_params.planted == PLANTED_SUBPATH_SKIPS_ESCAPED
+        if j == i || j >= render_params.pixel_count || (render_planted(PLANTED_SUBPATH_SKIPS_ESCAPED)
             && render_secondary[j].prim == BVH_NO_HIT) {
             continue;
         }
@@ -69,7 +69,7 @@ fn screen_subpath(id: Invocation) {
         if y2.prim != BVH_NO_HIT {
             let split_j = render_load_path_split(j);
             var radiance = split_j.one_short;
-            if render_params.planted == PLANTED_SUBPATH_FULL_DEPTH {
+            if render_planted(PLANTED_SUBPATH_FULL_DEPTH) {
                 // The defect: j's radiance at its full depth (one vertex too deep here).
                 radiance = split_j.direct + y2.albedo * split_j.beyond;
             }
