@@ -614,8 +614,9 @@ fn albedo(b: &Brdf, s: &BrdfSurface, f: &Frame, wo: DVec3) -> f64 {
 }
 
 /// What it guards: energy compensation. With it, a white metal and a white dielectric reflect
-/// 0.99..1.01 of the light at roughness 0.02..1 and view 0..89 degrees (the tables'
-/// interpolation is within 0.005 of exact, the quadrature within 1e-4), and a half-metal never
+/// 0.99..1.01 of the light at roughness 0.02..1 and view 0..89 degrees (measured: 0.9994 ..
+/// 1.0006 with 64 rows; 0.9971 .. 1.0031 with 32, which a white metal's furnace at three
+/// bounces read as +1.3%; the quadrature within 1e-4), and a half-metal never
 /// gains energy (<= 1.01). The control: without compensation the white metal at roughness 1
 /// loses more than 0.03 at every angle (the losses are printed: 0.69 at normal incidence, 0.07
 /// at 89 degrees), so the 0.99 bound sees a model that loses energy. (The uncompensated white
