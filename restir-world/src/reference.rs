@@ -96,12 +96,6 @@ pub struct ReferenceRenderer {
     units: f32,
 }
 
-/// The BRDF's energy-compensation tables (computed once per process).
-fn brdf_tables() -> &'static crate::brdf::BrdfTables {
-    static TABLES: std::sync::OnceLock<crate::brdf::BrdfTables> = std::sync::OnceLock::new();
-    TABLES.get_or_init(crate::brdf::BrdfTables::compute)
-}
-
 fn u4(rng: &mut Rng) -> [f32; 4] {
     [0; 4].map(|_| rng.next_f32())
 }
@@ -287,7 +281,7 @@ impl ReferenceRenderer {
         match &v.glossy {
             Some(g) => {
                 let (n, wo) = (v.ns.as_dvec3(), v.wo.as_dvec3());
-                Brdf::new(brdf_tables())
+                Brdf::new(crate::brdf::tables())
                     .eval(g, n, wo, wi.as_dvec3())
                     .as_vec3()
             }
@@ -301,7 +295,7 @@ impl ReferenceRenderer {
         match &v.glossy {
             Some(g) => {
                 let (n, wo) = (v.ns.as_dvec3(), v.wo.as_dvec3());
-                Brdf::new(brdf_tables()).pdf(g, n, wo, wi.as_dvec3()) as f32
+                Brdf::new(crate::brdf::tables()).pdf(g, n, wo, wi.as_dvec3()) as f32
             }
             None => v.ns.dot(wi).max(0.0) * std::f32::consts::FRAC_1_PI,
         }
@@ -437,7 +431,7 @@ impl ReferenceRenderer {
                 let u3 =
                     glam::DVec3::new(f64::from(u.x), f64::from(u.y), f64::from(rng.next_f32()));
                 let (n, wo) = (v.ns.as_dvec3(), v.wo.as_dvec3());
-                let s = Brdf::new(brdf_tables()).sample(g, n, wo, u3);
+                let s = Brdf::new(crate::brdf::tables()).sample(g, n, wo, u3);
                 (s.wi.as_vec3(), s.weight.as_vec3())
             }
         };
@@ -553,7 +547,7 @@ impl ReferenceRenderer {
         let a = match &v.glossy {
             Some(g) => {
                 let (n, wo) = (v.ns.as_dvec3(), v.wo.as_dvec3());
-                Brdf::new(brdf_tables()).albedo(g, n, wo).as_vec3()
+                Brdf::new(crate::brdf::tables()).albedo(g, n, wo).as_vec3()
             }
             None => v.albedo,
         };

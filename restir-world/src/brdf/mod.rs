@@ -130,6 +130,13 @@ pub fn wgsl_with_table_buffer() -> String {
     )
 }
 
+/// The tables, computed once per process (by the first glossy scene's renderer, the CPU
+/// reference or a test) and shared by all.
+pub fn tables() -> &'static BrdfTables {
+    static TABLES: std::sync::OnceLock<BrdfTables> = std::sync::OnceLock::new();
+    TABLES.get_or_init(BrdfTables::compute)
+}
+
 /// A surface's BRDF inputs (WGSL `BrdfSurface`).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct BrdfSurface {

@@ -2,20 +2,7 @@
 //! the pdf (with negative controls), reciprocity, the white furnace, degenerate inputs and
 //! the tables against a finer, independent quadrature. Fixed seeds throughout.
 
-use std::sync::OnceLock;
-
 use super::*;
-
-/// The tables, computed once per test binary (the build time is printed).
-fn tables() -> &'static BrdfTables {
-    static TABLES: OnceLock<BrdfTables> = OnceLock::new();
-    TABLES.get_or_init(|| {
-        let start = std::time::Instant::now();
-        let t = BrdfTables::compute();
-        eprintln!("BrdfTables::compute took {:?}", start.elapsed());
-        t
-    })
-}
 
 fn glossy(base: DVec3, metallic: f64, roughness: f64) -> BrdfSurface {
     BrdfSurface {

@@ -193,12 +193,6 @@ impl Passes {
     }
 }
 
-/// The BRDF's energy-compensation tables, computed once per process (the first glossy scene).
-fn brdf_tables() -> &'static crate::brdf::BrdfTables {
-    static TABLES: std::sync::OnceLock<crate::brdf::BrdfTables> = std::sync::OnceLock::new();
-    TABLES.get_or_init(crate::brdf::BrdfTables::compute)
-}
-
 /// The GPU renderer of one scene and camera.
 #[derive(Debug)]
 pub struct Renderer {
@@ -294,7 +288,7 @@ impl Renderer {
         let attributes = attributes.as_deref().unwrap_or(&dummy);
         let glossy = scene.glossy_materials() > 0;
         let brdf_tables = match glossy {
-            true => brdf_tables().as_f32(),
+            true => crate::brdf::tables().as_f32(),
             false => &[0.0][..],
         };
         let buffers = RenderBuffers::new(
