@@ -2,10 +2,15 @@
 """Independent reference images from Mitsuba 3 for a scene dumped by `dump_scene`.
 
 Reads the scene JSON written by `cargo run -p tests --example dump_scene` (triangles, a material
-index per triangle, diffuse albedo + emitted radiance per material, a pinhole camera) and renders
-it with Mitsuba 3's `path` integrator (CPU, `scalar_rgb`) under this workspace's conventions:
+index per triangle, albedo (base colour) + emitted radiance per material and, for glTF
+metal-roughness materials, `"model": "metal-roughness"` with `metallic` and `roughness`; a
+pinhole camera) and renders it with Mitsuba 3's `path` integrator under this workspace's
+conventions:
 
-- every material is Lambertian and two-sided (`twosided` around `diffuse`);
+- a material without `model` (or `"model": "diffuse"`) is Lambertian and two-sided (`twosided`
+  around `diffuse`); a metal-roughness one is the plugin `gltf_bsdf.py`
+  (`gltf_metal_roughness`: glTF 2.0's BRDF with Kulla-Conty energy compensation, as the
+  renderer's `restir_world::brdf`, two-sided; `--bsdf-variant` picks one of its controls);
 - every emitter emits its radiance from both faces. Mitsuba's `area` emitter is one-sided, so
   each emissive triangle is rendered twice: as given, and as a copy with the opposite winding
   moved a hair (1e-6 of the scene's size) behind it. A ray reaching the light from either side
@@ -22,6 +27,15 @@ prints the per-channel image means and the render time of each.
 
     python3 scripts/mitsuba/render_reference.py tests/data/mitsuba/cornell-64x64.json \
         --bounces 1-8 --spp 4096 --seed 1 --out-dir tests/data/mitsuba
+
+Variants: `scalar_rgb` (the default; what made the diffuse images) or a JIT one
+(`--variant llvm_ad_rgb`: needs LLVM >= 16, e.g. Debian's `libllvm19`; the Python BSDF runs
+vectorised there, where `scalar_rgb` would call it once per ray). `--threads` sets Dr.Jit's
+thread count (JIT variants). `--passes K` renders the samples as K renders of spp / K at
+seeds `seed * 65536 + i` (memory stays small in the JIT variants) and prints each image
+mean's standard error from the passes' scatter, and that of each indirect image (the image at
+N bounces minus the direct one, pass by pass: the same seed draws the same first segments at
+every depth, so their difference keeps only the deeper bounces' noise).
 """
 
 import argparse
@@ -34,7 +48,8 @@ import drjit as dr
 import numpy as np
 import mitsuba as mi
 
-mi.set_variant("scalar_rgb")
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import gltf_bsdf  # noqa: E402
 
 
 def parse_bounces(text):
@@ -69,13 +84,44 @@ def make_mesh(name, tris, bsdf, radiance=None):
         props=props,
     )
     params = mi.traverse(mesh)
-    params["vertex_positions"] = dr.scalar.ArrayXf(tris.reshape(-1))
-    params["faces"] = dr.scalar.ArrayXu(np.arange(3 * len(tris), dtype=np.uint32))
+    scalar = mi.variant().startswith("scalar")
+    floats, uints = (dr.scalar.ArrayXf, dr.scalar.ArrayXu) if scalar else (mi.Float, mi.UInt32)
+    params["vertex_positions"] = floats(tris.reshape(-1))
+    params["faces"] = uints(np.arange(3 * len(tris), dtype=np.uint32))
     params.update()
     return mesh
 
 
-def build_scene(doc, bounces, spp):
+def material_bsdf(mat, bsdf_variant):
+    """The two-sided BSDF of one JSON material."""
+    model = mat.get("model", "diffuse")
+    if model == "diffuse":
+        return mi.load_dict(
+            {
+                "type": "twosided",
+                "material": {
+                    "type": "diffuse",
+                    "reflectance": {"type": "rgb", "value": mat["albedo"]},
+                },
+            }
+        )
+    if model == "metal-roughness":
+        base = mat["albedo"]
+        return mi.load_dict(
+            {
+                "type": "gltf_metal_roughness",
+                "base_r": float(base[0]),
+                "base_g": float(base[1]),
+                "base_b": float(base[2]),
+                "metallic": float(mat["metallic"]),
+                "roughness": float(mat["roughness"]),
+                "variant": bsdf_variant,
+            }
+        )
+    raise SystemExit(f"unknown material model {model!r}")
+
+
+def build_scene(doc, bounces, spp, bsdf_variant="full"):
     tris = np.asarray(doc["triangles"], dtype=np.float64)  # (T, 3, 3)
     mat_of = np.asarray(doc["material"], dtype=np.int64)
     mats = doc["materials"]
@@ -116,15 +162,7 @@ def build_scene(doc, bounces, spp):
         sel = tris[mat_of == m]
         if len(sel) == 0:
             continue
-        bsdf = mi.load_dict(
-            {
-                "type": "twosided",
-                "material": {
-                    "type": "diffuse",
-                    "reflectance": {"type": "rgb", "value": mat["albedo"]},
-                },
-            }
-        )
+        bsdf = material_bsdf(mat, bsdf_variant)
         emission = mat["emission"]
         if any(e > 0 for e in emission):
             d[f"mat{m}-front"] = make_mesh(f"mat{m}-front", sel, bsdf, emission)
@@ -140,12 +178,19 @@ def build_scene(doc, bounces, spp):
 
 
 def write_exr(path, img):
-    """float32 RGB OpenEXR (Mitsuba's writer; its default compression)."""
-    bmp = mi.Bitmap(
-        np.ascontiguousarray(img, dtype=np.float32),
-        pixel_format=mi.Bitmap.PixelFormat.RGB,
-    )
-    bmp.write(path)
+    """float32 RGB OpenEXR (Mitsuba's writer; its default compression). The writer waits on a
+    worker of Dr.Jit's thread pool, and with one thread (`--threads 1`) never returns
+    (Mitsuba 3.9.1): the pool gets two for the write."""
+    threads = dr.thread_count()
+    dr.set_thread_count(max(threads, 2))
+    try:
+        bmp = mi.Bitmap(
+            np.ascontiguousarray(img, dtype=np.float32),
+            pixel_format=mi.Bitmap.PixelFormat.RGB,
+        )
+        bmp.write(path)
+    finally:
+        dr.set_thread_count(threads)
 
 
 def main():
@@ -156,11 +201,34 @@ def main():
     ap.add_argument("--seed", type=int, default=1, help="seed passed to mi.render")
     ap.add_argument("--out-dir", default=".", help="where the EXRs go")
     ap.add_argument(
+        "--variant",
+        default="scalar_rgb",
+        help="Mitsuba variant: scalar_rgb (default) or llvm_ad_rgb (fast with the glTF plugin)",
+    )
+    ap.add_argument("--threads", type=int, default=1, help="Dr.Jit threads (JIT variants)")
+    ap.add_argument(
+        "--passes", type=int, default=1, help="render spp as this many passes (seeds differ)"
+    )
+    ap.add_argument(
+        "--bsdf-variant",
+        default="full",
+        choices=gltf_bsdf.VARIANTS,
+        help="the glTF plugin's model: full, or a control (see gltf_bsdf.py)",
+    )
+    ap.add_argument(
         "--prefix",
         default=None,
         help="file name prefix (default: the JSON's name without .json)",
     )
     args = ap.parse_args()
+
+    mi.set_variant(args.variant)
+    if args.variant.startswith(("llvm", "cuda")):
+        dr.set_thread_count(args.threads)
+    gltf_bsdf.register(mi, dr)
+    if args.passes < 1 or args.spp % args.passes:
+        sys.exit(f"--passes {args.passes} must divide --spp {args.spp}")
+    per_pass = args.spp // args.passes
 
     with open(args.scene) as f:
         doc = json.load(f)
@@ -168,24 +236,50 @@ def main():
     os.makedirs(args.out_dir, exist_ok=True)
     print(
         f"mitsuba {mi.__version__} ({mi.variant()}), {len(doc['triangles'])} triangles, "
-        f"{doc['camera']['width']}x{doc['camera']['height']}, {args.spp} spp, seed {args.seed}",
+        f"{doc['camera']['width']}x{doc['camera']['height']}, {args.spp} spp "
+        f"({args.passes} passes), seed {args.seed}, glTF BSDF {args.bsdf_variant}",
         flush=True,
     )
+    pass_means = {}
     for n in args.bounces:
-        scene = build_scene(doc, n, args.spp)
+        scene = build_scene(doc, n, per_pass, args.bsdf_variant)
         t0 = time.perf_counter()
-        img = np.array(mi.render(scene, spp=args.spp, seed=args.seed), dtype=np.float64)
+        img = None
+        means = []
+        for i in range(args.passes):
+            seed = args.seed if args.passes == 1 else args.seed * 65536 + i
+            one = np.array(mi.render(scene, spp=per_pass, seed=seed), dtype=np.float64)
+            means.append(one.reshape(-1, 3).mean(0))
+            img = one if img is None else img + one
+        img /= args.passes
         dt = time.perf_counter() - t0
+        pass_means[n] = np.array(means)
         if not np.all(np.isfinite(img)):
             sys.exit(f"bounces {n}: non-finite pixels")
         path = os.path.join(args.out_dir, f"{prefix}-bounces-{n}.exr")
         write_exr(path, img)
         mean = img.reshape(-1, 3).mean(0)
+        se = ""
+        if args.passes > 1:
+            rel = pass_means[n].std(0, ddof=1) / np.sqrt(args.passes) / mean
+            se = f"  (standard error {rel[0]:.3%} {rel[1]:.3%} {rel[2]:.3%})"
         print(
             f"bounces {n} (max_depth {n + 2}): mean rgb {mean[0]:.6f} {mean[1]:.6f} "
-            f"{mean[2]:.6f}  {dt:.1f} s  -> {path}",
+            f"{mean[2]:.6f}{se}  {dt:.1f} s  -> {path}",
             flush=True,
         )
+    if args.passes > 1 and 0 in pass_means:
+        for n in args.bounces:
+            if n == 0:
+                continue
+            d = pass_means[n] - pass_means[0]
+            mean = d.mean(0)
+            rel = d.std(0, ddof=1) / np.sqrt(args.passes) / mean
+            print(
+                f"indirect at {n} bounces: mean rgb {mean[0]:.6f} {mean[1]:.6f} {mean[2]:.6f} "
+                f"(standard error {rel[0]:.3%} {rel[1]:.3%} {rel[2]:.3%})",
+                flush=True,
+            )
 
 
 if __name__ == "__main__":

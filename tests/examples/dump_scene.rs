@@ -7,14 +7,18 @@
 //!
 //! The JSON holds what those renderers need and nothing more: `triangles` (`[v0, v1, v2]`,
 //! each `[x, y, z]`), `material` (one material index per triangle), `materials` (`albedo` and
-//! `emission`, linear RGB; diffuse, two-sided, emitting from both faces) and `camera` (`eye`,
-//! `target`, `up`, `vfov_deg` (vertical, degrees), `width`, `height`; pixel (0, 0) is the
-//! top-left one, `forward x up` points right in the image). Scenes with anything else (vertex
-//! normals, textures, punctual lights, an environment) are refused rather than half-written.
+//! `emission`, linear RGB; two-sided, emitting from both faces; Lambertian unless the material
+//! also has `"model": "metal-roughness"` with its `metallic` and `roughness` factors, glTF 2.0's
+//! metal-roughness model with `albedo` its base colour, see `restir_world::brdf`; a diffuse
+//! material is written as before the model existed, so a diffuse scene's JSON is unchanged and
+//! a reader that knows no `model` reads it alike) and `camera` (`eye`, `target`, `up`,
+//! `vfov_deg` (vertical, degrees), `width`, `height`; pixel (0, 0) is the top-left one,
+//! `forward x up` points right in the image). Scenes with anything else (vertex normals,
+//! textures, punctual lights, an environment) are refused rather than half-written.
 
 use std::process::ExitCode;
 
-use restir_world::scene::{BuiltinOptions, Scene, builtin};
+use restir_world::scene::{BuiltinOptions, Material, MaterialModel, Scene, builtin};
 use serde_json::json;
 
 fn main() -> ExitCode {
@@ -63,11 +67,16 @@ fn run() -> Result<(), String> {
         "width": cam.width,
         "height": cam.height,
     });
-    let materials: Vec<String> = scene
-        .materials
-        .iter()
-        .map(|m| line(json!({ "albedo": m.albedo.map(f), "emission": m.emission.map(f) })))
-        .collect();
+    let material_json = |m: &Material| {
+        let mut j = json!({ "albedo": m.albedo.map(f), "emission": m.emission.map(f) });
+        if m.model() == MaterialModel::MetalRoughness {
+            j["model"] = json!("metal-roughness");
+            j["metallic"] = json!(f(m.metallic));
+            j["roughness"] = json!(f(m.roughness));
+        }
+        line(j)
+    };
+    let materials: Vec<String> = scene.materials.iter().map(material_json).collect();
     let material: Vec<u32> = scene.triangles.iter().map(|t| t.material).collect();
     let triangles: Vec<String> = scene
         .triangles
