@@ -32,15 +32,16 @@
 //! random numbers unchanged.
 //!
 //! Surfaces are two-sided (see [`crate::scene`]). Shading uses the interpolated vertex normals
-//! where a triangle has them (turned to the side of the geometric normal): the cosine of the
-//! BRDF and the GI ray's cosine distribution; the geometric normal keeps the ray offsets and
-//! which side a light must be on (a light behind the geometric surface contributes nothing; a
-//! GI direction below it ends the path). Ray origins are offset along the normal by 1e-5 of the scene's
-//! extent; shadow rays stop 1e-4 short of the light point (relative).
+//! where a triangle has them (turned to the side of the geometric normal), perturbed by the
+//! material's normal map where it has one and the triangle usable tangents (`normal_mapped`): the
+//! cosine of the BRDF and the GI ray's cosine distribution; the geometric normal keeps the ray
+//! offsets and which side a light must be on (a light behind the geometric surface contributes
+//! nothing; a GI direction below it ends the path). Ray origins are offset along the normal by 1e-5
+//! of the scene's extent; shadow rays stop 1e-4 short of the light point (relative).
 
 use std::sync::atomic::{AtomicU32, Ordering};
 
-use glam::{Vec2, Vec3, Vec3A};
+use glam::{DVec3, Vec2, Vec3, Vec3A, Vec4};
 use obvhs::{BvhBuildParams, cwbvh::CwBvh, ray::Ray, ray::RayHit};
 use reservoir::rng::Rng;
 
@@ -48,7 +49,7 @@ use crate::brdf::{Brdf, BrdfSurface};
 use crate::image_io::Image;
 use crate::lights::{self, LightSample, Lights};
 use crate::sampling::{self, CameraGpu, Estimator, Paths};
-use crate::scene::{Camera, MaterialModel, Scene, SceneError, luminance};
+use crate::scene::{Camera, MaterialModel, Scene, SceneError, Triangle, luminance, tangents};
 
 /// Options of [`ReferenceRenderer::render`].
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -155,6 +156,46 @@ fn shading_normal(vn: [Vec3; 3], b: Vec2, n: Vec3) -> Vec3 {
     }
     let ns = raw / l2.sqrt();
     if ns.dot(n) < 0.0 { -ns } else { ns }
+}
+
+/// Twin of `render_normal_mapped`, in f64: the interpolated normal N (the corners' vertex
+/// normals, or the geometric normal at each) and tangent T (made orthogonal to N), B = w
+/// cross(N, T) (w the sign of the interpolated handedness), the normal texture's texel `at`
+/// turned into n = normalize((2 at - 1) * (scale, scale, 1)), and normalize(T n.x + B n.y +
+/// N n.z) on the side of the geometric normal n; the interpolated normal (on that side) where
+/// the frame degenerates. The GPU keeps the tangents as octahedral snorm16 (about 5e-5
+/// radians); these are the scene's.
+fn normal_mapped(t: &Triangle, tan: [Vec4; 3], at: Vec3, scale: f32, b: Vec2, n: Vec3) -> Vec3 {
+    let w3 = DVec3::new(
+        1.0 - f64::from(b.x) - f64::from(b.y),
+        f64::from(b.x),
+        f64::from(b.y),
+    );
+    let face = t.cross().normalize();
+    let vn = [0, 1, 2].map(|c| t.n.map_or(face, |vn| vn[c]).as_dvec3());
+    let raw = w3.x * vn[0] + w3.y * vn[1] + w3.z * vn[2];
+    let l2 = raw.length_squared();
+    let n = n.as_dvec3();
+    if l2.is_nan() || l2 <= 1e-30 {
+        return n.as_vec3();
+    }
+    let nn = raw / l2.sqrt();
+    let ns = if nn.dot(n) < 0.0 { -nn } else { nn };
+    let tc = tan.map(|t| t.truncate().as_dvec3().normalize());
+    let ti = w3.x * tc[0] + w3.y * tc[1] + w3.z * tc[2];
+    let tp = ti - nn * nn.dot(ti);
+    let tl2 = tp.length_squared();
+    let s = f64::from(scale);
+    let ts = (at.as_dvec3() * 2.0 - DVec3::ONE) * DVec3::new(s, s, 1.0);
+    let frame = tl2 > 1e-8 && ts.length_squared() > 1e-30;
+    if !frame {
+        return ns.as_vec3();
+    }
+    let w = w3.dot(DVec3::from(tan.map(|t| if t.w < 0.0 { -1.0 } else { 1.0 })));
+    let tu = tp / tl2.sqrt();
+    let bu = if w < 0.0 { -1.0 } else { 1.0 } * nn.cross(tu);
+    let p = (tu * ts.x + bu * ts.y + nn * ts.z).normalize();
+    (if p.dot(n) < 0.0 { -p } else { p }).as_vec3()
 }
 
 /// Most memory the CPU reference may use for its images (larger sizes are refused before any
@@ -387,6 +428,14 @@ impl ReferenceRenderer {
         let ns = match t.n {
             Some(vn) => shading_normal(vn, b, n),
             None => n,
+        };
+        // The GPU's render::ATTR_TANGENTS: a normal texture and usable tangents.
+        let ns = match (t.t, t.uv) {
+            (Some(tan), Some(uv)) if m.normal_texture != 0 && tangents::usable(t) => {
+                let at = self.texture(m.normal_texture, uv, b);
+                normal_mapped(t, tan, at, m.normal_scale, b, n)
+            }
+            _ => ns,
         };
         let (mut albedo, mut emission) = (Vec3::from(m.albedo), Vec3::from(m.emission));
         let (mut metallic, mut roughness) = (m.metallic, m.roughness);

@@ -319,7 +319,28 @@ fn render_structs_match_wgsl_layout() {
             model,
             metallic,
             roughness,
-            metallic_roughness_texture
+            metallic_roughness_texture,
+            normal_texture,
+            normal_scale,
+            _pad
+        ]
+    );
+    assert_eq!(size_of::<restir_world::scene::Material>(), 64);
+    tests::assert_wgsl_layout!(
+        restir_world::render::TriangleAttributes,
+        src,
+        "TriangleAttributes",
+        [
+            n0,
+            flags,
+            n1,
+            emissive_texture,
+            n2,
+            tangent0,
+            uv0,
+            uv1,
+            uv2,
+            tangent12
         ]
     );
 }

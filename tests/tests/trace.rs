@@ -55,6 +55,7 @@ fn soup(n: usize, seed: u64) -> Scene {
                 v,
                 n: None,
                 uv: None,
+                t: None,
                 material: 0,
             }
         })
@@ -131,6 +132,7 @@ fn push_box(tris: &mut Vec<Triangle>, lo: Vec3, hi: Vec3) {
                 v,
                 n: None,
                 uv: None,
+                t: None,
                 material: 0,
             });
         }

@@ -7,7 +7,7 @@ use crate::plant::Planted;
 use crate::scene::LUMINANCE;
 use crate::trace;
 
-use super::records::{SHADING_FLAT, TEXTURE_LINEAR};
+use super::records::{ATTR_TANGENT_FLIP, ATTR_TANGENTS, SHADING_FLAT, TEXTURE_LINEAR};
 use super::streams::{STREAM_COUNT, Stream};
 use super::{RAY_EPS, T_MAX};
 
@@ -34,8 +34,9 @@ pub(super) const METHOD_RIS: u32 = 1;
 
 /// Constants header of the render WGSL, with the planted defects' ids ([`Planted::wgsl`]) and
 /// the overrides `RENDER_GLOSSY` (false unless a scene's glossy materials specialize the
-/// kernels: [`super::SharedGroups::glossy`]) and `RENDER_PLANTED` (false unless a test's
-/// negative control plants a defect: [`super::SharedGroups::planted`]).
+/// kernels: [`super::SharedGroups::glossy`]), `RENDER_NORMAL_MAPS` (false unless a triangle
+/// has a normal map: [`super::SharedGroups::normal_maps`]) and `RENDER_PLANTED` (false unless a
+/// test's negative control plants a defect: [`super::SharedGroups::planted`]).
 pub fn constants_wgsl() -> String {
     let mut s = format!(
         "const RENDER_METHOD_NEE: u32 = {METHOD_NEE}u;\nconst RENDER_METHOD_RIS: u32 = {METHOD_RIS}u;\n\
@@ -44,7 +45,10 @@ pub fn constants_wgsl() -> String {
          const RENDER_LUMINANCE: vec3<f32> = vec3<f32>({:?}, {:?}, {:?});\n\
          const RENDER_TEXTURE_LINEAR: u32 = {TEXTURE_LINEAR}u;\n\
          const RENDER_SHADING_FLAT: f32 = {SHADING_FLAT:?};\n\
-         override RENDER_GLOSSY: bool = false;\noverride RENDER_PLANTED: bool = false;\n{}",
+         const RENDER_ATTR_TANGENTS: u32 = {ATTR_TANGENTS}u;\n\
+         const RENDER_ATTR_TANGENT_FLIP: u32 = {ATTR_TANGENT_FLIP}u;\n\
+         override RENDER_GLOSSY: bool = false;\noverride RENDER_NORMAL_MAPS: bool = false;\n\
+         override RENDER_PLANTED: bool = false;\n{}",
         LUMINANCE[0],
         LUMINANCE[1],
         LUMINANCE[2],

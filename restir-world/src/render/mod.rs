@@ -54,9 +54,9 @@ pub use library::{
     shared_bindings,
 };
 pub use records::{
-    ATTR_NORMALS, ATTR_UV, GVertex, RenderParams, RenderState, SHADING_FLAT, StoredReservoir,
-    TEXTURE_LINEAR, TextureGpu, TriangleAttributes, pack_material, ray_offset_floor,
-    texture_tables, triangle_attributes,
+    ATTR_NORMALS, ATTR_TANGENT_FLIP, ATTR_TANGENTS, ATTR_UV, GVertex, RenderParams, RenderState,
+    SHADING_FLAT, StoredReservoir, TEXTURE_LINEAR, TextureGpu, TriangleAttributes, oct_encode,
+    pack_material, pack_tangent, ray_offset_floor, texture_tables, triangle_attributes,
 };
 pub(crate) use render_buffers::RenderBuffers;
 pub use stage::{
@@ -279,6 +279,9 @@ impl Renderer {
         let mut params = RenderParams::new(&camera.scaled(units), estimator, options);
         params.ray_offset_floor = ray_offset_floor(scene);
         params.attributes = u32::from(attributes.is_some());
+        let normal_maps = attributes
+            .as_ref()
+            .is_some_and(|a| a.iter().any(|a| a.flags & ATTR_TANGENTS != 0));
         let no_material = [Material::new([0.0; 3], [0.0; 3])];
         let materials = match scene.materials.is_empty() {
             true => &no_material[..],
@@ -312,6 +315,7 @@ impl Renderer {
             pixels,
             kernels: ctx.kernels.clone(),
             glossy,
+            normal_maps,
             planted: options.planted() != Planted::None,
         };
         let passes = Passes::new(&ctx.device, &shared);

@@ -1,7 +1,7 @@
 //! The Rust twins of the render library's WGSL structs, and the tables the renderer uploads.
 
 use crate::sampling::{CameraGpu, Estimator};
-use crate::scene::{Camera, MaterialModel, Scene};
+use crate::scene::{Camera, MaterialModel, Scene, tangents};
 
 use super::RenderOptions;
 use super::library::{METHOD_NEE, METHOD_RIS};
@@ -60,9 +60,18 @@ pub fn pack_material(model: MaterialModel, metallic: f32, roughness: f32) -> u32
 pub const ATTR_NORMALS: u32 = 1;
 /// [`TriangleAttributes::flags`]: the texture coordinates are set.
 pub const ATTR_UV: u32 = 2;
+/// [`TriangleAttributes::flags`]: the tangents are set (the triangle's material has a normal
+/// map, and its tangents are usable: `scene::tangents::usable`).
+pub const ATTR_TANGENTS: u32 = 4;
+/// [`TriangleAttributes::flags`]: corner c's tangent has handedness -1 where bit
+/// `ATTR_TANGENT_FLIP << c` is set.
+pub const ATTR_TANGENT_FLIP: u32 = 8;
 
 /// WGSL `TriangleAttributes`: per scene triangle (indexed by `Scene::triangles` order), its
-/// vertex normals and texture coordinates, each present when its flag is set.
+/// vertex normals, texture coordinates and (normal-mapped triangles) tangents, each present
+/// when its flag is set. The tangents take the words that were padding, so that a scene
+/// without normal maps uploads the same bytes as before them: each corner's unit tangent as
+/// its octahedral coordinates in two snorm16 ([`pack_tangent`]), its handedness in `flags`.
 #[repr(C)]
 #[derive(Debug, Clone, Copy, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
 pub struct TriangleAttributes {
@@ -73,15 +82,45 @@ pub struct TriangleAttributes {
     /// samples, which know their triangle but not its material.
     pub emissive_texture: u32,
     pub n2: [f32; 3],
-    pub _pad1: u32,
+    /// Corner 0's tangent ([`pack_tangent`]).
+    pub tangent0: u32,
     pub uv0: [f32; 2],
     pub uv1: [f32; 2],
     pub uv2: [f32; 2],
-    pub _pad2: [u32; 2],
+    /// Corners 1 and 2's tangents.
+    pub tangent12: [u32; 2],
+}
+
+const _: () = assert!(size_of::<TriangleAttributes>() == 80);
+
+/// Octahedral coordinates in [-1, 1]^2 of the unit vector d (twin of WGSL
+/// `sampling_oct_encode`).
+pub fn oct_encode(d: glam::Vec3) -> glam::Vec2 {
+    let p = glam::Vec2::new(d.x, d.y) / (d.x.abs() + d.y.abs() + d.z.abs());
+    if d.z >= 0.0 {
+        return p;
+    }
+    let s = glam::Vec2::new(
+        if p.x >= 0.0 { 1.0 } else { -1.0 },
+        if p.y >= 0.0 { 1.0 } else { -1.0 },
+    );
+    (glam::Vec2::ONE - glam::Vec2::new(p.y.abs(), p.x.abs())) * s
+}
+
+/// A unit tangent as the GPU keeps it: its octahedral coordinates ([`oct_encode`]) as two
+/// snorm16 (WGSL `pack2x16snorm`'s layout, read by `unpack2x16snorm`): directions to about
+/// 5e-5 radians.
+pub fn pack_tangent(t: glam::Vec3) -> u32 {
+    let e = oct_encode(t.normalize());
+    let q = |x: f32| u32::from((x.clamp(-1.0, 1.0) * 32767.0).round() as i16 as u16);
+    q(e.x) | (q(e.y) << 16)
 }
 
 /// The per-triangle attributes of `scene`, or `None` when no triangle has vertex normals or
-/// texture coordinates (the renderer then binds one dummy entry and shades flat).
+/// texture coordinates (the renderer then binds one dummy entry and shades flat). A triangle
+/// gets its tangents where its material has a normal texture and they are usable; one without
+/// vertex normals then gets its geometric normal at each corner (the normal its tangents were
+/// made for).
 pub fn triangle_attributes(scene: &Scene) -> Option<Vec<TriangleAttributes>> {
     if scene
         .triangles
@@ -96,14 +135,33 @@ pub fn triangle_attributes(scene: &Scene) -> Option<Vec<TriangleAttributes>> {
             .iter()
             .map(|t| {
                 let mut a: TriangleAttributes = bytemuck::Zeroable::zeroed();
-                if let Some(n) = t.n {
+                let material = scene.materials.get(t.material as usize);
+                let tangents = match (t.t, material) {
+                    (Some(tan), Some(m)) if m.normal_texture != 0 && tangents::usable(t) => {
+                        Some(tan)
+                    }
+                    _ => None,
+                };
+                let normals = match (t.n, tangents) {
+                    (Some(n), _) => Some(n),
+                    (None, Some(_)) => Some([t.cross().normalize(); 3]),
+                    (None, None) => None,
+                };
+                if let Some(n) = normals {
                     a.flags |= ATTR_NORMALS;
                     (a.n0, a.n1, a.n2) = (n[0].to_array(), n[1].to_array(), n[2].to_array());
                 }
-                a.emissive_texture = scene
-                    .materials
-                    .get(t.material as usize)
-                    .map_or(0, |m| m.emissive_texture);
+                if let Some(tan) = tangents {
+                    a.flags |= ATTR_TANGENTS;
+                    for (c, t) in tan.iter().enumerate() {
+                        if t.w < 0.0 {
+                            a.flags |= ATTR_TANGENT_FLIP << c;
+                        }
+                    }
+                    let packed = tan.map(|t| pack_tangent(t.truncate()));
+                    (a.tangent0, a.tangent12) = (packed[0], [packed[1], packed[2]]);
+                }
+                a.emissive_texture = material.map_or(0, |m| m.emissive_texture);
                 if let Some(uv) = t.uv {
                     a.flags |= ATTR_UV;
                     (a.uv0, a.uv1, a.uv2) = (uv[0].to_array(), uv[1].to_array(), uv[2].to_array());

@@ -6,7 +6,8 @@
 // CPU reference with the same estimators: restir_world::reference.
 
 // Material, as restir_world::scene::Material. The textures are 1 + a texture ref index (0:
-// none); the texture multiplies the factor. model: 0 diffuse, 1 glTF metallic-roughness.
+// none); the texture multiplies the factor (the normal texture: render_normal_mapped). model:
+// 0 diffuse, 1 glTF metallic-roughness.
 struct Material {
     albedo: vec3<f32>,
     base_color_texture: u32,
@@ -16,6 +17,9 @@ struct Material {
     metallic: f32,
     roughness: f32,
     metallic_roughness_texture: u32,
+    normal_texture: u32,
+    normal_scale: f32,
+    _pad: vec2<u32>,
 }
 
 // A material's use of a texture (Rust: render::TextureGpu): (s, t) = (row0, row1) . (u, v, 1);
@@ -131,19 +135,20 @@ fn render_vertex_brdf(v: GVertex) -> BrdfSurface {
     return s;
 }
 
-// Per scene triangle: vertex normals (flags & 1) and texture coordinates (flags & 2)
-// (Rust: render::TriangleAttributes).
+// Per scene triangle: vertex normals (flags & 1), texture coordinates (flags & 2) and
+// tangents (flags & RENDER_ATTR_TANGENTS: octahedral snorm16 pairs, handedness -1 where
+// RENDER_ATTR_TANGENT_FLIP << corner) (Rust: render::TriangleAttributes).
 struct TriangleAttributes {
     n0: vec3<f32>,
     flags: u32,
     n1: vec3<f32>,
     emissive_texture: u32,
     n2: vec3<f32>,
-    _pad1: u32,
+    tangent0: u32,
     uv0: vec2<f32>,
     uv1: vec2<f32>,
     uv2: vec2<f32>,
-    _pad2: vec2<u32>,
+    tangent12: vec2<u32>,
 }
 
 // Per-render constants. method: RENDER_METHOD_NEE or RENDER_METHOD_RIS.
@@ -292,6 +297,9 @@ fn render_surface(dir: vec3<f32>, hit: Hit) -> GVertex {
         }
         if (a.flags & 2u) != 0u {
             let uv = render_uv(a, hit.b1, hit.b2);
+            if RENDER_NORMAL_MAPS && (a.flags & RENDER_ATTR_TANGENTS) != 0u {
+                v.shading = render_normal_mapped(a, hit, n, m, uv);
+            }
             if m.base_color_texture != 0u {
                 v.albedo *= render_texture(m.base_color_texture, uv);
             }
@@ -752,6 +760,42 @@ fn render_shading_normal(a: TriangleAttributes, hit: Hit, n: vec3<f32>) -> vec3<
     }
     let ns = raw * inverseSqrt(l2);
     return select(ns, -ns, dot(ns, n) < 0.0);
+}
+
+// The shading normal of a normal-mapped triangle at the hit (texture coordinates uv): the
+// interpolated normal N and tangent T (made orthogonal to N), B = w cross(N, T) (w the sign of
+// the interpolated handedness), the normal texture's n = normalize((2 texel - 1) * (scale,
+// scale, 1)), and normalize(T n.x + B n.y + N n.z) turned to the side of the geometric normal
+// n as render_shading_normal turns the interpolated one; that one where the frame degenerates.
+// Twin: reference::normal_mapped.
+fn render_normal_mapped(a: TriangleAttributes, hit: Hit, n: vec3<f32>, m: Material,
+                        uv: vec2<f32>) -> vec3<f32> {
+    let b = vec3<f32>(1.0 - hit.b1 - hit.b2, hit.b1, hit.b2);
+    let raw = b.x * a.n0 + b.y * a.n1 + b.z * a.n2;
+    let l2 = dot(raw, raw);
+    if !(l2 > 1e-30) {
+        return n;
+    }
+    let nn = raw * inverseSqrt(l2);
+    let ns = select(nn, -nn, dot(nn, n) < 0.0);
+    let t = b.x * sampling_oct_decode(unpack2x16snorm(a.tangent0))
+        + b.y * sampling_oct_decode(unpack2x16snorm(a.tangent12.x))
+        + b.z * sampling_oct_decode(unpack2x16snorm(a.tangent12.y));
+    let tp = t - nn * dot(nn, t);
+    let tl2 = dot(tp, tp);
+    let ts = (render_texture(m.normal_texture, uv) * 2.0 - 1.0)
+        * vec3<f32>(m.normal_scale, m.normal_scale, 1.0);
+    let sl2 = dot(ts, ts);
+    if !(tl2 > 1e-8 && sl2 > 1e-30) {
+        return ns;
+    }
+    let flip_bits = vec3<u32>(1u, 2u, 4u) * RENDER_ATTR_TANGENT_FLIP;
+    let flip = (vec3<u32>(a.flags) & flip_bits) != vec3<u32>(0u);
+    let w = dot(b, select(vec3<f32>(1.0), vec3<f32>(-1.0), flip));
+    let tu = tp * inverseSqrt(tl2);
+    let bu = select(1.0, -1.0, w < 0.0) * cross(nn, tu);
+    let p = normalize(tu * ts.x + bu * ts.y + nn * ts.z);
+    return select(p, -p, dot(p, n) < 0.0);
 }
 
 // Origin offset off a surface along its normal, scaled with the coordinates' magnitude.

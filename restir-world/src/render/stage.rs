@@ -20,6 +20,11 @@ pub struct SharedGroups {
     /// Whether the scene has glossy materials: its kernels are specialized with the render
     /// library's `RENDER_GLOSSY` (a diffuse scene's kernels are today's, with no BRDF code).
     pub glossy: bool,
+    /// Whether a triangle has a normal map (its material's normal texture, its tangents:
+    /// `render::ATTR_TANGENTS`): its kernels are specialized with the render library's
+    /// `RENDER_NORMAL_MAPS` (a scene without is shaded by kernels that fold the normal map's
+    /// branch away).
+    pub normal_maps: bool,
     /// Whether a test's negative control planted a defect ([`crate::plant`]): its kernels
     /// are specialized with `RENDER_PLANTED`, which the library's own builds never set, so
     /// their planted branches are compiled out.
@@ -42,6 +47,7 @@ impl SharedGroups {
         let source = compose_with_library(self.tracer, modules);
         let overrides: Vec<(&str, f64)> = [
             ("RENDER_GLOSSY", self.glossy),
+            ("RENDER_NORMAL_MAPS", self.normal_maps),
             ("RENDER_PLANTED", self.planted),
         ]
         .into_iter()

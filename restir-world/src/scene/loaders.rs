@@ -13,11 +13,14 @@
 //! non-finite transform keeps its material's factor with a warning, never an error. Every file
 //! is opened through [`super::files`] (regular files only, capped, confined to the scene's
 //! directory). Accessors are checked (type, component type, stride, count, bounds) before the
-//! `gltf` crate reads them. Normal maps and alpha MASK/BLEND are not modelled (one warning
-//! each per file). `extensionsRequired` follows [`extension_policy`]: supported extensions are
-//! used, ones that change only what the renderer does not model warn once each, ones that
-//! change the geometry (Draco, meshopt, quantization, GPU instancing) are an error naming the
-//! extension and the file.
+//! `gltf` crate reads them. Normal maps (`normalTexture` with its `scale`, on `TEXCOORD_0`) are
+//! read with the primitives' `TANGENT`s, or MikkTSpace tangents generated where a primitive has
+//! none ([`super::tangents`]); triangles whose tangents are unusable, and materials whose normal
+//! texture is, shade with their interpolated normals, with a warning naming the material. Alpha
+//! MASK/BLEND is not modelled (one warning per file). `extensionsRequired` follows
+//! [`extension_policy`]: supported extensions are used, ones that change only what the renderer
+//! does not model warn once each, ones that change the geometry (Draco, meshopt, quantization, GPU
+//! instancing) are an error naming the extension and the file.
 
 use std::cell::RefCell;
 use std::collections::HashMap;
@@ -107,6 +110,7 @@ fn read(path: &Path) -> Result<Vec<u8>, SceneError> {
 enum AccessorRole {
     Position,
     Normal,
+    Tangent,
     TexCoord,
     Index,
 }
@@ -116,6 +120,7 @@ impl AccessorRole {
         match self {
             AccessorRole::Position => "POSITION",
             AccessorRole::Normal => "NORMAL",
+            AccessorRole::Tangent => "TANGENT",
             AccessorRole::TexCoord => "TEXCOORD_0",
             AccessorRole::Index => "index",
         }
@@ -149,6 +154,7 @@ fn accessor_problem(
     }
     let (dims, types): (D, &[T]) = match role {
         AccessorRole::Position | AccessorRole::Normal => (D::Vec3, &[T::F32]),
+        AccessorRole::Tangent => (D::Vec4, &[T::F32]),
         AccessorRole::TexCoord => (D::Vec2, &[T::F32, T::U8, T::U16]),
         AccessorRole::Index => (D::Scalar, &[T::U8, T::U16, T::U32]),
     };
@@ -365,8 +371,59 @@ struct GltfTextures {
     sources: HashMap<ImageSource, Option<u32>>,
     /// Halvings made so far to keep the texels within [`texture::MAX_TEXEL_BYTES`].
     halvings: usize,
-    normal_maps: usize,
     alpha_cutouts: usize,
+}
+
+/// A material's use of a texture: the texture, its `texCoord` set and its
+/// `KHR_texture_transform` (offset, rotation, scale).
+struct TextureUse<'a> {
+    texture: gltf::Texture<'a>,
+    set: u32,
+    transform: Option<([f32; 2], f32, [f32; 2])>,
+}
+
+impl<'a> TextureUse<'a> {
+    fn of_info(info: &gltf::texture::Info<'a>) -> Self {
+        let transform = info.texture_transform();
+        Self {
+            texture: info.texture(),
+            set: transform
+                .as_ref()
+                .and_then(|t| t.tex_coord())
+                .unwrap_or(info.tex_coord()),
+            transform: transform.map(|t| (t.offset(), t.rotation(), t.scale())),
+        }
+    }
+
+    /// A normal texture's use (the `gltf` crate gives its `KHR_texture_transform` only as
+    /// JSON: the extension's defaults where a member is absent or not a number).
+    fn of_normal(info: &gltf::material::NormalTexture<'a>) -> Self {
+        let ext = info.extension_value("KHR_texture_transform");
+        let num = |v: Option<&gltf::json::Value>| v.and_then(gltf::json::Value::as_f64);
+        let pair = |key: &str, default: [f32; 2]| {
+            ext.and_then(|e| e.get(key))
+                .and_then(|v| v.as_array())
+                .map_or(default, |a| {
+                    [0, 1].map(|i| num(a.get(i)).map_or(default[i], |x| x as f32))
+                })
+        };
+        let transform = ext.map(|e| {
+            (
+                pair("offset", [0.0, 0.0]),
+                num(e.get("rotation")).map_or(0.0, |x| x as f32),
+                pair("scale", [1.0, 1.0]),
+            )
+        });
+        let set = ext
+            .and_then(|e| e.get("texCoord"))
+            .and_then(gltf::json::Value::as_u64)
+            .map_or(info.tex_coord(), |s| s as u32);
+        Self {
+            texture: info.texture(),
+            set,
+            transform,
+        }
+    }
 }
 
 fn wrap_of(m: gltf::texture::WrappingMode) -> Wrap {
@@ -381,18 +438,9 @@ impl GltfTextures {
     /// The texture ref (1 + index into `Scene::texture_refs`) of a material's texture, or 0
     /// with a warning when it cannot be used (its factor is then used alone).
     /// `linear`: the texels are data (metallic-roughness), not sRGB-encoded colour.
-    fn reference(
-        &mut self,
-        c: &mut TextureContext,
-        info: &gltf::texture::Info,
-        linear: bool,
-    ) -> u32 {
-        let tex = info.texture();
-        let transform = info.texture_transform();
-        let set = transform
-            .as_ref()
-            .and_then(|t| t.tex_coord())
-            .unwrap_or(info.tex_coord());
+    fn reference(&mut self, c: &mut TextureContext, info: &TextureUse, linear: bool) -> u32 {
+        let tex = &info.texture;
+        let set = info.set;
         let warn = |c: &mut TextureContext, why: String| {
             c.warnings.push(format!(
                 "{}: texture {} {why}: its material keeps the factor",
@@ -410,17 +458,14 @@ impl GltfTextures {
             linear,
             ..TextureRef::plain(0)
         };
-        if let Some(t) = transform {
-            r = r.with_transform(t.offset(), t.rotation(), t.scale());
+        if let Some((offset, rotation, scale)) = info.transform {
+            r = r.with_transform(offset, rotation, scale);
             if !r.row0.iter().chain(&r.row1).all(|x| x.is_finite()) {
                 warn(
                     c,
                     format!(
-                        "has a KHR_texture_transform that is not finite (offset {:?}, rotation \
-                         {}, scale {:?})",
-                        t.offset(),
-                        t.rotation(),
-                        t.scale()
+                        "has a KHR_texture_transform that is not finite (offset {offset:?}, \
+                         rotation {rotation}, scale {scale:?})"
                     ),
                 );
                 return 0;
@@ -536,6 +581,7 @@ pub fn load_gltf(path: &Path, warnings: &mut Vec<String>) -> Result<Scene, Scene
         buffers: &buffers,
         scene: Scene::default(),
         materials: HashMap::new(),
+        material_names: HashMap::new(),
         textures: GltfTextures::default(),
         warnings,
     };
@@ -660,6 +706,8 @@ struct GltfScene<'a> {
     scene: Scene,
     /// glTF material index (None: the default material) -> scene material.
     materials: HashMap<Option<usize>, u32>,
+    /// Scene material -> its glTF material's name for messages ([`material_name`]).
+    material_names: HashMap<u32, String>,
     textures: GltfTextures,
     warnings: &'a mut Vec<String>,
 }
@@ -668,13 +716,6 @@ impl GltfScene<'_> {
     /// The warnings of the whole file, and the first camera as the one renders use.
     fn finish(mut self) -> Scene {
         let path = self.path.display();
-        if self.textures.normal_maps > 0 {
-            self.warnings.push(format!(
-                "{path}: {} materials have normal maps, which are not modelled: the \
-                 interpolated vertex normals shade",
-                self.textures.normal_maps
-            ));
-        }
         if self.textures.alpha_cutouts > 0 {
             self.warnings.push(format!(
                 "{path}: {} materials use alpha MASK or BLEND, which is not modelled yet: they \
@@ -759,7 +800,7 @@ impl GltfScene<'_> {
             }
         }
         let reader = prim.reader(|b| buffers.get(b.index()).map(Vec::as_slice));
-        let positions: Vec<Vec3> = reader
+        let local: Vec<Vec3> = reader
             .read_positions()
             .ok_or_else(|| {
                 parse_err(
@@ -767,27 +808,158 @@ impl GltfScene<'_> {
                     format!("glTF: mesh {mesh} has no readable POSITION data"),
                 )
             })?
-            .map(|p| m.transform_point3(Vec3::from(p)))
+            .map(Vec3::from)
             .collect();
+        let positions: Vec<Vec3> = local.iter().map(|&p| m.transform_point3(p)).collect();
         let normal_m = Mat3::from_mat4(*m).inverse().transpose();
-        let normals: Option<Vec<Vec3>> = reader.read_normals().map(|it| {
-            it.map(|n| (normal_m * Vec3::from(n)).normalize_or_zero())
+        let local_normals: Option<Vec<Vec3>> = reader
+            .read_normals()
+            .map(|it| it.map(Vec3::from).collect())
+            .filter(|n: &Vec<Vec3>| n.len() == positions.len());
+        let normals: Option<Vec<Vec3>> = local_normals.as_ref().map(|n| {
+            n.iter()
+                .map(|&n| (normal_m * n).normalize_or_zero())
                 .collect()
         });
-        let normals = normals.filter(|n| n.len() == positions.len());
         let indices = read_indices(path, mesh, prim, &reader, positions.len())?;
         let material = self.material(&prim.material());
         let uvs = self.tex_coords(mesh, prim, &reader, positions.len(), material);
+        let first = self.scene.triangles.len();
         for tri in indices.chunks_exact(3) {
             let idx = [tri[0], tri[1], tri[2]].map(|i| i as usize);
             self.scene.triangles.push(Triangle {
                 v: idx.map(|i| positions[i]),
                 n: normals.as_ref().map(|n| idx.map(|i| n[i])),
                 uv: uvs.as_ref().map(|uv| idx.map(|i| uv[i])),
+                t: None,
                 material,
             });
         }
+        if self.scene.materials[material as usize].normal_texture != 0 {
+            let local_tris: Vec<Triangle> = indices
+                .chunks_exact(3)
+                .map(|tri| {
+                    let idx = [tri[0], tri[1], tri[2]].map(|i| i as usize);
+                    Triangle {
+                        v: idx.map(|i| local[i]),
+                        n: local_normals.as_ref().map(|n| idx.map(|i| n[i])),
+                        uv: uvs.as_ref().map(|uv| idx.map(|i| uv[i])),
+                        t: None,
+                        material,
+                    }
+                })
+                .collect();
+            let file = self.file_tangents(mesh, prim, &reader, positions.len());
+            self.add_tangents(mesh, first, &local_tris, &indices, file, m);
+        }
         Ok(())
+    }
+
+    /// The primitive's `TANGENT`s (local space), when it has usable ones; a warning when it
+    /// has unusable ones (they are then generated).
+    fn file_tangents<'a, 's, F>(
+        &mut self,
+        mesh: usize,
+        prim: &gltf::Primitive,
+        reader: &gltf::mesh::Reader<'a, 's, F>,
+        vertices: usize,
+    ) -> Option<Vec<glam::Vec4>>
+    where
+        F: Clone + Fn(gltf::Buffer<'a>) -> Option<&'s [u8]>,
+    {
+        let acc = prim.get(&gltf::Semantic::Tangents)?;
+        let problem = accessor_problem(&acc, AccessorRole::Tangent, self.buffers).or_else(|| {
+            (acc.count() != vertices)
+                .then(|| format!("has {} elements for {vertices} vertices", acc.count()))
+        });
+        let tangents: Option<Vec<glam::Vec4>> = match problem {
+            None => reader
+                .read_tangents()
+                .map(|it| it.map(glam::Vec4::from).collect())
+                .filter(|t: &Vec<glam::Vec4>| t.len() == vertices),
+            Some(_) => None,
+        };
+        if tangents.is_none() {
+            self.warnings.push(format!(
+                "{}: mesh {mesh}: TANGENT accessor {} {}: MikkTSpace tangents are generated \
+                 instead",
+                self.path.display(),
+                acc.index(),
+                problem.unwrap_or_else(|| "is unreadable".into())
+            ));
+        }
+        tangents
+    }
+
+    /// Gives the normal-mapped triangles `first..` of the scene (the primitive's, `local` in
+    /// its mesh's space, with their vertex `indices`) their tangents: the file's (per vertex),
+    /// else MikkTSpace's generated over `local`; transformed by the node's `m` (the handedness
+    /// flipped where it mirrors).
+    /// A primitive without vertex normals gets its flat normal at each corner (transformed as
+    /// a normal: the one its tangents were made with). Triangles whose tangents are unusable
+    /// ([`super::tangents::usable`]) keep none; a warning names their material.
+    fn add_tangents(
+        &mut self,
+        mesh: usize,
+        first: usize,
+        local: &[Triangle],
+        indices: &[u32],
+        file: Option<Vec<glam::Vec4>>,
+        m: &Mat4,
+    ) {
+        let normal_m = Mat3::from_mat4(*m).inverse().transpose();
+        let Some(&Triangle { material, .. }) = local.first() else {
+            return;
+        };
+        let name = self
+            .material_names
+            .get(&material)
+            .cloned()
+            .unwrap_or_default();
+        if local[0].uv.is_none() {
+            self.warnings.push(format!(
+                "{}: material {name}: mesh {mesh} has no usable TEXCOORD_0: its normal map is \
+                 not applied there",
+                self.path.display()
+            ));
+            return;
+        }
+        let tangents: Vec<[glam::Vec4; 3]> = match &file {
+            Some(per_vertex) => indices
+                .chunks_exact(3)
+                .map(|tri| [0, 1, 2].map(|c| per_vertex[tri[c] as usize]))
+                .collect(),
+            None => super::tangents::generate(local),
+        };
+        let m3 = Mat3::from_mat4(*m);
+        let mirror = if m3.determinant() < 0.0 { -1.0 } else { 1.0 };
+        let mut bad = 0usize;
+        for (k, (tri, tan)) in local.iter().zip(&tangents).enumerate() {
+            let t = &mut self.scene.triangles[first + k];
+            if t.n.is_none() {
+                t.n = Some([(normal_m * tri.cross()).normalize_or_zero(); 3]);
+            }
+            t.t = Some(tan.map(|q| (m3 * q.truncate()).normalize_or_zero().extend(q.w * mirror)));
+            if !super::tangents::usable(t) {
+                t.t = None;
+                bad += 1;
+            }
+        }
+        if bad > 0 {
+            self.warnings.push(format!(
+                "{}: material {name}: {bad} of the {} triangles of mesh {mesh} have unusable \
+                 {} tangents (zero, NaN, parallel to the normal, or zero-area texture \
+                 coordinates): they shade with their interpolated normals, without the normal \
+                 map",
+                self.path.display(),
+                local.len(),
+                if file.is_some() {
+                    "TANGENT"
+                } else {
+                    "generated"
+                }
+            ));
+        }
     }
 
     /// The primitive's `TEXCOORD_0`, when it is usable; a warning when it is not and its
@@ -864,20 +1036,90 @@ impl GltfScene<'_> {
             warnings: self.warnings,
         };
         if let Some(info) = pbr.base_color_texture() {
+            let info = TextureUse::of_info(&info);
             material.base_color_texture = self.textures.reference(&mut ctx, &info, false);
         }
         if let Some(info) = mat.emissive_texture() {
+            let info = TextureUse::of_info(&info);
             material.emissive_texture = self.textures.reference(&mut ctx, &info, false);
         }
         if let Some(info) = pbr.metallic_roughness_texture() {
+            let info = TextureUse::of_info(&info);
             material.metallic_roughness_texture = self.textures.reference(&mut ctx, &info, true);
         }
-        self.textures.normal_maps += usize::from(mat.normal_texture().is_some());
+        if let Some(info) = mat.normal_texture() {
+            let r = self
+                .textures
+                .reference(&mut ctx, &TextureUse::of_normal(&info), true);
+            material.normal_texture = self.normal_texture(mat, &info, r);
+            // A non-finite scale was warned about with the texture (which is then not used).
+            material.normal_scale = Some(info.scale()).filter(|s| s.is_finite()).unwrap_or(1.0);
+        }
         self.textures.alpha_cutouts +=
             usize::from(mat.alpha_mode() != gltf::material::AlphaMode::Opaque);
         let id = self.scene.add_material(material);
         self.materials.insert(key, id);
+        self.material_names.insert(id, material_name(mat));
         id
+    }
+
+    /// The normal texture ref `r` of `mat` (0: it could not be read) if it is usable as a
+    /// tangent-space normal map, else 0 with a warning naming the material (but for a missing
+    /// image file, warned about with the others): a non-finite `scale`, or texels that are
+    /// not a normal map's (all grey, r = g = b: a height or bump map; or a blue channel, the
+    /// normals' z, below 0.5 on average: the normals point into the surface).
+    fn normal_texture(
+        &mut self,
+        mat: &gltf::Material,
+        info: &gltf::material::NormalTexture,
+        r: u32,
+    ) -> u32 {
+        let problem = if r == 0 {
+            let missing = match info.texture().source().map(|i| i.source()) {
+                Some(gltf::image::Source::Uri { uri, .. }) if !uri.starts_with("data:") => {
+                    confined(self.path, self.dir, uri, false).is_ok_and(|f| !f.exists())
+                }
+                _ => false,
+            };
+            if missing {
+                return 0;
+            }
+            Some("cannot be read (above)".to_owned())
+        } else if !info.scale().is_finite() {
+            Some(format!("has a scale {} that is not finite", info.scale()))
+        } else {
+            let t = &self.scene.textures[self.scene.texture_refs[r as usize - 1].texture as usize];
+            let grey = t.texels.iter().all(|p| p[0] == p[1] && p[1] == p[2]);
+            let blue = t.texels.iter().map(|p| f64::from(p[2])).sum::<f64>()
+                / (255.0 * t.texels.len().max(1) as f64);
+            if grey {
+                Some(format!(
+                    "{:?} is grey (r = g = b: a height or bump map?), not a tangent-space \
+                     normal map",
+                    t.name
+                ))
+            } else if blue < 0.5 {
+                Some(format!(
+                    "{:?} has a blue channel (the normals' z) of {blue:.2} on average, below \
+                     0.5: not a tangent-space normal map",
+                    t.name
+                ))
+            } else {
+                None
+            }
+        };
+        match problem {
+            None => r,
+            Some(why) => {
+                self.warnings.push(format!(
+                    "{}: material {}: its normal texture {why}: ignored (the interpolated \
+                     vertex normals shade)",
+                    self.path.display(),
+                    material_name(mat)
+                ));
+                0
+            }
+        }
     }
 }
 
@@ -1274,6 +1516,7 @@ fn obj_triangles(
                 v: [a, b, c],
                 n,
                 uv: None,
+                t: None,
                 material,
             });
         }
