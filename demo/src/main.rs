@@ -76,6 +76,10 @@ enum Command {
         /// writes (at the path flags given).
         #[arg(long)]
         method: Option<String>,
+        /// With --method: the frame with the denoiser after it (its knobs as key=value joined
+        /// by +, as render's --denoise).
+        #[arg(long, num_args = 0..=1, default_missing_value = "", value_name = "KNOBS")]
+        denoise: Option<String>,
         #[command(flatten)]
         paths: paths::PathArgs,
     },
@@ -293,8 +297,15 @@ fn main() -> ExitCode {
             scene,
             scene_opts,
             method,
+            denoise,
             paths,
-        } => info(scene.as_deref(), &scene_opts, method.as_deref(), &paths),
+        } => info(
+            scene.as_deref(),
+            &scene_opts,
+            method.as_deref(),
+            denoise.as_deref(),
+            &paths,
+        ),
         Command::Render(args) => render(&args),
         Command::Smoke { out, size } => smoke(&out, size),
         Command::Compare(args) => compare_cmd(*args),
@@ -391,12 +402,24 @@ fn info(
     scene_name: Option<&str>,
     opts: &scenes::SceneArgs,
     method: Option<&str>,
+    denoise: Option<&str>,
     paths: &paths::PathArgs,
 ) -> Result<()> {
     // The method and its frame are checked before the adapter is opened.
+    if denoise.is_some() && method.is_none() {
+        anyhow::bail!(
+            "--denoise: info prints the denoiser's place in a method's frame: give --method"
+        );
+    }
     let plan = match method {
         Some(spec) => {
-            let settings = restir_world::methods::parse_spec(spec).context("--method")?;
+            let mut settings = restir_world::methods::parse_spec(spec).context("--method")?;
+            settings.denoise = denoise
+                .map(|k| {
+                    restir_world::denoise::DenoiseConfig::parse(k)
+                        .map_err(|e| anyhow::anyhow!("--denoise: {e}"))
+                })
+                .transpose()?;
             let paths = paths.paths()?;
             settings.check_paths(&paths).context("--method")?;
             Some((spec, settings.plan(&paths).context("--method")?))

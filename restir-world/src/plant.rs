@@ -17,7 +17,8 @@
 //! - defects of an estimator ([`Planted::is_defect`]): a wrong Jacobian, a merge that drops
 //!   the neighbours' M, Russian roulette without its division, an overstated light pdf, a path
 //!   one bounce short, cache updates without their tail, sub-path reuse one bounce too deep or without its
-//!   escaped candidates, the reuse's forward ray untested.
+//!   escaped candidates, the reuse's forward ray untested, a glossy BRDF losing energy, the
+//!   reuse taking glossy vertices as diffuse ones.
 //!   These are the controls of the bias tests: each must fail the check its test makes.
 //! - power checks ([`Planted::Scale`]): the finished frames scaled as they are accumulated.
 //!   They show only that a bound can see a shift of that size, never that a check catches a
@@ -82,6 +83,10 @@ pub enum Planted {
     /// weights alike) loses 1% of its energy: an energy compensation 99% accurate, the bound
     /// the BRDF's own furnace test allows.
     GlossyEnergyLoss,
+    /// The reuse stages take glossy vertices as diffuse ones (render_reuses true everywhere):
+    /// no hand-off to the path, so their targets, shifts and shading read a glossy vertex as
+    /// albedo / pi and its radiance as the same in every direction.
+    ReuseTakesGlossy,
 }
 
 impl Planted {
@@ -103,6 +108,7 @@ impl Planted {
             Self::SubpathSkipsEscaped => 12,
             Self::ForwardUntested => 13,
             Self::GlossyEnergyLoss => 14,
+            Self::ReuseTakesGlossy => 15,
         }
     }
 
@@ -116,6 +122,16 @@ impl Planted {
         match self {
             Self::Scale { direct, indirect } => (direct as f32 / 100.0, indirect as f32 / 100.0),
             _ => (1.0, 1.0),
+        }
+    }
+
+    /// No defect, in the kernels the controls use (the planted hooks compiled in, frames
+    /// scaled by 100%): the shipped estimator's arithmetic, as no planted branch is taken, so
+    /// that a check and its controls share one compile (minutes per kernel set on lavapipe).
+    pub fn none_compiled_in() -> Self {
+        Self::Scale {
+            direct: 100,
+            indirect: 100,
         }
     }
 
@@ -153,6 +169,7 @@ impl Planted {
             ("SUBPATH_SKIPS_ESCAPED", Self::SubpathSkipsEscaped),
             ("FORWARD_UNTESTED", Self::ForwardUntested),
             ("GLOSSY_ENERGY_LOSS", Self::GlossyEnergyLoss),
+            ("REUSE_TAKES_GLOSSY", Self::ReuseTakesGlossy),
         ];
         let mut s = String::from(
             "// Planted defects (restir_world::plant), compared with render_params.planted.\n",
@@ -185,6 +202,7 @@ mod tests {
             Planted::SubpathSkipsEscaped,
             Planted::ForwardUntested,
             Planted::GlossyEnergyLoss,
+            Planted::ReuseTakesGlossy,
         ];
         let mut ids: Vec<u32> = all.iter().map(|p| p.id()).collect();
         ids.sort_unstable();

@@ -105,6 +105,13 @@ impl Default for Paths {
 }
 
 impl Paths {
+    /// Whether the paths go on beyond the secondary vertex (a second bounce, or MIS's ray from
+    /// it), i.e. whether a frame has a path pass: the one place that decides it (the frame
+    /// plan's step and the passes that run it ask here).
+    pub fn beyond_secondary(&self) -> bool {
+        self.bounces > 1 || self.mis
+    }
+
     /// `bounces` with the default roulette.
     pub fn bounces(bounces: u32) -> Self {
         Self {

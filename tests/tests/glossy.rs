@@ -4,6 +4,8 @@
 //! estimator with a defect planted near its bound (`Planted::GlossyEnergyLoss`: the glossy
 //! BRDF losing 1% of its energy) and must fail it.
 
+use std::sync::OnceLock;
+
 use restir_world::plant::Planted;
 use restir_world::reference::{ReferenceOptions, ReferenceRenderer};
 use restir_world::render::Paths;
@@ -148,65 +150,135 @@ fn unlit_pixels(img: &[[f32; 3]], side: u32) -> Vec<bool> {
         .collect()
 }
 
-/// Guards the GPU's glossy paths against the CPU reference's (written apart: per-vertex steps
-/// in f32 with the f64 BRDF twin, MIS only at glossy vertices) where the two can differ, on
-/// the glossy Cornell box with its tall block at roughness 0.3 (a polished floor, a rough gold
-/// and a glossy metal block; at the shipped 0.1 the image mean's seed-to-seed scatter is 2-3%
-/// at 256 frames): the mean of six GPU runs (seeds 1-6, nee and ris alternating, 512 frames,
-/// 32x32) within 2% of the CPU reference's (nee, seeds 3-8, 1024 spp) on each channel of the
-/// direct image where the light is not seen ([`unlit_pixels`]) and of the indirect image.
-/// Measured scatter: GPU seeds 1% (indirect, 512 frames), the CPU's mean 0.25%: the
-/// difference's sigma is 0.5%, so a bias of 2.6% fails 90% of the time. Measured: indirect
-/// +0.9%, +0.6%, +1.1% (about 2 sigma: not resolved here). Power check (not a defect of the
-/// estimator): the GPU's indirect frames scaled to 96% must fail.
-#[test]
-fn glossy_cornell_gpu_matches_the_cpu_reference() {
-    let side = 32;
-    let (mut s, cam) = builtin_square("cornell-glossy", side, Default::default());
+/// The side of the glossy Cornell box's checks.
+const CORNELL_SIDE: u32 = 32;
+
+/// The glossy Cornell box of the GPU-against-CPU checks: its tall metal block at roughness 0.3
+/// (a polished floor, a rough gold and a glossy metal block; at the shipped 0.1 the image
+/// mean's seed-to-seed scatter is 2-3% at 256 frames: a near-mirror's caustics).
+fn glossy_cornell() -> (Scene, Camera) {
+    let (mut s, cam) = builtin_square("cornell-glossy", CORNELL_SIDE, Default::default());
     for m in &mut s.materials {
         if m.metallic == 1.0 && m.roughness == 0.1 {
             m.roughness = 0.3;
         }
     }
-    let mut want = [vec![[0.0f32; 3]; 1024], vec![[0.0f32; 3]; 1024]];
-    for seed in 3..=8 {
-        let o = ReferenceOptions {
-            method: Estimator::Nee,
-            spp: 1024,
-            seed,
-            ..Default::default()
-        };
-        let out = ReferenceRenderer::new(&s)
-            .expect("reference")
-            .render(&cam, &o, None)
-            .expect("render");
-        add_scaled(&mut want[0], &out.direct.pixels, 1.0 / 6.0);
-        add_scaled(&mut want[1], &out.indirect.pixels, 1.0 / 6.0);
-    }
-    let unlit = unlit_pixels(&want[0], side);
-    let all = vec![true; unlit.len()];
-    let bound = 0.02;
-    let worst = |planted: Planted| -> f64 {
-        let mut got = [vec![[0.0f32; 3]; 1024], vec![[0.0f32; 3]; 1024]];
-        for seed in 1..=6 {
-            let spec = if seed % 2 == 1 { "nee" } else { "ris" };
-            let mut m = gpu::build(spec, &s, &cam, gpu::planted(seed, planted));
-            gpu::render(&mut m, 512);
-            let img = gpu::images(&m);
-            add_scaled(&mut got[0], &img.direct, 1.0 / 6.0);
-            add_scaled(&mut got[1], &img.indirect, 1.0 / 6.0);
+    (s, cam)
+}
+
+/// The CPU reference's (direct, indirect) of [`glossy_cornell`] at the default paths: the mean
+/// of seeds 3-8 at 1024 spp (nee), computed once per test binary.
+fn glossy_cornell_reference() -> &'static [Vec<[f32; 3]>; 2] {
+    static REFERENCE: OnceLock<[Vec<[f32; 3]>; 2]> = OnceLock::new();
+    REFERENCE.get_or_init(|| {
+        let (s, cam) = glossy_cornell();
+        let n = (CORNELL_SIDE * CORNELL_SIDE) as usize;
+        let mut want = [vec![[0.0f32; 3]; n], vec![[0.0f32; 3]; n]];
+        for seed in 3..=8 {
+            let o = ReferenceOptions {
+                method: Estimator::Nee,
+                spp: 1024,
+                seed,
+                ..Default::default()
+            };
+            let out = ReferenceRenderer::new(&s)
+                .expect("reference")
+                .render(&cam, &o, None)
+                .expect("render");
+            add_scaled(&mut want[0], &out.direct.pixels, 1.0 / 6.0);
+            add_scaled(&mut want[1], &out.indirect.pixels, 1.0 / 6.0);
         }
-        let (d, i) = (
-            relative_means(&got[0], &want[0], &unlit),
-            relative_means(&got[1], &want[1], &all),
-        );
-        println!("{planted:?}: direct {d:+.4?} indirect {i:+.4?}");
-        d.iter().chain(&i).map(|x| x.abs()).fold(0.0, f64::max)
-    };
-    let w = worst(Planted::None);
+        want
+    })
+}
+
+/// The GPU's (direct, indirect) of [`glossy_cornell`], `frames` frames a seed, averaged over
+/// `seeds`, each seed's spec `spec(seed)`, with `planted` compiled in.
+fn glossy_cornell_gpu(
+    spec: impl Fn(u32) -> &'static str,
+    seeds: std::ops::RangeInclusive<u32>,
+    frames: u32,
+    planted: Planted,
+) -> [Vec<[f32; 3]>; 2] {
+    let (s, cam) = glossy_cornell();
+    let n = (CORNELL_SIDE * CORNELL_SIDE) as usize;
+    let k = 1.0 / seeds.clone().count() as f32;
+    let mut got = [vec![[0.0f32; 3]; n], vec![[0.0f32; 3]; n]];
+    for seed in seeds {
+        let mut m = gpu::build(spec(seed), &s, &cam, gpu::planted(seed, planted));
+        gpu::render(&mut m, frames);
+        let img = gpu::images(&m);
+        add_scaled(&mut got[0], &img.direct, k);
+        add_scaled(&mut got[1], &img.indirect, k);
+    }
+    got
+}
+
+/// The largest per-channel deviation of `got` from [`glossy_cornell_reference`]: the direct
+/// image where the light is not seen ([`unlit_pixels`]) and the indirect image, printed.
+fn glossy_cornell_deviation(what: &str, got: &[Vec<[f32; 3]>; 2]) -> f64 {
+    let want = glossy_cornell_reference();
+    let unlit = unlit_pixels(&want[0], CORNELL_SIDE);
+    let all = vec![true; unlit.len()];
+    let (d, i) = (
+        relative_means(&got[0], &want[0], &unlit),
+        relative_means(&got[1], &want[1], &all),
+    );
+    println!("{what}: direct {d:+.4?} indirect {i:+.4?}");
+    d.iter().chain(&i).map(|x| x.abs()).fold(0.0, f64::max)
+}
+
+/// Guards the GPU's glossy paths against the CPU reference's (written apart: per-vertex steps
+/// in f32 with the f64 BRDF twin, MIS only at glossy vertices) where the two can differ, on
+/// [`glossy_cornell`]: the mean of six GPU runs (seeds 1-6, nee and ris alternating, 512
+/// frames, 32x32) within 2% of the CPU reference's on each channel of the direct image where
+/// the light is not seen ([`unlit_pixels`]) and of the indirect image. Measured scatter: GPU
+/// seeds 1% (indirect, 512 frames), the CPU's mean 0.25%: the difference's sigma is 0.5%, so a
+/// bias of 2.6% fails 90% of the time. Measured: indirect +0.9%, +0.6%, +1.1% (about 2 sigma:
+/// not resolved here). Power check (not a defect of the estimator): the GPU's indirect frames
+/// scaled to 96% must fail.
+#[test]
+fn glossy_cornell_gpu_matches_the_cpu_reference() {
+    let bound = 0.02;
+    let spec = |seed: u32| if seed % 2 == 1 { "nee" } else { "ris" };
+    let w = glossy_cornell_deviation(
+        "nee/ris",
+        &glossy_cornell_gpu(spec, 1..=6, 512, Planted::None),
+    );
     assert!(w < bound, "{w:.4} from the CPU reference");
-    let w = worst(Planted::indirect_scaled(96));
+    let scaled = Planted::indirect_scaled(96);
+    let w = glossy_cornell_deviation("power check", &glossy_cornell_gpu(spec, 1..=6, 512, scaled));
     assert!(w > bound, "power check passed: {w:.4}");
+}
+
+/// Guards the reuse stages' hand-off of glossy vertices (`render_reuses`: each stage takes
+/// diffuse vertices only and gives a glossy one the renderer's own estimators: restir-di's
+/// direct light at a glossy primary vertex; world-restir's light at a glossy secondary or path
+/// vertex; restir-gi's and world-restir-gi's path sample at a glossy x1 or x2, whose initial and
+/// shade passes they share; the sub-path pass at a glossy x2 or x3) on [`glossy_cornell`]
+/// against the CPU reference: the full stack with sub-path reuse
+/// (`restir-di+world-restir-gi+world-restir:subpath`, every stage but the cache at once), the
+/// mean of seeds 1-4 at 512 frames (32x32, the shipped defaults), within 2% per channel of the
+/// direct image where the light is not seen and of the indirect image. Control: the reuse
+/// taking glossy vertices as diffuse ones (`Planted::ReuseTakesGlossy`, one seed, 256 frames)
+/// must fail. Both run the kernels with the planted hooks compiled in
+/// ([`Planted::none_compiled_in`]: one compile of the stack, several minutes on lavapipe).
+#[test]
+fn reuse_stages_leave_glossy_vertices_to_the_path() {
+    let bound = 0.02;
+    let spec = "restir-di+world-restir-gi+world-restir:subpath";
+    let check = Planted::none_compiled_in();
+    let w = glossy_cornell_deviation(spec, &glossy_cornell_gpu(|_| spec, 1..=4, 512, check));
+    let planted = Planted::ReuseTakesGlossy;
+    let control = glossy_cornell_deviation(
+        &format!("{spec} {planted:?}"),
+        &glossy_cornell_gpu(|_| spec, 1..=1, 256, planted),
+    );
+    assert!(w < bound, "{spec}: {w:.4} from the CPU reference");
+    assert!(
+        control > bound,
+        "{spec}: control {planted:?} passed ({control:.4})"
+    );
 }
 
 /// Adds `img` x `k` to `sum`, pixel by pixel.

@@ -437,9 +437,9 @@ fn five_hundred_frames_every_scene_overflowing_with_cut() {
     }
 }
 
-/// The built-in scenes without glossy materials: world-restir refuses the others (its light
-/// reuse does not model glossy BRDFs yet), and their geometry is cornell's or a hall like
-/// many-lights'.
+/// The built-in scenes without glossy materials: the glossy ones' geometry is cornell's or a
+/// hall like many-lights', and the reuse leaves their glossy vertices to the path (checked on
+/// them in glossy.rs).
 fn diffuse_builtins() -> impl Iterator<Item = &'static str> {
     restir_world::scene::BUILTIN_NAMES
         .into_iter()

@@ -145,8 +145,12 @@ fn demo_cache_compare() -> Vec<&'static str> {
 
 /// The configurations of docs/results.md: (part, title, output folder, compare arguments). The
 /// default depth is what a user gets; unbounded paths are what the radiance cache is measured
-/// against; one bounce without MIS is the comparison every method was first measured in.
-const RESULTS_PARTS: [(&str, &str, &str, &[&str]); 3] = [
+/// against; one bounce without MIS is the comparison every method was first measured in; the
+/// glossy scenes are where the reuse leaves glossy vertices to the path (a part of their own:
+/// their own scenes, at 128x128, every kernel of theirs specialized for glossy materials).
+/// A part's arguments follow [`RESULTS_COMMON`]'s; one that names `--scene` or `--size` replaces
+/// [`RESULTS_SCENES`] or [`RESULTS_SIZE`].
+const RESULTS_PARTS: [(&str, &str, &str, &[&str]); 4] = [
     (
         "default-depth",
         "the default paths (3 bounces, MIS)",
@@ -184,15 +188,29 @@ const RESULTS_PARTS: [(&str, &str, &str, &[&str]); 3] = [
             "off",
         ],
     ),
+    (
+        "glossy",
+        "glossy materials (the default paths)",
+        "docs/results/glossy",
+        &[
+            "--scene",
+            "glossy,cornell-glossy",
+            "--size",
+            "128x128",
+            "--methods",
+            "nee,ris,restir-di,world-restir,restir-gi,world-restir-gi,\
+             restir-di+world-restir-gi+world-restir",
+        ],
+    ),
 ];
 
+/// The scenes and size of a part that names none.
+const RESULTS_SCENES: [&str; 2] = ["--scene", "many-lights,cornell"];
+const RESULTS_SIZE: [&str; 2] = ["--size", "256x256"];
+
 /// The arguments every part of docs/results.md shares.
-const RESULTS_COMMON: [&str; 11] = [
+const RESULTS_COMMON: [&str; 7] = [
     "compare",
-    "--scene",
-    "many-lights,cornell",
-    "--size",
-    "256x256",
     "--frames",
     "18",
     "--reference-spp",
@@ -272,8 +290,8 @@ fn demo(args: &[String]) -> Result<(), String> {
 }
 
 /// `cargo xtask results [PART] [compare arguments]`: runs every part of docs/results.md (or the
-/// one named: default-depth, cache, one-bounce; `assemble`: none, so nothing is rendered) into
-/// its folder, then writes docs/results.md: a summary table from the parts' `report.json`
+/// one named: default-depth, cache, one-bounce, glossy; `assemble`: none, so nothing is
+/// rendered) into its folder, then writes docs/results.md: a summary table from the parts' `report.json`
 /// ([`summary::summary`]), the parts' `report.md` (image links pointing into docs/results/) and
 /// docs/results-notes.md.
 fn results(args: &[String]) -> Result<(), String> {
@@ -292,6 +310,11 @@ fn results(args: &[String]) -> Result<(), String> {
         let mut run = vec!["run", "--release", "--package", "demo", "--"];
         run.extend(RESULTS_COMMON);
         run.extend(["out/cache", "--out", dir]);
+        for default in [RESULTS_SCENES, RESULTS_SIZE] {
+            if !part_args.contains(&default[0]) {
+                run.extend(default);
+            }
+        }
         run.extend(part_args);
         run.extend(extra.iter().map(String::as_str));
         cargo(&run)?;

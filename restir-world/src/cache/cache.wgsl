@@ -71,6 +71,10 @@ fn cache_mean(slot: u32) -> vec4<f32> {
 // The radiance v reflects as the cache has it (v's albedo x its cell's mean), .w = 1, or
 // .w = 0 when its cell has no sample.
 fn cache_radiance(v: GVertex) -> vec4<f32> {
+    if !render_reuses(v) {
+        // A glossy vertex's radiance depends on the direction it is seen from: never cached.
+        return vec4<f32>(0.0);
+    }
     let slot = cache_find(v);
     if !hash_is_slot(slot) {
         return vec4<f32>(0.0);

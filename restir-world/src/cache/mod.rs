@@ -59,11 +59,6 @@ pub const MAX_AGE: u32 = 1000;
 /// Bytes of one cell: gpu-hash's checksum and slot counter (4 + 4) and the cell record (16).
 pub const BYTES_PER_CELL: u32 = 24;
 
-/// Salts of the cache's random streams (sub-streams of the path's, beyond any bounce's).
-const SALT_UPDATE: u32 = 0x800;
-const SALT_RESOLVE: u32 = 0x801;
-const SALT_ACCUMULATE: u32 = 0x802;
-
 const _: () =
     assert!((MAX_HISTORY + MAX_NEW) as f64 * SCALE as f64 * MAX_VALUE as f64 <= u32::MAX as f64);
 
@@ -286,10 +281,7 @@ pub fn constants_wgsl() -> String {
         "const CACHE_MAX_UPDATE_DEPTH: u32 = {MAX_UPDATE_DEPTH}u;\n\
          const CACHE_MAX_NEW: u32 = {MAX_NEW}u;\nconst CACHE_SCALE: f32 = {SCALE:?};\n\
          const CACHE_MAX_VALUE: f32 = {MAX_VALUE:?};\n\
-         const CACHE_SALT_UPDATE: u32 = {SALT_UPDATE}u;\n\
          const CACHE_MAX_BOUNCES: u32 = {MAX_BOUNCES}u;\n\
-         const CACHE_SALT_RESOLVE: u32 = {SALT_RESOLVE}u;\n\
-         const CACHE_SALT_ACCUMULATE: u32 = {SALT_ACCUMULATE}u;\n\
          const CACHE_VIEW_AGE: u32 = {}u;\nconst CACHE_VIEW_SAMPLES: u32 = {}u;\n{}",
         DebugView::CacheAge as u32,
         DebugView::CacheSamples as u32,

@@ -11,19 +11,20 @@
 // from it (cache_tail). Then, from the last vertex back, each vertex's
 // reflected radiance (white surface) = light estimate + MIS-weighted emission its bounce found
 // + the radiance the next vertex reflects, is one sample of its cell (its slot is claimed now,
-// the sample kept in cache_update_samples for cache_accumulate).
+// the sample kept in cache_update_samples for cache_accumulate). Only diffuse vertices have
+// cells (render_reuses): the path ends its samples at a glossy one, whose radiance is its tail.
 @compute @workgroup_size(WORKGROUP_SIZE)
 fn cache_update(id: Invocation) {
     let k = item_index(id);
     if k >= cache_params.update_paths { return; }
-    var rng = render_rng_salted(k, STREAM_PATH, CACHE_SALT_UPDATE);
+    var rng = render_rng_salted(k, STREAM_PATH, SALT_CACHE_UPDATE);
     let stratum = f32(render_params.pixel_count) / f32(cache_params.update_paths);
     let i = min(u32((f32(k) + rng_next_f32(&rng)) * stratum), render_params.pixel_count - 1u);
     // From the pixel's secondary vertex, not its primary: the paths read the cache at
     // vertices a diffuse bounce reached, and a cell's mean is the mean over where its samples
     // fell (from the camera, a lamp hides the bright wall behind it; from a bounce, it does not).
     var v = render_unpack_vertex(render_secondary[i]);
-    if render_gbuffer[i].prim == BVH_NO_HIT || v.prim == BVH_NO_HIT {
+    if render_gbuffer[i].prim == BVH_NO_HIT || v.prim == BVH_NO_HIT || !render_reuses(v) {
         for (var j = 0u; j < CACHE_MAX_UPDATE_DEPTH; j++) {
             cache_update_samples[k * CACHE_MAX_UPDATE_DEPTH + j] = CacheSample(vec3<f32>(0.0), HASH_REJECTED);
         }
@@ -36,6 +37,11 @@ fn cache_update(id: Invocation) {
     var tail = vec3<f32>(0.0);
     let depth = min(cache_params.knobs.update_depth, CACHE_MAX_UPDATE_DEPTH);
     for (var j = 0u; j < depth; j++) {
+        if !render_reuses(v) {
+            // A glossy vertex has no cell: the path goes on from it as the render's do.
+            tail = cache_tail(v, j + 2u, &rng);
+            break;
+        }
         var white = v;
         white.albedo = vec3<f32>(1.0);
         slots[j] = cache_insert(v);
@@ -84,14 +90,14 @@ fn cache_tail(w: GVertex, bounce: u32, rng: ptr<function, u32>) -> vec3<f32> {
     for (var b = bounce; b <= CACHE_MAX_BOUNCES; b++) {
         l += throughput * render_nee(v, rng);
         if render_params.roulette_from != 0u && b >= render_params.roulette_from {
-            let q = min(max(v.albedo.x, max(v.albedo.y, v.albedo.z)), 1.0);
+            let q = render_roulette_survival(v);
             if !(rng_next_f32(rng) < q) {
                 break;
             }
             throughput /= render_roulette_divisor(q);
         }
-        throughput *= v.albedo;
         let next = render_path_step(v, rng);
+        throughput *= render_throughput(v, next);
         l += throughput * render_hit_emission(v, next);
         if next.prim == BVH_NO_HIT {
             break;
@@ -106,7 +112,7 @@ fn cache_tail(w: GVertex, bounce: u32, rng: ptr<function, u32>) -> vec3<f32> {
 fn cache_accumulate(id: Invocation) {
     let item = item_index(id);
     if item >= cache_params.update_paths * CACHE_MAX_UPDATE_DEPTH { return; }
-    var rng = render_rng_salted(item, STREAM_PATH, CACHE_SALT_ACCUMULATE);
+    var rng = render_rng_salted(item, STREAM_PATH, SALT_CACHE_ACCUMULATE);
     let s = cache_update_samples[item];
     cache_add(s.slot, s.value, &rng);
 }
@@ -152,7 +158,7 @@ fn cache_fixed(x: vec3<f32>, rng: ptr<function, u32>) -> vec3<u32> {
 fn cache_resolve(id: Invocation) {
     let b = item_index(id);
     if b >= hash_params.num_buckets { return; }
-    var rng = render_rng_salted(b, STREAM_PATH, CACHE_SALT_RESOLVE);
+    var rng = render_rng_salted(b, STREAM_PATH, SALT_CACHE_RESOLVE);
     let spb = hash_params.slots_per_bucket;
     let base = b * spb;
     var kept = 0u;

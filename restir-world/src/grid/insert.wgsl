@@ -13,7 +13,7 @@ fn grid_insert(id: Invocation) {
     var entry = vec2<u32>(GRID_NO_SLOT, 0u);
     let item = grid_item(i);
     if item.present {
-        var rng = render_rng_salted(i, GRID_STREAM_BUILD, 0u);
+        var rng = render_rng_salted(i, GRID_STREAM_BUILD, GRID_SALT_BUILD);
         var u = vec2<f32>(0.0);
         if grid_params.jitter != 0u {
             u = vec2<f32>(rng_next_f32(&rng), rng_next_f32(&rng));

@@ -27,7 +27,7 @@ use crate::gpu::{
     buffers,
 };
 use crate::render::{
-    Buffer, ComposedKernel, KernelDef, OwnKernel, STAGE_GROUP, SharedGroups, Stream,
+    Buffer, ComposedKernel, KernelDef, OwnKernel, STAGE_GROUP, SharedGroups, SubStream,
     compose_with_library,
 };
 use crate::scene::Camera;
@@ -147,13 +147,14 @@ pub struct GridParams {
 /// rejected); an item's slot is one of them when it is not in the grid.
 pub const FIRST_SENTINEL: u32 = gpu_hash::HASH_FIRST_SENTINEL;
 
-/// The constants of the build: the sentinels and the random stream of the insert's jitter.
-fn constants_wgsl(stream: Stream) -> String {
+/// The constants of the build: the sentinels and the random sub-stream of the insert's jitter.
+fn constants_wgsl(random: SubStream) -> String {
     format!(
         "const GRID_NO_SLOT: u32 = {:#x}u;\nconst GRID_FIRST_SENTINEL: u32 = {FIRST_SENTINEL:#x}u;\n\
-         const GRID_STREAM_BUILD: u32 = {}u;\n",
+         const GRID_STREAM_BUILD: u32 = {}u;\nconst GRID_SALT_BUILD: u32 = {}u;\n",
         gpu_hash::HASH_NOT_FOUND,
-        stream as u32,
+        random.streams[0] as u32,
+        random.first,
     )
 }
 
@@ -202,8 +203,8 @@ pub struct GridItems<'a> {
     pub name: &'static str,
     /// How many (invocations of the build's passes).
     pub count: u32,
-    /// The random stream of the insert's jitter.
-    pub stream: Stream,
+    /// The random sub-stream of the insert's jitter (of one stream).
+    pub random: SubStream,
     /// The stage's modules, among them `grid-items` with `fn grid_item(i: u32) -> GridItem`
     /// (it may read the render buffers and `bindings`).
     pub modules: Vec<WgslModule>,
@@ -260,7 +261,7 @@ fn build_modules(k: &KernelDef, items: &GridItems) -> Vec<WgslModule> {
     let mut m = items.modules.clone();
     m.extend([
         WgslModule::new("grid-bindings", &[], set.wgsl(STAGE_GROUP)),
-        WgslModule::new("grid-constants", &[], constants_wgsl(items.stream)),
+        WgslModule::new("grid-constants", &[], constants_wgsl(items.random)),
         WgslModule::new("gpu-hash", &[], hash),
         cell_module(),
         WgslModule::new(

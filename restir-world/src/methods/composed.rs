@@ -13,31 +13,6 @@ use crate::restir_gi::RestirGi;
 use crate::scene::{Camera, Scene};
 use crate::world_restir::{WorldRestir, WorldRestirConfig};
 
-/// Refuses the stages whose estimators still assume diffuse surfaces (their targets, shifts and
-/// shading read a vertex as albedo / pi) on a scene with glossy materials, naming them: their
-/// images would be silently wrong. The baselines (`nee`, `ris`) and the denoiser render any
-/// material.
-fn check_materials(scene: &Scene, settings: &MethodSettings) -> Result<(), MethodError> {
-    let glossy = scene.glossy_materials();
-    let stages: Vec<&str> = [
-        (settings.world.is_some(), "world-restir"),
-        (settings.di.is_some(), "restir-di"),
-        (settings.gi.is_some(), "restir-gi"),
-        (settings.wgi.is_some(), "world-restir-gi"),
-        (settings.cache.is_some(), "the radiance cache"),
-    ]
-    .into_iter()
-    .filter_map(|(used, name)| used.then_some(name))
-    .collect();
-    if glossy == 0 || stages.is_empty() {
-        return Ok(());
-    }
-    Err(MethodError::GlossyUnsupported {
-        stages: stages.join(", "),
-        glossy,
-    })
-}
-
 /// The renderer (primary and GI passes, the baselines' shading, accumulation) and the stages
 /// a method adds, run in the order of the method's [`FramePlan`]
 /// ([`MethodSettings::plan`]): each step enters the renderer or one stage once.
@@ -50,7 +25,7 @@ pub struct Composed {
     gi: Option<RestirGi>,
     di: Option<RestirDi>,
     cache: Option<RadianceCache>,
-    /// After every step of the plan, when the settings ask for it.
+    /// The plan's last step, when the settings ask for it.
     denoiser: Option<Denoiser>,
 }
 
@@ -76,7 +51,6 @@ impl Composed {
     ) -> Result<Self, MethodError> {
         settings.validate()?;
         settings.check_paths(&options.paths)?;
-        check_materials(scene, settings)?;
         let plan = settings.plan(&options.paths)?;
         // world-restir-gi's sub-path reuse reads the path split.
         let options = &RenderOptions {
@@ -240,10 +214,8 @@ impl FrameMethod for Composed {
                 Step::RestirDi => self.di.as_mut().ok_or_else(missing)?.encode(f, r),
                 Step::ShadeDirect => r.encode_shade_direct(f),
                 Step::Accumulate => r.encode_accumulate(f),
+                Step::Denoise => self.denoiser.as_mut().ok_or_else(missing)?.encode(f, r),
             }
-        }
-        if let Some(d) = &mut self.denoiser {
-            d.encode(f, r);
         }
         Ok(())
     }

@@ -46,12 +46,6 @@ pub enum MethodError {
     Unknown { name: String, known: String },
     #[error("method {method}: {msg}")]
     Variant { method: String, msg: String },
-    #[error(
-        "{stages} cannot render glossy materials yet ({glossy} of the scene's materials are \
-         glTF metallic-roughness): use nee or ris, or --materials diffuse to render every \
-         surface matte"
-    )]
-    GlossyUnsupported { stages: String, glossy: usize },
 }
 
 /// One rendering method as the tools drive it: one frame (one sample per pixel) at a time,

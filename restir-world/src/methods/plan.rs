@@ -25,6 +25,8 @@ pub enum FrameBuffer {
     Direct,
     /// The running sums of the frames.
     Accumulation,
+    /// The denoised frame (and the denoiser's history, across frames).
+    Denoised,
 }
 
 impl FrameBuffer {
@@ -38,6 +40,7 @@ impl FrameBuffer {
             FrameBuffer::Indirect => "indirect",
             FrameBuffer::Direct => "direct",
             FrameBuffer::Accumulation => "accumulation",
+            FrameBuffer::Denoised => "denoised",
         }
     }
 }
@@ -72,14 +75,18 @@ pub enum Step {
     /// or (`world`) world-restir's, whose vertices weigh their MIS with its grid's estimates.
     Path { cache: bool, world: bool },
     /// ReSTIR GI: resamples the path samples, rewrites the indirect image; between pixels
-    /// (screen space) or (`world`) through a world-space grid of the primary vertices.
-    RestirGi { world: bool },
+    /// (screen space) or (`world`) through a world-space grid of the primary vertices; with
+    /// `subpath` (world-space only) it first rewrites the radiance leaving each secondary
+    /// vertex (sub-path reuse at x2).
+    RestirGi { world: bool, subpath: bool },
     /// Screen-space ReSTIR DI: the direct light.
     RestirDi,
     /// The renderer's direct light.
     ShadeDirect,
     /// The renderer's running sums.
     Accumulate,
+    /// The denoiser (SVGF) on the frame's images, after they are accumulated.
+    Denoise,
 }
 
 impl Step {
@@ -94,11 +101,12 @@ impl Step {
             Step::Path { cache: true, .. } => "cache path",
             Step::Path { world: true, .. } => "world-restir path",
             Step::Path { .. } => "renderer path",
-            Step::RestirGi { world: false } => "restir-gi",
-            Step::RestirGi { world: true } => "world-restir-gi",
+            Step::RestirGi { world: false, .. } => "restir-gi",
+            Step::RestirGi { world: true, .. } => "world-restir-gi",
             Step::RestirDi => "restir-di",
             Step::ShadeDirect => "renderer shade_direct",
             Step::Accumulate => "renderer accumulate",
+            Step::Denoise => "denoiser",
         }
     }
 
@@ -136,11 +144,11 @@ impl Step {
                 vec![PathRadiance, Indirect],
                 vec![],
             ),
-            Step::RestirGi { .. } => (
+            Step::RestirGi { subpath, .. } => (
                 vec![Primary, Secondary, PathRadiance],
                 vec![],
                 vec![],
-                vec![Indirect],
+                when(subpath, PathRadiance).chain([Indirect]).collect(),
             ),
             Step::RestirDi => (
                 vec![Primary, Secondary, LightTiles],
@@ -150,6 +158,12 @@ impl Step {
             ),
             Step::ShadeDirect => (vertices.into(), vec![Direct], vec![], vec![]),
             Step::Accumulate => (vec![Direct, Indirect], vec![Accumulation], vec![], vec![]),
+            Step::Denoise => (
+                vec![Primary, Direct, Indirect],
+                vec![Denoised],
+                vec![],
+                vec![],
+            ),
         };
         Access {
             reads,
@@ -238,7 +252,10 @@ mod tests {
     fn a_step_that_reads_before_its_writer_is_refused() {
         let e = FramePlan::new(vec![
             Step::PrimaryAndGi,
-            Step::RestirGi { world: false },
+            Step::RestirGi {
+                world: false,
+                subpath: false,
+            },
             Step::ShadeIndirect,
             Step::ShadeDirect,
             Step::Accumulate,

@@ -362,21 +362,28 @@ impl MethodSettings {
             },
             None => Step::ShadeIndirect,
         });
-        if self.cache.is_some() || paths.bounces > 1 || paths.mis {
+        if self.cache.is_some() || paths.beyond_secondary() {
             // The cache's path ends in its cells and keeps the light table's MIS beyond x2.
             steps.push(Step::Path {
                 cache: self.cache.is_some(),
                 world: self.world.is_some() && self.cache.is_none(),
             });
         }
-        steps.extend(self.gi.map(|_| Step::RestirGi { world: false }));
-        steps.extend(self.wgi.map(|_| Step::RestirGi { world: true }));
+        steps.extend(self.gi.map(|_| Step::RestirGi {
+            world: false,
+            subpath: false,
+        }));
+        steps.extend(self.wgi.map(|w| Step::RestirGi {
+            world: true,
+            subpath: w.subpath_k > 0,
+        }));
         match self.di {
             _ if unified => {}
             Some(_) => steps.push(Step::RestirDi),
             None => steps.push(Step::ShadeDirect),
         }
         steps.push(Step::Accumulate);
+        steps.extend(self.denoise.as_ref().map(|_| Step::Denoise));
         FramePlan::new(steps).map_err(|e| self.entry.bad(e))
     }
 

@@ -8,7 +8,7 @@ use crate::scene::LUMINANCE;
 use crate::trace;
 
 use super::records::{ATTR_TANGENT_FLIP, ATTR_TANGENTS, SHADING_FLAT, TEXTURE_LINEAR};
-use super::streams::{STREAM_COUNT, Stream};
+use super::streams::{STREAM_COUNT, Stream, sub_streams_wgsl};
 use super::{RAY_EPS, T_MAX};
 
 /// The renderer's library (structs + functions).
@@ -57,6 +57,7 @@ pub fn constants_wgsl() -> String {
             .map(|(s, name)| format!("const STREAM_{name}: u32 = {}u;\n", *s as u32))
             .collect::<String>()
     );
+    s += &sub_streams_wgsl();
     s += &Planted::wgsl();
     s
 }

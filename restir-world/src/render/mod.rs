@@ -63,7 +63,9 @@ pub use stage::{
     Buffer, KernelDef, OwnKernel, RESERVOIRS, REUSE_IO, ReusePass, STAGE_GROUP, SharedGroups,
     reuse_io,
 };
-pub use streams::{STREAM_COUNT, Stream};
+pub use streams::{
+    GRID_WORLD_RESTIR, GRID_WORLD_RESTIR_GI, STREAM_COUNT, SUB_STREAMS, Stream, SubStream,
+};
 
 use library::passes_module;
 
@@ -418,7 +420,7 @@ impl Renderer {
     /// Step 5b: bounces 2..=bounces of the path beyond the secondary vertex, added to
     /// `render_path_radiance` and `render_indirect_frame` (nothing with one bounce and no MIS).
     pub fn encode_path(&self, f: &mut FrameEncoder) {
-        if self.options.paths.bounces > 1 || self.options.paths.mis {
+        if self.options.paths.beyond_secondary() {
             f.span("path", |f| f.dispatch(&self.passes.path));
         }
     }

@@ -36,42 +36,21 @@ fn render_gi(id: Invocation) {
     render_secondary[i] = render_pack_vertex(render_path_step(g, &rng));
 }
 
-// Direct light at the primary vertex: emission seen + NEE (a camera ray that missed sees the
-// environment, stored as the vertex's emission by render_surface), + with MIS the emission the
-// GI ray found.
+// Direct light at the primary vertex (render_direct_pixel).
 @compute @workgroup_size(WORKGROUP_SIZE)
 fn render_shade_direct(id: Invocation) {
     let i = item_index(id);
     if i >= render_params.pixel_count { return; }
-    let g = render_primary_vertex(i);
-    var c = g.emission;
-    if g.prim != BVH_NO_HIT {
-        var rng = render_rng(i, STREAM_DIRECT);
-        c = g.emission + render_nee(g, &rng);
-        if render_params.mis != 0u {
-            let s = render_secondary_vertex(i, g);
-            c += render_throughput(g, s) * render_hit_emission(g, s);
-        }
-    }
-    render_direct_frame[i] = vec4<f32>(c, 1.0);
+    render_direct_frame[i] = vec4<f32>(render_direct_pixel(i), 1.0);
 }
 
-// One-bounce indirect light: NEE at the secondary vertex is the radiance leaving it towards the
-// primary (the path sample's, PathLight); the primary reflects the GI ray's weight x that
-// (render_throughput: its albedo where diffuse, the cosine pdf cancelling the cosine and 1/pi).
+// One-bounce indirect light (render_indirect_pixel): the radiance leaving the secondary vertex
+// and what the primary reflects of it.
 @compute @workgroup_size(WORKGROUP_SIZE)
 fn render_shade_indirect(id: Invocation) {
     let i = item_index(id);
     if i >= render_params.pixel_count { return; }
-    let g = render_primary_vertex(i);
-    let s = render_secondary_vertex(i, g);
-    var light = PathLight(vec3<f32>(0.0), vec3<f32>(0.0));
-    if g.prim != BVH_NO_HIT && s.prim != BVH_NO_HIT {
-        var rng = render_rng(i, STREAM_INDIRECT);
-        let nee = render_nee(s, &rng);
-        light = PathLight(render_throughput(g, s) * nee, nee);
-    }
-    render_store_path_light(i, light, 0.0);
+    render_store_path_light(i, render_indirect_pixel(i), 0.0);
 }
 
 // Bounces 2..=render_params.bounces of the path beyond the secondary vertex (render_path_pixel,

@@ -60,12 +60,12 @@ fn render_path_pixel(i: u32) {
     let last = bounces + render_params.mis;
     // The path split (render_params.path_split): x2's light so far is its light sample's.
     var split = RenderPathSplit(render_path_radiance[i].xyz, vec3<f32>(0.0), vec3<f32>(0.0),
-                                vec3<f32>(0.0), vec3<f32>(0.0), false);
+                                vec3<f32>(0.0), vec3<f32>(0.0), false, false);
     split.one_short = select(vec3<f32>(0.0), split.direct, bounces >= 2u);
     // The throughput of what x3 sends towards x2.
     var beyond = vec3<f32>(1.0);
     for (var bounce = 2u; bounce <= last; bounce++) {
-        var rng = render_rng_salted(i, STREAM_PATH, bounce);
+        var rng = render_rng_salted(i, STREAM_PATH, SALT_PATH_BOUNCE + bounce);
         if render_params.roulette_from != 0u && bounce >= render_params.roulette_from {
             let q = render_roulette_survival(v);
             if !(rng_next_f32(&rng) < q) {
@@ -92,6 +92,7 @@ fn render_path_pixel(i: u32) {
             split.x3 = w.position;
             split.x3_normal = w.normal;
             split.x3_hit = w.prim != BVH_NO_HIT;
+            split.x3_glossy = split.x3_hit && !render_reuses(w);
         } else {
             split.beyond += beyond * found;
         }

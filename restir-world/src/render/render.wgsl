@@ -88,6 +88,27 @@ fn render_unpack_vertex(p: PackedVertex) -> GVertex {
                    render_vec3(p.emission), shading, p.material, shading);
 }
 
+// Whether the reuse stages take vertex v (its light sample, its path sample, its cell): a
+// diffuse vertex, whose reflected radiance is the same in every direction. A glossy one is left
+// to the renderer's own estimators (render_direct_pixel, render_indirect_pixel, the path's light
+// sample), which a stage calls for it where it replaces them; a sample reconnected at a glossy
+// vertex is none (its radiance would be another direction's). Decided here, once; always true
+// without glossy materials (RENDER_GLOSSY false).
+fn render_reuses(v: GVertex) -> bool {
+    // Planted defect REUSE_TAKES_GLOSSY (restir_world::plant): no hand-off.
+    return !RENDER_GLOSSY || v.material == 0u || render_planted(PLANTED_REUSE_TAKES_GLOSSY);
+}
+
+// Vertex v as the reuse evaluates it (its targets, its light samples' shading): diffuse, as
+// every vertex it takes is (render_reuses). The constant material word lets the compiler drop
+// the BRDF's glossy branches from the reuse's loops (on lavapipe, world-restir's path kernel
+// compiled for minutes with them).
+fn render_reused_vertex(v: GVertex) -> GVertex {
+    var d = v;
+    d.material = 0u;
+    return d;
+}
+
 // Pixel i's primary vertex (the G-buffer's), seen from this frame's camera.
 fn render_primary_vertex(i: u32) -> GVertex {
     var g = render_unpack_vertex(render_gbuffer[i]);
@@ -184,7 +205,7 @@ struct RenderParams {
 // bounce beyond). The indirect image is x1's albedo times that radiance (the GI ray's cosine
 // pdf cancels x1's cosine and 1/pi), summed in the same passes with its own throughput so that
 // neither depends on who reads the other. The path's random numbers are pixel i's streams of
-// the frame (render_rng(i, STREAM_INDIRECT), render_rng_salted(i, STREAM_PATH, bounce)).
+// the frame (render_rng(i, STREAM_INDIRECT), render_rng_salted(i, STREAM_PATH, SALT_PATH_BOUNCE + bounce)).
 struct PathLight {
     // x1's reflected light (the indirect image's share).
     reflected: vec3<f32>,
@@ -209,7 +230,8 @@ fn render_store_path_light(i: u32, light: PathLight, e: f32) {
 // is direct + albedo(x2) x beyond); the radiance leaving x2 towards x1 one vertex short
 // (`one_short`: the light estimate of the path's last vertex and the emission its ray finds left
 // out), the depth a path sample has when another path reconnects to it from its secondary
-// vertex; and x3 (`x3_hit` 0: the path ended at x2). Four vec4 per pixel in render_path_split.
+// vertex; and x3 (`x3_hit` 0: the path ended at x2; `x3_glossy`: x3 is a vertex the reuse does
+// not take, render_reuses). Four vec4 per pixel in render_path_split.
 struct RenderPathSplit {
     direct: vec3<f32>,
     beyond: vec3<f32>,
@@ -217,13 +239,15 @@ struct RenderPathSplit {
     x3: vec3<f32>,
     x3_normal: vec3<f32>,
     x3_hit: bool,
+    x3_glossy: bool,
 }
 
 fn render_store_path_split(i: u32, s: RenderPathSplit) {
     render_path_split[4u * i] = vec4<f32>(s.direct, s.x3_normal.x);
     render_path_split[4u * i + 1u] = vec4<f32>(s.beyond, s.x3_normal.y);
     render_path_split[4u * i + 2u] = vec4<f32>(s.one_short, s.x3_normal.z);
-    render_path_split[4u * i + 3u] = vec4<f32>(s.x3, select(0.0, 1.0, s.x3_hit));
+    // The last word: 0 no x3, 1 x3, 2 a glossy x3.
+    render_path_split[4u * i + 3u] = vec4<f32>(s.x3, select(0.0, 1.0, s.x3_hit) + select(0.0, 1.0, s.x3_glossy));
 }
 
 fn render_load_path_split(i: u32) -> RenderPathSplit {
@@ -231,7 +255,7 @@ fn render_load_path_split(i: u32) -> RenderPathSplit {
     let b = render_path_split[4u * i + 1u];
     let c = render_path_split[4u * i + 2u];
     let d = render_path_split[4u * i + 3u];
-    return RenderPathSplit(a.xyz, b.xyz, c.xyz, d.xyz, vec3<f32>(a.w, b.w, c.w), d.w > 0.0);
+    return RenderPathSplit(a.xyz, b.xyz, c.xyz, d.xyz, vec3<f32>(a.w, b.w, c.w), d.w > 0.0, d.w > 1.5);
 }
 
 // GPU-side frame counter: advanced by render_accumulate, read by every pass for its seeds.
@@ -528,9 +552,6 @@ fn render_light_density(p_table: f32, p_ray: f32, le: vec3<f32>, e: f32) -> f32 
     return m / (1.0 / p_table + (m - 1.0) / p_res);
 }
 
-// The salt (render_rng_salted, with the stream of the pass that draws the reservoir's own
-// candidates) of render_light_estimate's light samples: apart from the reservoir's.
-const RENDER_ESTIMATE_SALT: u32 = 0xffeu;
 
 // An estimate e of vertex v's unshadowed cosine-weighted mean incident luminance (the target's
 // integral over lum(albedo), render_light_density) from k light samples of the light table
@@ -628,11 +649,14 @@ fn render_shade_stored(f: vec3<f32>, res: StoredReservoir, weight: vec3<f32>) ->
 }
 
 // Reuse of stored light reservoirs (restir-di, world-restir): merges neighbour n's reservoir
-// `src` (confidence m, capped), generated at vertex q, into the combination c at receiver v,
-// whose own sample is own_sample. Light samples need no shift: every Jacobian is 1. Returns
-// true when src's sample is now selected.
-fn render_reuse_light(c: ptr<function, Reuse>, n: u32, src: StoredReservoir, m: u32, v: GVertex,
-                      q: GVertex, own_sample: LightSample, u: f32) -> bool {
+// `src` (confidence m, capped), generated at vertex `source`, into the combination c at vertex
+// `receiver`, whose own sample is own_sample; both as the reuse evaluates them
+// (render_reused_vertex). Light samples need no shift: every Jacobian is 1. Returns true when
+// src's sample is now selected.
+fn render_reuse_light(c: ptr<function, Reuse>, n: u32, src: StoredReservoir, m: u32,
+                      receiver: GVertex, source: GVertex, own_sample: LightSample, u: f32) -> bool {
+    let v = render_reused_vertex(receiver);
+    let q = render_reused_vertex(source);
     let y = render_stored_sample(src);
     var p_n_y = 0.0;
     var p_n_own = 0.0;
@@ -676,6 +700,40 @@ fn render_throughput(v: GVertex, w: GVertex) -> vec3<f32> {
         return vec3<f32>(0.0);
     }
     return render_brdf(v, dir) * (max(dot(v.shading, dir), 0.0) / pdf);
+}
+
+// Pixel i's direct light, as the renderer estimates it (render_shade_direct; a stage that
+// replaces that pass calls it for a primary vertex it does not take, render_reuses): the
+// emission seen (a camera ray that missed sees the environment, the vertex's emission) + NEE,
+// + with MIS the emission the GI ray found.
+fn render_direct_pixel(i: u32) -> vec3<f32> {
+    let g = render_primary_vertex(i);
+    var c = g.emission;
+    if g.prim != BVH_NO_HIT {
+        var rng = render_rng(i, STREAM_DIRECT);
+        c = g.emission + render_nee(g, &rng);
+        if render_params.mis != 0u {
+            let s = render_secondary_vertex(i, g);
+            c += render_throughput(g, s) * render_hit_emission(g, s);
+        }
+    }
+    return c;
+}
+
+// Pixel i's one-bounce indirect light, as the renderer estimates it (render_shade_indirect; a
+// stage that replaces that pass calls it for a secondary vertex it does not take): NEE at the
+// secondary vertex is the radiance leaving it towards the primary, which reflects it with the
+// GI ray's weight (render_throughput).
+fn render_indirect_pixel(i: u32) -> PathLight {
+    let g = render_primary_vertex(i);
+    let s = render_secondary_vertex(i, g);
+    var light = PathLight(vec3<f32>(0.0), vec3<f32>(0.0));
+    if g.prim != BVH_NO_HIT && s.prim != BVH_NO_HIT {
+        var rng = render_rng(i, STREAM_INDIRECT);
+        let nee = render_nee(s, &rng);
+        light = PathLight(render_throughput(g, s) * nee, nee);
+    }
+    return light;
 }
 
 // Direct light at primary vertex g from a stored reservoir: the emission seen + f(y) W with one
@@ -913,22 +971,6 @@ fn render_visible_sample(p: vec3<f32>, n: vec3<f32>, s: LightSample) -> bool {
     return !trace_any(ray);
 }
 
-// Reflected direct light at vertex v from one light sample with a shadow ray.
-fn render_nee_one(v: GVertex, e: f32, rng: ptr<function, u32>) -> vec3<f32> {
-    let s = render_light_sample(render_rand4(rng), rng);
-    if s.pdf_area <= 0.0 {
-        return vec3<f32>(0.0);
-    }
-    var f = render_vertex_light(v, s);
-    if all(f == vec3<f32>(0.0)) || !render_visible_sample(v.position, v.normal, s) {
-        return vec3<f32>(0.0);
-    }
-    if render_params.mis != 0u {
-        f *= render_light_mis_at(v, s, e);
-    }
-    return f / s.pdf_area;
-}
-
 // Resampled importance sampling over `candidates` light samples at vertex v, target =
 // luminance of the unshadowed reflected radiance (render_light_target). The reservoir crate does the resampling; the
 // chosen light sample is the caller's payload. Shared by the `ris` baseline and world-space
@@ -970,35 +1012,47 @@ fn render_ris_candidate(r: ptr<function, Reservoir>, out: ptr<function, RisLight
     }
 }
 
-// Reflected direct light by RIS over `candidates` light samples, then one shadow ray for the
-// selected sample.
-fn render_nee_ris(v: GVertex, candidates: u32, e: f32, rng: ptr<function, u32>) -> vec3<f32> {
-    let ris = render_ris_lights(v, candidates, rng);
-    if ris.reservoir.ucw <= 0.0 || !render_visible_sample(v.position, v.normal, ris.light) {
-        return vec3<f32>(0.0);
-    }
-    var f = render_vertex_light(v, ris.light);
-    if render_params.mis != 0u {
-        f *= render_light_mis_at(v, ris.light, e);
-    }
-    return f * ris.reservoir.ucw;
-}
-
 // Reflected direct light at a surface vertex with the render's method, MIS-weighted with the
 // light table's density.
 fn render_nee(v: GVertex, rng: ptr<function, u32>) -> vec3<f32> {
     return render_nee_at(v, rng, 0.0);
 }
 
-// render_nee with the MIS density of estimate e (render_light_density; 0: the table's).
+// render_nee with the MIS density of estimate e (render_light_density; 0: the table's): one
+// light sample of the table (nee), or the one RIS selects among render_params.candidates (ris),
+// shaded with one shadow ray, f / pdf or f W. One shading block for both methods, so that a
+// kernel carries one copy of the BRDF's evaluation and density here, not two.
 fn render_nee_at(v: GVertex, rng: ptr<function, u32>, e: f32) -> vec3<f32> {
     if lights_info.count == 0u {
         return vec3<f32>(0.0);
     }
-    if render_params.method == RENDER_METHOD_RIS {
-        return render_nee_ris(v, render_params.candidates, e, rng);
+    let ris_method = render_params.method == RENDER_METHOD_RIS;
+    var s: LightSample;
+    var ucw = 0.0;
+    if ris_method {
+        let ris = render_ris_lights(v, render_params.candidates, rng);
+        s = ris.light;
+        ucw = ris.reservoir.ucw;
+        if ucw <= 0.0 {
+            return vec3<f32>(0.0);
+        }
+    } else {
+        s = render_light_sample(render_rand4(rng), rng);
+        if s.pdf_area <= 0.0 {
+            return vec3<f32>(0.0);
+        }
     }
-    return render_nee_one(v, e, rng);
+    var f = render_vertex_light(v, s);
+    if all(f == vec3<f32>(0.0)) || !render_visible_sample(v.position, v.normal, s) {
+        return vec3<f32>(0.0);
+    }
+    if render_params.mis != 0u {
+        f *= render_light_mis_at(v, s, e);
+    }
+    if ris_method {
+        return f * ucw;
+    }
+    return f / s.pdf_area;
 }
 
 // The debug views' heat map of t in [0, 1]: blue .. cyan .. yellow .. red (twin: render::heat).

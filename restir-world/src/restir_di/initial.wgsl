@@ -2,7 +2,9 @@
 // drawn uniformly from the tile its 8x8 pixel block picked this frame (one random tile per
 // block per frame: coherent memory), target = luminance of the unshadowed reflected radiance. The stored
 // confidence is 1 (one frame of candidates), as RTXDI's. Writes screen_out, and the pixel's MIS
-// estimate (render_light_estimate, from light samples of its own) to di_estimate.
+// estimate (render_light_estimate, from light samples of its own) to di_estimate. A vertex the
+// reuse does not take (render_reuses: glossy) holds no reservoir (M = 0): no neighbour merges
+// it, and di-shade gives it the renderer's own direct light.
 
 @compute @workgroup_size(WORKGROUP_SIZE)
 fn screen_initial(id: Invocation) {
@@ -11,7 +13,7 @@ fn screen_initial(id: Invocation) {
     var out: StoredReservoir;
     let g = render_unpack_vertex(render_gbuffer[i]);
     di_estimate[i] = 0.0;
-    if g.prim == BVH_NO_HIT {
+    if g.prim == BVH_NO_HIT || !render_reuses(g) {
         screen_out[i] = out;
         return;
     }
@@ -20,12 +22,13 @@ fn screen_initial(id: Invocation) {
         screen_out[i] = out;
         return;
     }
+    let v = render_reused_vertex(g);
     let first = light_tiles_first(i, screen_params.knobs.tiles, screen_params.knobs.tile_size);
-    var rng = render_rng(i, STREAM_DI_INITIAL);
-    let ris = light_tiles_ris(g, first, screen_params.knobs.tile_size, screen_params.knobs.candidates,
+    var rng = render_rng_salted(i, STREAM_DI_INITIAL, SALT_CANDIDATES);
+    let ris = light_tiles_ris(v, first, screen_params.knobs.tile_size, screen_params.knobs.candidates,
                               &rng);
     out = render_store_reservoir(ris.light, PackedReservoir(ris.reservoir.ucw, 1u));
     screen_out[i] = out;
-    var rng_e = render_rng_salted(i, STREAM_DI_INITIAL, RENDER_ESTIMATE_SALT);
-    di_estimate[i] = render_light_estimate(g, screen_params.knobs.mis_candidates, &rng_e);
+    var rng_e = render_rng_salted(i, STREAM_DI_INITIAL, SALT_ESTIMATE);
+    di_estimate[i] = render_light_estimate(v, screen_params.knobs.mis_candidates, &rng_e);
 }

@@ -13,8 +13,9 @@ fn screen_m(r: StoredReservoir) -> u32 {
     return r.m;
 }
 
-fn screen_merge(i: u32, own: StoredReservoir, g: GVertex, temporal: bool, nb: ScreenNeighbours,
-                rng: ptr<function, u32>) -> StoredReservoir {
+fn screen_merge(i: u32, own: StoredReservoir, receiver: GVertex, temporal: bool,
+                nb: ScreenNeighbours, rng: ptr<function, u32>) -> StoredReservoir {
+    let g = render_reused_vertex(receiver);
     let u_own = rng_next_f32(rng);
     let own_sample = render_stored_sample(own);
     var c = reuse_begin(screen_params.knobs.combine, PackedReservoir(own.ucw, own.m),
@@ -32,7 +33,7 @@ fn screen_merge(i: u32, own: StoredReservoir, g: GVertex, temporal: bool, nb: Sc
         // Z: the receiver and every merged pixel whose own vertex could have produced y.
         let y = render_stored_sample(out);
         for (var n = 0u; n < nb.k; n++) {
-            let q = screen_source_vertex(nb.idx[n], temporal);
+            let q = render_reused_vertex(screen_source_vertex(nb.idx[n], temporal));
             reuse_count_z(&c, nb.ms[n], render_light_target(q, y));
         }
     }

@@ -41,7 +41,7 @@ use crate::gpu::{
 use crate::grid::{self, GridItems, GridSettings, WorldGrid, auto_buckets};
 use crate::knobs::{Knobs, Variant};
 use crate::render::{
-    Buffer, ComposedKernel, GVertex, KernelDef, STAGE_GROUP, SharedGroups, Stream,
+    Buffer, ComposedKernel, GRID_WORLD_RESTIR_GI, GVertex, KernelDef, STAGE_GROUP, SharedGroups,
     compose_with_library,
 };
 use crate::scene::Camera;
@@ -210,8 +210,7 @@ pub(super) fn grid_items<'a>(pixels: u32, pool: Option<&'a PoolBuffers>) -> Grid
     GridItems {
         name: "world-restir-gi",
         count: grid_item_count(pixels),
-        // The build's jitter only moves cells: world-restir's stream is free to share.
-        stream: Stream::WrBuild,
+        random: GRID_WORLD_RESTIR_GI,
         modules: vec![WgslModule::new("grid-items", &["grid"], ITEMS_WGSL)],
         bindings: ITEM_BINDINGS,
         buffers: pool.map_or_else(Vec::new, |p| vec![&p.vertices, &p.count]),

@@ -12,21 +12,24 @@
 // resampled light reflected at x2 (render_path_radiance, which the initial pass reads).
 // Candidates whose x1's shading normal is below normal_threshold against x2's are skipped;
 // one whose GI ray escaped is merged with no sample (skipping it would bias the others up).
+// Only diffuse vertices are reconnected (render_reuses): a glossy x2 keeps its own path; a
+// candidate whose x2 is glossy is merged with no sample, as an escaped one; a glossy x3 is no
+// canonical sample, and the light it sends is added as the path found it.
 
 @compute @workgroup_size(WORKGROUP_SIZE)
 fn screen_subpath(id: Invocation) {
     let i = item_index(id);
     if i >= render_params.pixel_count { return; }
     let x2 = render_unpack_vertex(render_secondary[i]);
-    if render_unpack_vertex(render_gbuffer[i]).prim == BVH_NO_HIT || x2.prim == BVH_NO_HIT {
+    if render_unpack_vertex(render_gbuffer[i]).prim == BVH_NO_HIT || x2.prim == BVH_NO_HIT
+        || !render_reuses(x2) {
         return;
     }
     let split = render_load_path_split(i);
-    // Sub-stream 1 of the temporal pass's numbers.
-    var rng = render_rng_salted(i, STREAM_GI_TEMPORAL, 1u);
+    var rng = render_rng_salted(i, STREAM_GI_TEMPORAL, SALT_GI_SUBPATH);
     let own_sample = GiSample(split.x3, split.x3_normal, split.beyond);
     var own = PackedReservoir(0.0, 1u);
-    if split.x3_hit {
+    if split.x3_hit && !split.x3_glossy {
         own.ucw = gi_own_ucw(x2, own_sample);
     }
     let has_own = own.ucw > 0.0;
@@ -66,7 +69,7 @@ fn screen_subpath(id: Invocation) {
         let y2 = render_unpack_vertex(render_secondary[j]);
         // j's own sample as its initial pass would hold it: W = pi / cos (0: none), M = 1.
         var src: GiReservoir;
-        if y2.prim != BVH_NO_HIT {
+        if y2.prim != BVH_NO_HIT && render_reuses(y2) {
             let split_j = render_load_path_split(j);
             var radiance = split_j.one_short;
             if render_planted(PLANTED_SUBPATH_FULL_DEPTH) {
@@ -95,8 +98,12 @@ fn screen_subpath(id: Invocation) {
         chosen = own_sample;
     }
     var reflected = vec3<f32>(0.0);
+    if split.x3_glossy {
+        // x3's light as the path found it: x2 (diffuse) reflects it with its albedo.
+        reflected = x2.albedo * split.beyond;
+    }
     if end.stored.ucw > 0.0 {
-        reflected = gi_contribution(x2, chosen) * end.stored.ucw;
+        reflected += gi_contribution(x2, chosen) * end.stored.ucw;
     }
     render_path_radiance[i] = vec4<f32>(split.direct + reflected, render_path_radiance[i].w);
 }

@@ -10,16 +10,16 @@ fn wr_generate(id: Invocation) {
     if i >= wr_params.items { return; }
     wr_estimate[i] = 0.0;
     wr_estimate_raw[i] = 0.0;
-    if !wr_has_vertex(i) || !wr_is_active(i, wr_params.knobs.gi_stride) || lights_info.count == 0u {
+    if !wr_reuses(i) || !wr_is_active(i, wr_params.knobs.gi_stride) || lights_info.count == 0u {
         wr_out[i] = StoredReservoir();
         return;
     }
-    let v = wr_vertex(i);
-    var rng_e = render_rng_salted(i, STREAM_WR_GENERATE, RENDER_ESTIMATE_SALT);
+    let v = render_reused_vertex(wr_vertex(i));
+    var rng_e = render_rng_salted(i, STREAM_WR_GENERATE, SALT_ESTIMATE);
     let e = render_light_estimate(v, wr_params.knobs.mis_candidates, &rng_e);
     wr_estimate[i] = e;
     wr_estimate_raw[i] = e;
-    var rng = render_rng_salted(i, STREAM_WR_GENERATE, 0u);
+    var rng = render_rng_salted(i, STREAM_WR_GENERATE, SALT_CANDIDATES);
     var ris: RisLightSample;
     if wr_params.tiles > 0u {
         // Candidates from the light tile of the pixel's block (shared with restir-di).

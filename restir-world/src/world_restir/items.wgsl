@@ -1,9 +1,9 @@
 // The grid's items (grid-items, restir_world::grid): item i enters the grid where it has a
-// vertex that generates a reservoir this frame (wr_is_active), at that vertex.
+// vertex the reuse takes (wr_reuses) that generates a reservoir this frame (wr_is_active), at that vertex.
 
 fn grid_item(i: u32) -> GridItem {
     var item: GridItem;
-    item.present = wr_has_vertex(i) && wr_is_active(i, wr_params.knobs.gi_stride);
+    item.present = wr_reuses(i) && wr_is_active(i, wr_params.knobs.gi_stride);
     if item.present {
         let v = wr_vertex(i);
         item.position = v.position;

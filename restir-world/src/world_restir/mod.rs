@@ -42,8 +42,8 @@ use crate::grid::{self, GridError, GridItems, GridSettings, WorldGrid};
 use crate::knobs::{Knobs, Variant, reuse_variants};
 use crate::light_tiles::{self, LightTiles};
 use crate::render::{
-    self, Buffer, ComposedKernel, DebugView, KernelDef, OwnKernel, RESERVOIRS, REUSE_IO,
-    RenderError, Renderer, ReusePass, STAGE_GROUP, SharedGroups, Stream,
+    self, Buffer, ComposedKernel, DebugView, GRID_WORLD_RESTIR, KernelDef, OwnKernel, RESERVOIRS,
+    REUSE_IO, RenderError, Renderer, ReusePass, STAGE_GROUP, SharedGroups,
 };
 use crate::scene::Camera;
 
@@ -422,7 +422,7 @@ fn grid_items(params: Option<&wgpu::Buffer>, count: u32) -> GridItems<'_> {
     GridItems {
         name: "world-restir",
         count,
-        stream: Stream::WrBuild,
+        random: GRID_WORLD_RESTIR,
         modules,
         bindings: &[PARAMS],
         buffers: params.into_iter().collect(),
@@ -797,8 +797,7 @@ impl WorldRestir {
     /// vertices' MIS weighed with the estimates of this frame's grid: the renderer's path
     /// pass otherwise ([`Renderer::encode_path`]); nothing with one bounce and no MIS.
     pub fn encode_path(&self, f: &mut FrameEncoder, renderer: &Renderer) {
-        let paths = renderer.options().paths;
-        if paths.bounces > 1 || paths.mis {
+        if renderer.options().paths.beyond_secondary() {
             f.span("path", |f| f.dispatch(&self.passes.path[self.parity]));
         }
     }

@@ -1,30 +1,24 @@
-// The salt of the path's draws for the estimates' cell visits (render_rng_salted, STREAM_PATH,
-// + the bounce): apart from the path's own (salted by the bounce alone).
-const WR_PATH_ESTIMATE_SALT: u32 = 0x800u;
-// The salt of the draws that choose a path vertex's cell reservoir and resample it: apart from
-// the path's and the estimates'.
-const WR_PATH_RESERVOIR_SALT: u32 = 0x900u;
-
 // The path's MIS estimate at vertex w (render/path.wgsl's "path-light"): its cell's, numbers
 // drawn apart from the path's; 0 (the light table's density) with mis_candidates = 0 or without
-// MIS.
+// MIS, or at a vertex the reuse does not take (render_reuses).
 fn path_light_estimate(i: u32, w: GVertex, bounce: u32) -> f32 {
-    if wr_params.knobs.mis_candidates == 0u || render_params.mis == 0u {
+    if wr_params.knobs.mis_candidates == 0u || render_params.mis == 0u || !render_reuses(w) {
         return 0.0;
     }
-    var rng = render_rng_salted(i, STREAM_PATH, WR_PATH_ESTIMATE_SALT + bounce);
+    var rng = render_rng_salted(i, STREAM_PATH, SALT_WR_PATH_ESTIMATE + bounce);
     return wr_cell_estimate(w, wr_params.items, &rng);
 }
 
 // The light reflected at the path's vertex w (render/path.wgsl's "path-light"): with
 // path_reservoirs, the renderer's RIS reservoir at w merged with a reservoir of w's cell
-// (wr_path_reservoir_light); else the renderer's light sample.
+// (wr_path_reservoir_light); else, and at a vertex the reuse does not take, the renderer's light
+// sample.
 fn path_light_nee(i: u32, w: GVertex, bounce: u32, e: f32, rng: ptr<function, u32>) -> vec3<f32> {
-    if wr_params.knobs.path_reservoirs == 0u || lights_info.count == 0u {
+    if wr_params.knobs.path_reservoirs == 0u || lights_info.count == 0u || !render_reuses(w) {
         return render_nee_at(w, rng, e);
     }
-    var rng_cell = render_rng_salted(i, STREAM_PATH, WR_PATH_RESERVOIR_SALT + bounce);
-    return wr_path_reservoir_light(w, e, rng, &rng_cell);
+    var rng_cell = render_rng_salted(i, STREAM_PATH, SALT_WR_PATH_RESERVOIR + bounce);
+    return wr_path_reservoir_light(render_reused_vertex(w), e, rng, &rng_cell);
 }
 
 // World-space reservoirs at a path vertex w past the secondary one: w's own RIS reservoir
@@ -66,7 +60,7 @@ fn wr_path_reservoir_light(w: GVertex, e: f32, rng: ptr<function, u32>,
             let j = grid_visited(cell, n);
             let m = wr_path_merged_m(j, w);
             if m > 0u {
-                reuse_count_z(&c, m, render_light_target(wr_vertex(j), y));
+                reuse_count_z(&c, m, render_light_target(render_reused_vertex(wr_vertex(j)), y));
             }
         }
     }

@@ -49,27 +49,24 @@ fn wr_merged_m(i: u32, j: u32, v: GVertex, temporal: bool, cap: u32) -> u32 {
     return select(m, reuse_cap_m(m, cap), temporal);
 }
 
-// The salt of the first spatial pass's draws for the MIS estimate's cell visit
-// (render_rng_salted): apart from its merge's.
-const WR_ESTIMATE_SALT: u32 = 0xfffu;
-
 @compute @workgroup_size(WORKGROUP_SIZE)
 fn wr_reuse(id: Invocation) {
     let i = item_index(id);
     if i >= wr_params.items { return; }
     let own = reuse_self[i];
     let temporal = reuse_pass.temporal != 0u;
-    if !wr_has_vertex(i) {
+    if !wr_reuses(i) {
         reuse_out[i] = own;
         return;
     }
-    let v = wr_vertex(i);
+    let v = render_reused_vertex(wr_vertex(i));
     if !temporal && reuse_pass.pass_index == 0u && wr_params.knobs.mis_candidates > 0u
         && render_params.mis != 0u {
-        var rng_e = render_rng_salted(i, STREAM_WR_SPATIAL, WR_ESTIMATE_SALT);
+        var rng_e = render_rng_salted(i, STREAM_WR_SPATIAL, SALT_WR_SPATIAL_ESTIMATE);
         wr_estimate[i] = wr_cell_estimate(v, i, &rng_e);
     }
-    var rng = render_rng_salted(i, select(STREAM_WR_SPATIAL, STREAM_WR_TEMPORAL, temporal), reuse_pass.pass_index);
+    var rng = render_rng_salted(i, select(STREAM_WR_SPATIAL, STREAM_WR_TEMPORAL, temporal),
+                                SALT_WR_REUSE_PASS + reuse_pass.pass_index);
     let u_own = rng_next_f32(&rng);
     let own_sample = render_stored_sample(own);
     let p_own = select(0.0, render_light_target(v, own_sample), own.m > 0u);
@@ -106,7 +103,8 @@ fn wr_reuse(id: Invocation) {
             let j = grid_visited(visit.cell, n);
             let m = wr_merged_m(i, j, v, temporal, visit.cap);
             if m > 0u {
-                reuse_count_z(&c, m, render_light_target(wr_source_vertex(j, temporal), y));
+                let q = render_reused_vertex(wr_source_vertex(j, temporal));
+                reuse_count_z(&c, m, render_light_target(q, y));
             }
         }
     }

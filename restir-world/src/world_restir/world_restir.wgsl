@@ -27,6 +27,13 @@ fn wr_has_vertex(i: u32) -> bool {
     return render_gbuffer[i].prim != BVH_NO_HIT && render_secondary[i].prim != BVH_NO_HIT;
 }
 
+// Whether item i has a vertex the reuse takes (render_reuses: a diffuse one): only those
+// generate reservoirs, enter the grid and merge; the shade passes give the others the renderer's
+// own light estimates.
+fn wr_reuses(i: u32) -> bool {
+    return wr_has_vertex(i) && render_reuses(wr_vertex(i));
+}
+
 // The vertex of item i.
 fn wr_vertex(i: u32) -> GVertex {
     let n = render_params.pixel_count;
