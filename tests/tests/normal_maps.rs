@@ -20,24 +20,6 @@ fn temp_dir(name: &str) -> PathBuf {
     d
 }
 
-fn base64(bytes: &[u8]) -> String {
-    const A: &[u8] = b"ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
-    let mut s = String::new();
-    for c in bytes.chunks(3) {
-        let n = (u32::from(c[0]) << 16)
-            | (u32::from(*c.get(1).unwrap_or(&0)) << 8)
-            | u32::from(*c.get(2).unwrap_or(&0));
-        for k in 0..4 {
-            if k <= c.len() {
-                s.push(A[(n >> (18 - 6 * k) & 63) as usize] as char);
-            } else {
-                s.push('=');
-            }
-        }
-    }
-    s
-}
-
 /// The standard texture coordinates of the quad (-1,-1) (1,-1) (1,1) (-1,1) at z = 0: u
 /// left to right, v = 0 at the top (+y), as glTF's images.
 const UVS: [[f32; 2]; 4] = [[0.0, 1.0], [1.0, 1.0], [1.0, 0.0], [0.0, 0.0]];
@@ -118,7 +100,7 @@ fn load_quad(dir: &Path, q: &QuadFile) -> scene::Loaded {
 }}"#,
         scale = q.node_scale,
         ns = q.normal_scale,
-        b64 = base64(&bin),
+        b64 = tests::scenes::base64(&bin),
         len = bin.len(),
     );
     let p = dir.join("quad.gltf");

@@ -122,24 +122,6 @@ fn obj_missing_material_library_warns_and_uses_grey() {
     assert!(Lights::build(&l.scene).is_empty());
 }
 
-fn base64(bytes: &[u8]) -> String {
-    const A: &[u8] = b"ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
-    let mut s = String::new();
-    for c in bytes.chunks(3) {
-        let n = (u32::from(c[0]) << 16)
-            | (u32::from(*c.get(1).unwrap_or(&0)) << 8)
-            | u32::from(*c.get(2).unwrap_or(&0));
-        for k in 0..4 {
-            if k <= c.len() {
-                s.push(A[(n >> (18 - 6 * k) & 63) as usize] as char);
-            } else {
-                s.push('=');
-            }
-        }
-    }
-    s
-}
-
 /// One triangle (0,0,0) (1,0,0) (0,1,0) with u16 indices: the binary buffer (36 + 6 bytes,
 /// padded to 44).
 fn triangle_bin(index_2: u16) -> Vec<u8> {
@@ -250,7 +232,10 @@ fn check_triangle_scene(l: &scene::Loaded) {
 fn gltf_with_data_uri_reads_transforms_materials_and_camera() {
     let d = temp_dir("gltf-ok");
     let bin = triangle_bin(2);
-    let uri = format!("data:application/octet-stream;base64,{}", base64(&bin));
+    let uri = format!(
+        "data:application/octet-stream;base64,{}",
+        tests::scenes::base64(&bin)
+    );
     let p = write(&d, "t.gltf", gltf_json(Some(&uri), 42, false));
     let l = scene::load(&p).unwrap();
     check_triangle_scene(&l);
@@ -293,7 +278,7 @@ fn gltf_errors_name_the_file() {
     // Buffer shorter than declared.
     let uri = format!(
         "data:application/octet-stream;base64,{}",
-        base64(&bin[..20])
+        tests::scenes::base64(&bin[..20])
     );
     let p = write(&d, "short.gltf", gltf_json(Some(&uri), 42, false));
     assert_err_names(&scene::load(&p).unwrap_err(), &p, "truncated");
@@ -302,7 +287,10 @@ fn gltf_errors_name_the_file() {
     assert_err_names(&scene::load(&p).unwrap_err(), &p, "gone.bin");
     // Index out of range.
     let bad = triangle_bin(7);
-    let uri = format!("data:application/octet-stream;base64,{}", base64(&bad));
+    let uri = format!(
+        "data:application/octet-stream;base64,{}",
+        tests::scenes::base64(&bad)
+    );
     let p = write(&d, "oob.gltf", gltf_json(Some(&uri), 42, false));
     assert_err_names(&scene::load(&p).unwrap_err(), &p, "out of range");
     // Invalid base64.
@@ -320,7 +308,10 @@ fn gltf_errors_name_the_file() {
 /// `gltf_json` (data-URI buffer) with `extensionsRequired` set to `required`.
 fn gltf_requiring(required: &[&str], textured: bool) -> String {
     let bin = triangle_bin(2);
-    let uri = format!("data:application/octet-stream;base64,{}", base64(&bin));
+    let uri = format!(
+        "data:application/octet-stream;base64,{}",
+        tests::scenes::base64(&bin)
+    );
     let list: Vec<String> = required.iter().map(|e| format!("{e:?}")).collect();
     gltf_json(Some(&uri), 42, textured).replacen(
         r#""asset": {"version": "2.0"},"#,
@@ -549,7 +540,10 @@ fn gltf_degenerate_and_nan_geometry_is_dropped() {
     let mut bin = triangle_bin(2);
     // A NaN in the third vertex.
     bin[24..28].copy_from_slice(&f32::NAN.to_le_bytes());
-    let uri = format!("data:application/octet-stream;base64,{}", base64(&bin));
+    let uri = format!(
+        "data:application/octet-stream;base64,{}",
+        tests::scenes::base64(&bin)
+    );
     let p = write(&d, "nan.gltf", gltf_json(Some(&uri), 42, false));
     let e = scene::load(&p).unwrap_err();
     assert!(matches!(e, SceneError::Empty { .. }), "{e}");
@@ -557,7 +551,10 @@ fn gltf_degenerate_and_nan_geometry_is_dropped() {
     // Degenerate: all three indices the same vertex would fail validation elsewhere; use
     // index 1 twice.
     let bin = triangle_bin(1);
-    let uri = format!("data:application/octet-stream;base64,{}", base64(&bin));
+    let uri = format!(
+        "data:application/octet-stream;base64,{}",
+        tests::scenes::base64(&bin)
+    );
     let p = write(&d, "degen.gltf", gltf_json(Some(&uri), 42, false));
     assert_err_names(&scene::load(&p).unwrap_err(), &p, "1 degenerate");
 }
@@ -585,7 +582,10 @@ fn builtin_scene_names_and_options() {
 fn gltf_metallic_roughness_is_read_clamped_and_can_be_dropped() {
     let d = temp_dir("gltf-pbr");
     let bin = triangle_bin(2);
-    let uri = format!("data:application/octet-stream;base64,{}", base64(&bin));
+    let uri = format!(
+        "data:application/octet-stream;base64,{}",
+        tests::scenes::base64(&bin)
+    );
     let json = gltf_json(Some(&uri), 42, false).replace(
         r#""baseColorFactor": [0.2, 0.4, 0.6, 1.0]"#,
         r#""baseColorFactor": [0.2, 0.4, 0.6, 1.0], "metallicFactor": 0.25, "roughnessFactor": 1.5"#,
