@@ -66,8 +66,8 @@ enum Command {
     /// Print the adapter, its optional features and its limits (and, with --scene, the
     /// scene's statistics).
     Info {
-        /// A built-in scene (cornell, many-lights, colonnade, furnace, furnace-sphere) or a
-        /// .gltf/.glb/.obj file.
+        /// A built-in scene (cornell, cornell-glossy, many-lights, colonnade, glossy, furnace,
+        /// furnace-sphere) or a .gltf/.glb/.obj file.
         #[arg(long)]
         scene: Option<String>,
         #[command(flatten)]
@@ -187,8 +187,8 @@ fn parse_bias(s: &str) -> Result<(String, f32), String> {
 
 #[derive(clap::Args, Debug)]
 struct RenderArgs {
-    /// A built-in scene (cornell, many-lights, colonnade, furnace, furnace-sphere) or a
-    /// .gltf/.glb/.obj file.
+    /// A built-in scene (cornell, cornell-glossy, many-lights, colonnade, glossy, furnace,
+    /// furnace-sphere) or a .gltf/.glb/.obj file.
     #[arg(long, default_value = "cornell")]
     scene: String,
     #[command(flatten)]

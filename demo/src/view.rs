@@ -34,8 +34,8 @@ use crate::scenes;
 /// `restir-demo view` flags.
 #[derive(clap::Args, Debug)]
 pub struct ViewArgs {
-    /// A built-in scene (cornell, many-lights, colonnade, furnace, furnace-sphere) or a
-    /// .gltf/.glb/.obj file.
+    /// A built-in scene (cornell, cornell-glossy, many-lights, colonnade, glossy, furnace,
+    /// furnace-sphere) or a .gltf/.glb/.obj file.
     #[arg(long, default_value = "cornell")]
     scene: String,
     #[command(flatten)]
