@@ -7,7 +7,6 @@
 use std::sync::OnceLock;
 
 use restir_world::plant::Planted;
-use restir_world::reference::{ReferenceOptions, ReferenceRenderer};
 use restir_world::render::Paths;
 use restir_world::sampling::Estimator;
 use restir_world::scene::{Camera, Material, Scene, furnace_sphere};
@@ -59,16 +58,7 @@ fn gpu_images(
 
 /// The CPU reference's (direct, indirect) at the default paths.
 fn cpu_images(s: &Scene, cam: &Camera, method: Estimator, spp: u32) -> [Vec<[f32; 3]>; 2] {
-    let o = ReferenceOptions {
-        method,
-        spp,
-        seed: 3,
-        ..Default::default()
-    };
-    let out = ReferenceRenderer::new(s)
-        .expect("reference")
-        .render(cam, &o, None)
-        .expect("render");
+    let out = tests::cpu::reference(s, cam, method, spp, 3);
     [out.direct.pixels, out.indirect.pixels]
 }
 
@@ -175,16 +165,7 @@ fn glossy_cornell_reference() -> &'static [Vec<[f32; 3]>; 2] {
         let n = (CORNELL_SIDE * CORNELL_SIDE) as usize;
         let mut want = [vec![[0.0f32; 3]; n], vec![[0.0f32; 3]; n]];
         for seed in 3..=8 {
-            let o = ReferenceOptions {
-                method: Estimator::Nee,
-                spp: 1024,
-                seed,
-                ..Default::default()
-            };
-            let out = ReferenceRenderer::new(&s)
-                .expect("reference")
-                .render(&cam, &o, None)
-                .expect("render");
+            let out = tests::cpu::reference(&s, &cam, Estimator::Nee, 1024, seed);
             add_scaled(&mut want[0], &out.direct.pixels, 1.0 / 6.0);
             add_scaled(&mut want[1], &out.indirect.pixels, 1.0 / 6.0);
         }

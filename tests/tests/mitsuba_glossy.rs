@@ -16,7 +16,6 @@
 use glam::{Vec2, Vec3};
 use restir_world::image_io::read_exr;
 use restir_world::plant::Planted;
-use restir_world::reference::{ReferenceOptions, ReferenceRenderer};
 use restir_world::render::{Paths, RenderOptions};
 use restir_world::sampling::{CameraGpu, Estimator};
 use restir_world::scene::{Camera, MaterialModel, Scene, builtin};
@@ -146,20 +145,11 @@ impl Mitsuba {
 /// The CPU reference's (direct, indirect) images of `s` (`nee`, the shipped paths but for
 /// the depth: MIS at glossy vertices, Russian roulette from bounce 3).
 fn cpu(s: &Scene, cam: &Camera, bounces: u32) -> [Vec<[f32; 3]>; 2] {
-    let o = ReferenceOptions {
-        method: Estimator::Nee,
-        spp: SPP,
-        seed: CPU_SEED,
-        paths: Paths {
-            bounces,
-            ..Paths::default()
-        },
-        ..Default::default()
+    let paths = Paths {
+        bounces,
+        ..Paths::default()
     };
-    let out = ReferenceRenderer::new(s)
-        .expect("reference")
-        .render(cam, &o, None)
-        .expect("render");
+    let out = tests::cpu::reference_at(s, cam, Estimator::Nee, SPP, CPU_SEED, paths);
     [out.direct.pixels, out.indirect.pixels]
 }
 
