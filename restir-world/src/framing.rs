@@ -133,7 +133,25 @@ fn score(bvh: &Bvh, cam: &Camera, lo: Vec3, hi: Vec3) -> f32 {
 }
 
 /// The default framing of `scene` at `width` x `height` (see the module documentation).
+///
+/// A scene in very small or very large units is framed as its copy scaled by a power of two
+/// (exact) into an extent of [1, 2), the camera scaled back: obvhs's CPU node test clamps t
+/// to an absolute 1e-4, so in a scene of 2e-6 units every scoring ray missed, every view
+/// tied, and an open scene was looked at from behind its back wall (issue 60).
 pub fn default_camera(scene: &Scene, width: u32, height: u32) -> Camera {
+    let extent = scene
+        .bounds()
+        .map_or(1.0, |(lo, hi)| (hi - lo).max_element());
+    if extent.is_finite() && extent > 0.0 && !(1.0 / 1024.0..=1024.0).contains(&extent) {
+        let e = extent.log2().floor().clamp(-126.0, 126.0) as i32;
+        let k = 2f32.powi(-e);
+        return framed(&scene.scaled(k), width, height).scaled(1.0 / k);
+    }
+    framed(scene, width, height)
+}
+
+/// [`default_camera`] in the scene's own units.
+fn framed(scene: &Scene, width: u32, height: u32) -> Camera {
     let (lo, hi) = scene
         .bounds()
         .filter(|(lo, hi)| lo.is_finite() && hi.is_finite())
@@ -230,8 +248,8 @@ mod tests {
 
     #[test]
     fn tiny_and_huge_scenes_are_framed_at_their_scale() {
-        for scale in [1e-9f32, 1e8] {
-            let s = open_box(false);
+        for (scale, minus) in [(1e-9f32, false), (1e-9, true), (1e8, false), (1e8, true)] {
+            let s = open_box(minus);
             let mut t = s.clone();
             for tri in &mut t.triangles {
                 tri.v = tri.v.map(|v| v * scale);
@@ -240,6 +258,11 @@ mod tests {
             c.validate().unwrap();
             let d = (c.eye - c.target).length() / scale;
             assert!((1.0..10.0).contains(&d), "scale {scale}: distance {d}");
+            // From the open side, as at scale 1 (at 1e-9 every scoring ray missed before
+            // the framing scaled the scene: the views tied, and +z, the first, won).
+            let dir = (c.eye / scale - Vec3::splat(0.5)).normalize();
+            let sign = if minus { -1.0 } else { 1.0 };
+            assert!(dir.z * sign > 0.5, "scale {scale}: eye direction {dir}");
         }
     }
 }

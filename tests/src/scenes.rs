@@ -108,3 +108,79 @@ pub fn base64(bytes: &[u8]) -> String {
     }
     s
 }
+
+/// A closed glTF box 2 x 2 x 2 about the origin, its faces albedo 0.7, a 0.6 x 0.6 lamp face
+/// (radiance 10) 0.02 under the ceiling facing down, and its own camera inside at z = 0.8
+/// looking along -z (yfov 0.9): every coordinate times `scale` (issue 60's scale sweep).
+pub fn box_gltf(scale: f32) -> String {
+    let (h, l, y) = (1.0f32, 0.3f32, 0.98f32);
+    let quads: [([[f32; 3]; 4], u32); 7] = [
+        ([[-h, -h, -h], [h, -h, -h], [h, -h, h], [-h, -h, h]], 0),
+        ([[-h, h, -h], [-h, h, h], [h, h, h], [h, h, -h]], 0),
+        ([[-h, -h, -h], [-h, h, -h], [h, h, -h], [h, -h, -h]], 0),
+        ([[-h, -h, h], [h, -h, h], [h, h, h], [-h, h, h]], 0),
+        ([[-h, -h, -h], [-h, -h, h], [-h, h, h], [-h, h, -h]], 0),
+        ([[h, -h, -h], [h, h, -h], [h, h, h], [h, -h, h]], 0),
+        ([[-l, y, -l], [-l, y, l], [l, y, l], [l, y, -l]], 1),
+    ];
+    let mut bin = Vec::new();
+    for (q, _) in &quads {
+        for p in q {
+            for c in p {
+                bin.extend_from_slice(&(c * scale).to_le_bytes());
+            }
+        }
+    }
+    let positions = bin.len();
+    for (k, _) in quads.iter().enumerate() {
+        for i in [0u16, 1, 2, 0, 2, 3] {
+            bin.extend_from_slice(&(4 * k as u16 + i).to_le_bytes());
+        }
+    }
+    let (lo, hi) = (-h * scale, h * scale);
+    let prims: Vec<String> = quads
+        .iter()
+        .enumerate()
+        .map(|(k, (_, m))| {
+            format!(
+                r#"{{"attributes": {{"POSITION": 0}}, "indices": {}, "material": {m}}}"#,
+                k + 1
+            )
+        })
+        .collect();
+    let views: Vec<String> = (0..quads.len())
+        .map(|k| {
+            format!(
+                r#"{{"buffer": 0, "byteOffset": {}, "byteLength": 12}}"#,
+                positions + 12 * k
+            )
+        })
+        .collect();
+    let accessors: Vec<String> = (0..quads.len())
+        .map(|k| {
+            format!(
+                r#"{{"bufferView": {}, "componentType": 5123, "count": 6, "type": "SCALAR"}}"#,
+                k + 1
+            )
+        })
+        .collect();
+    format!(
+        r#"{{"asset": {{"version": "2.0"}}, "scene": 0, "scenes": [{{"nodes": [0, 1]}}],
+  "nodes": [{{"mesh": 0}}, {{"camera": 0, "translation": [0, 0, {cz:e}]}}],
+  "cameras": [{{"type": "perspective", "perspective": {{"yfov": 0.9, "znear": 0.01, "aspectRatio": 1.0}}}}],
+  "meshes": [{{"primitives": [{prims}]}}],
+  "materials": [{{"pbrMetallicRoughness": {{"baseColorFactor": [0.7, 0.7, 0.7, 1], "metallicFactor": 0}}}},
+    {{"pbrMetallicRoughness": {{"baseColorFactor": [0, 0, 0, 1], "metallicFactor": 0}}, "emissiveFactor": [1, 1, 1],
+      "extensions": {{"KHR_materials_emissive_strength": {{"emissiveStrength": 10}}}}}}],
+  "extensionsUsed": ["KHR_materials_emissive_strength"],
+  "buffers": [{{"byteLength": {len}, "uri": "data:application/octet-stream;base64,{b64}"}}],
+  "bufferViews": [{{"buffer": 0, "byteOffset": 0, "byteLength": {positions}}}, {views}],
+  "accessors": [{{"bufferView": 0, "componentType": 5126, "count": 28, "type": "VEC3", "min": [{lo:e}, {lo:e}, {lo:e}], "max": [{hi:e}, {hi:e}, {hi:e}]}}, {accessors}]}}"#,
+        cz = 0.8 * scale,
+        prims = prims.join(", "),
+        len = bin.len(),
+        b64 = base64(&bin),
+        views = views.join(", "),
+        accessors = accessors.join(", "),
+    )
+}

@@ -712,6 +712,10 @@ struct GltfScene<'a> {
     warnings: &'a mut Vec<String>,
 }
 
+/// A glTF camera's target lies at least this fraction of its eye's largest coordinate ahead
+/// (2^-12: the view direction then rounds by at most about 2^-12 radians).
+const TARGET_PRECISION: f32 = 1.0 / 4096.0;
+
 impl GltfScene<'_> {
     /// The warnings of the whole file, and the first camera as the one renders use.
     fn finish(mut self) -> Scene {
@@ -749,9 +753,13 @@ impl GltfScene<'_> {
         let fwd = m.transform_vector3(-Vec3::Z).normalize_or_zero();
         let up = m.transform_vector3(Vec3::Y).normalize_or_zero();
         let aspect = p.aspect_ratio().filter(|a| *a > 0.0).unwrap_or(1.0);
+        // glTF gives a direction, not a target: one unit ahead, or further where the eye's
+        // coordinates are so large that one unit is lost in their rounding (an eye at 8e8
+        // has a spacing of 64: its target one unit ahead was the eye itself).
+        let ahead = (eye.abs().max_element() * TARGET_PRECISION).max(1.0);
         let camera = Camera {
             eye,
-            target: eye + fwd,
+            target: eye + fwd * ahead,
             up,
             vfov_deg: p.yfov().to_degrees(),
             width: (256.0 * aspect).round().clamp(1.0, 16384.0) as u32,
