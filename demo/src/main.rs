@@ -314,7 +314,7 @@ fn main() -> ExitCode {
     match result {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
-            eprintln!("error: {e:#}");
+            eprintln!("error: {}", elide_long_words(&format!("{e:#}")));
             ExitCode::FAILURE
         }
     }
@@ -759,7 +759,8 @@ fn write_images(args: &RenderArgs, tag: &str, render: &render_cmd::MethodRender)
     })?;
     if args.exposure.is_none() {
         println!(
-            "PNG exposure {exposure:.4} (the combined image's 99th-percentile luminance to 1; --exposure sets it)"
+            "PNG exposure {} (the combined image's 99th-percentile luminance to 1; --exposure sets it)",
+            exposure_text(exposure)
         );
     }
     for (i, (_, img)) in sets.iter().enumerate() {
@@ -916,8 +917,50 @@ fn compare_cmd(a: CompareArgs) -> Result<()> {
     Ok(())
 }
 
+/// Longest word an error message shows whole: a message echoes what it refuses (a method
+/// name, a knob, a path), and a 10 KB argument made a 10 KB line.
+const LONGEST_WORD: usize = 120;
+
+/// `message` with every word longer than [`LONGEST_WORD`] characters cut to its start and end
+/// and its length.
+fn elide_long_words(message: &str) -> String {
+    message
+        .split(' ')
+        .map(|w| {
+            let n = w.chars().count();
+            if n <= LONGEST_WORD {
+                return w.to_owned();
+            }
+            let head: String = w.chars().take(60).collect();
+            let tail: String = w.chars().skip(n - 20).collect();
+            format!("{head}...({n} characters)...{tail}")
+        })
+        .collect::<Vec<_>>()
+        .join(" ")
+}
+
+/// An exposure as `--exposure` takes it back: four decimals, or five significant digits in
+/// scientific notation outside [1e-3, 1e4] (a scene emitting 1e10 has an exposure near 1e-10,
+/// printed 0.0000 before).
+fn exposure_text(e: f32) -> String {
+    if (1e-3..1e4).contains(&e) {
+        format!("{e:.4}")
+    } else {
+        format!("{e:.4e}")
+    }
+}
+
 #[cfg(test)]
 mod tests {
+    #[test]
+    fn an_exposure_prints_as_the_flag_takes_it_back() {
+        for e in [1e-10f32, 2.5e-4, 0.0123, 1.0, 27.13, 5e6] {
+            let t = super::exposure_text(e);
+            let back: f32 = t.parse().unwrap();
+            assert!(back > 0.0 && (back / e - 1.0).abs() < 1e-3, "{e}: {t}");
+        }
+    }
+
     use super::default_compare_methods;
     use restir_world::sampling::Paths;
 

@@ -127,7 +127,7 @@ pub fn render_method(
     // which takes minutes on a CPU adapter, with no progress bar yet (and none in a log).
     eprintln!("{spec}: building (its kernels compile on first use: minutes on a CPU adapter)");
     let start = std::time::Instant::now();
-    let mut m = settings.build_with(&ctx, scene, camera, options)?;
+    let mut m = build(settings, &ctx, scene, camera, options)?;
     eprintln!(
         "{spec}: built in {:.1} s; rendering {frames} frames at {}x{}",
         start.elapsed().as_secs_f64(),
@@ -243,4 +243,38 @@ fn debug_views(
         eprintln!("warning: {spec} has no debug views");
     }
     Ok(views)
+}
+
+/// `settings` built on `ctx` (`MethodSettings::build_with`); an image too large for one of
+/// the adapter's bindings is refused naming `--size` and a height that fits at its width.
+pub fn build(
+    settings: &MethodSettings,
+    ctx: &GpuContext,
+    scene: &Scene,
+    camera: &Camera,
+    options: &RenderOptions,
+) -> Result<Box<dyn FrameMethod>> {
+    settings
+        .build_with(ctx, scene, camera, options)
+        .map_err(|e| size_error(&e.to_string(), camera.width, camera.height))
+}
+
+/// An error message with `--size` named where it says the image is too large
+/// ([`restir_world::gpu::IMAGE_TOO_LARGE`]), else the message as it is.
+pub fn size_error(message: &str, width: u32, height: u32) -> anyhow::Error {
+    let fit = message
+        .split(restir_world::gpu::IMAGE_TOO_LARGE)
+        .nth(1)
+        .and_then(|rest| rest.split_whitespace().next()?.parse::<u64>().ok());
+    match fit {
+        Some(pixels) => {
+            let h = (pixels / u64::from(width.max(1))).min(u64::from(height));
+            let hint = match h {
+                0 => format!("a width of at most {pixels}"),
+                h => format!("e.g. --size {width}x{h}"),
+            };
+            anyhow::anyhow!("--size {width}x{height}: {message}; {hint}")
+        }
+        None => anyhow::anyhow!("{message}"),
+    }
 }

@@ -549,9 +549,8 @@ impl Viewer {
             paths: setup.paths,
             ..Default::default()
         };
-        let method = setup
-            .settings
-            .build_with(&ctx, &setup.scene, &setup.camera, &options)?;
+        let method =
+            crate::render_cmd::build(&setup.settings, &ctx, &setup.scene, &setup.camera, &options)?;
         let controls = Controls {
             exposure: setup.args.exposure,
             scale: setup.args.scale,

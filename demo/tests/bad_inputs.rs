@@ -1654,6 +1654,78 @@ fn adapter_cases(gen_dir: &Path) -> Vec<Case> {
     cases
 }
 
+/// Issue 60 (hardening the round-4 surfaces): each case failed on the binary of 37a8bb8 (NaN
+/// pixels, a 10 KB error line, an error that did not name `--size`).
+fn issue_60_cases(g: &Path) -> Vec<Case> {
+    let gpu = |extra: &[&str]| {
+        let base = [
+            "render", "--method", "ris", "--size", "8x8", "--frames", "1",
+        ];
+        base.iter()
+            .chain(extra)
+            .map(|s| s.to_string())
+            .collect::<Vec<_>>()
+    };
+    // The only light a lamp of area 1e-20 (NaN pixels before: its normal's squared length
+    // underflowed): dropped with a warning, the image finite (black).
+    let tiny = g.join("tiny_lamp.obj");
+    std::fs::write(
+        g.join("tiny_lamp.mtl"),
+        "newmtl grey\nKd 0.7 0.7 0.7\nnewmtl lamp\nKd 0 0 0\nKe 10 10 10\n",
+    )
+    .unwrap();
+    std::fs::write(
+        &tiny,
+        "mtllib tiny_lamp.mtl\nv -1 0 -1\nv -1 0 1\nv 1 0 1\nv 1 0 -1\nv 0 1 0\n\
+         v 1.4142e-10 1 0\nv 0 1 1.4142e-10\nusemtl grey\nf 1 2 3 4\nusemtl lamp\nf 5 6 7\n",
+    )
+    .unwrap();
+    let tiny = tiny.display().to_string();
+    let long_name = "x".repeat(10_000);
+    let mut v = vec![
+        case_of(
+            "60-denoise-phi-luminance-zero",
+            gpu(&["--denoise", "phi-luminance=0"]),
+            1,
+            "phi-luminance 0 must be in 1e-6",
+        ),
+        case_of(
+            "60-sky-1e30-denoise",
+            gpu(&["--sky", "1e30", "--denoise"]),
+            1,
+            "at most 1e10",
+        ),
+        case_of(
+            "60-lamp-of-area-1e-20",
+            gpu(&["--scene", &tiny]),
+            0,
+            "of an area below 1e-18",
+        ),
+        case_of(
+            "60-long-method-name",
+            vec!["render".into(), "--method".into(), long_name],
+            1,
+            " characters)...",
+        ),
+    ];
+    // A size whose G-buffer (64 bytes a pixel) is one row above the binding limit.
+    match info(&[])
+        .as_deref()
+        .and_then(|i| limit(i, "max_storage_buffer_binding_size"))
+    {
+        Some(l) if l / 64 / 2048 < 16384 => {
+            let h = l / 64 / 2048;
+            let size = format!("2048x{}", h + 1);
+            let needle = format!("--size {size}: the G-buffer needs");
+            let mut c = case_of("60-size-above-binding-limit", gpu(&[]), 1, &needle);
+            c.args[4] = size;
+            v.push(c);
+        }
+        _ => eprintln!("skipping 60-size-above-binding-limit: no adapter or a limit above 2 GiB"),
+    }
+    v
+}
+
 #[test]
 fn bad_inputs_are_refused_with_their_cause_and_leave_nothing_behind() {
     let tmp = Path::new(env!("CARGO_TARGET_TMPDIR")).join("bad_inputs");
@@ -1663,6 +1735,7 @@ fn bad_inputs_are_refused_with_their_cause_and_leave_nothing_behind() {
     cases.extend(new_input_cases(&tmp, &gen_dir));
     cases.extend(adapter_cases(&gen_dir));
     cases.extend(cache_and_knob_cases(&gen_dir));
+    cases.extend(issue_60_cases(&gen_dir));
     let only = std::env::var("BAD_INPUTS_ONLY").ok();
     let mut failures = Vec::new();
     let mut ran = 0;

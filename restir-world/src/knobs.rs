@@ -68,8 +68,15 @@ impl KnobValue for f32 {
     fn parse_knob(s: &str) -> Option<Self> {
         s.parse().ok()
     }
+    /// Scientific notation outside [1e-3, 1e6] (f32::MAX, a range's open end, was printed
+    /// with 39 digits).
     fn show_knob(&self) -> String {
-        self.to_string()
+        let a = self.abs();
+        if a != 0.0 && !(1e-3..1e6).contains(&a) {
+            format!("{self:e}")
+        } else {
+            self.to_string()
+        }
     }
     fn in_range(&self, range: &RangeInclusive<Self>) -> bool {
         self.is_finite() && range.contains(self)

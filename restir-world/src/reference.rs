@@ -137,10 +137,12 @@ struct Step {
     found: Vec3,
 }
 
-/// The power heuristic's weight of strategy a against b.
+/// The power heuristic's weight of strategy a against b, as 1 / (1 + (b/a)^2) (twin of
+/// `render_power_heuristic`: a^2 overflows f32 above 1.8e19).
 fn power_heuristic(a: f32, b: f32) -> f32 {
     if a > 0.0 {
-        a * a / (a * a + b * b)
+        let r = b / a;
+        1.0 / (1.0 + r * r)
     } else {
         0.0
     }

@@ -102,7 +102,7 @@ impl SceneRuns<'_> {
             denoise: opts.denoise,
             ..*run.settings
         };
-        let mut m = settings.build_with(ctx, self.scene, &self.base, &options)?;
+        let mut m = crate::render_cmd::build(&settings, ctx, self.scene, &self.base, &options)?;
         let pixels = (self.base.width * self.base.height) as usize;
         let static_camera = opts.camera == CameraMode::Static;
         let mut tally = Tally::new(static_camera.then(|| Accumulator::new(pixels)));

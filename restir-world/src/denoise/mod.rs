@@ -46,8 +46,9 @@ crate::knobs! {
         [gpu] clamp_sigma: f32 = 0.0, "clamp-sigma", 0.0..=f32::MAX;
         /// Luminance edge-stopping: a neighbour's weight falls by e per this many standard
         /// deviations of luminance, the larger of the two pixels' (symmetric, so that an
-        /// outlier's energy is shared, not lost; default 4).
-        [gpu] phi_luminance: f32 = 4.0, "phi-luminance", 0.0..=f32::MAX;
+        /// outlier's energy is shared, not lost; default 4). Above 0: at 0 a pixel's weight
+        /// of itself is 0 x infinity (NaN pixels).
+        [gpu] phi_luminance: f32 = 4.0, "phi-luminance", 1e-6..=f32::MAX;
         /// Normal edge-stopping: the weight is the normals' cosine to this power (default 128).
         [gpu] phi_normal: f32 = 128.0, "phi-normal", 0.0..=f32::MAX;
         /// Plane-distance edge-stopping: the weight falls by e per this many pixel footprints
@@ -208,8 +209,8 @@ impl Denoiser {
         let px = u64::from(pixels);
         let state_bytes = px * size_of::<DnState>() as u64;
         let pair_bytes = px * size_of::<DnPair>() as u64;
-        ctx.check_binding_size("the denoiser's per-pixel state", state_bytes)?;
-        ctx.check_binding_size("the denoiser's per-pixel colours", pair_bytes)?;
+        ctx.check_pixel_binding("the denoiser's state", px, size_of::<DnState>() as u64)?;
+        ctx.check_pixel_binding("the denoiser's colours", px, size_of::<DnPair>() as u64)?;
         let zeroed = |label: &str, size| buffers::storage_zeroed(device, label, size);
         let words = params_words(config, &renderer.gpu_camera(), false);
         let usage = wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST;

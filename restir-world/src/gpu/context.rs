@@ -67,7 +67,24 @@ pub enum GpuError {
         bytes: u64,
         limit: u64,
     },
+    /// A per-pixel buffer larger than the device allows in one binding: the image is too
+    /// large ([`IMAGE_TOO_LARGE`] in the message: the demo names its `--size` flag).
+    #[error(
+        "{what} needs {} bytes in one binding for an image of {pixels} pixels ({bytes_per_pixel} \
+         a pixel), the adapter allows {limit}: {IMAGE_TOO_LARGE} {} pixels",
+        pixels * bytes_per_pixel,
+        limit / bytes_per_pixel
+    )]
+    ImageTooLarge {
+        what: String,
+        pixels: u64,
+        bytes_per_pixel: u64,
+        limit: u64,
+    },
 }
+
+/// The words of [`GpuError::ImageTooLarge`]'s message before the largest pixel count that fits.
+pub const IMAGE_TOO_LARGE: &str = "the largest image it allows has";
 
 /// Optional adapter features this project uses when they are present.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -340,6 +357,26 @@ impl GpuContext {
     pub fn max_binding_bytes(&self) -> u64 {
         let l = self.limits();
         l.max_storage_buffer_binding_size.min(l.max_buffer_size)
+    }
+
+    /// Checks that a buffer of `bytes_per_pixel` for each of `pixels` fits one storage binding
+    /// (the error says how many pixels would).
+    pub fn check_pixel_binding(
+        &self,
+        what: &str,
+        pixels: u64,
+        bytes_per_pixel: u64,
+    ) -> Result<(), GpuError> {
+        let limit = self.max_binding_bytes();
+        if pixels.saturating_mul(bytes_per_pixel) > limit {
+            return Err(GpuError::ImageTooLarge {
+                what: what.to_owned(),
+                pixels,
+                bytes_per_pixel,
+                limit,
+            });
+        }
+        Ok(())
     }
 
     /// Checks that a buffer of `bytes` for `what` fits one storage binding.

@@ -22,7 +22,7 @@ mod timing;
 mod wgsl;
 
 pub use binding::{Access, BindGroupLayout, BindingSet, Resource, count_storage_buffers};
-pub use context::{GpuContext, GpuError, OptionalFeatures, Tracer};
+pub use context::{GpuContext, GpuError, IMAGE_TOO_LARGE, OptionalFeatures, Tracer};
 pub use frame::FrameEncoder;
 pub use kernel::{
     Constants, Kernel, KernelCache, Pass, WORKGROUP_SIZE, dispatch_2d, workgroup_size_wgsl,

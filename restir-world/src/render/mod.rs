@@ -254,11 +254,10 @@ impl Renderer {
             .width
             .checked_mul(camera.height)
             .ok_or_else(|| RenderError::Settings("image too large".into()))?;
-        let vertex_bytes = u64::from(pixels) * size_of::<GVertex>() as u64;
-        ctx.check_binding_size("the G-buffer", vertex_bytes)?;
+        let px = u64::from(pixels);
+        ctx.check_pixel_binding("the G-buffer", px, size_of::<GVertex>() as u64)?;
         if options.path_split {
-            let bytes = u64::from(pixels) * render_buffers::PATH_SPLIT_BYTES;
-            ctx.check_binding_size("the path split", bytes)?;
+            ctx.check_pixel_binding("the path split", px, render_buffers::PATH_SPLIT_BYTES)?;
         }
         let units = scene.gpu_units();
         let scaled;

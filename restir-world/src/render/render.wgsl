@@ -520,9 +520,11 @@ fn render_stored_sample(r: StoredReservoir) -> LightSample {
 // cosine density); both sides compute the direction from the same positions, so the weights
 // sum to 1 everywhere. Delta lights (point, spot, directional) cannot be hit: weight 1.
 
+// As 1 / (1 + (b/a)^2): a^2 overflows above 1.8e19 (a small lamp's density seen at a grazing
+// angle), and inf / inf is NaN.
 fn render_power_heuristic(a: f32, b: f32) -> f32 {
-    let a2 = a * a;
-    return select(0.0, a2 / (a2 + b * b), a2 > 0.0);
+    let r = b / a;
+    return select(0.0, 1.0 / (1.0 + r * r), a > 0.0);
 }
 
 // MIS from the resampled density (world-restir's vertices). A light sample resampled from M

@@ -20,8 +20,10 @@ use super::SceneError;
 pub const MAX_ENV_SIDE: u32 = 16_384;
 /// Most pixels of an environment map (a 4096 x 2048 map; the GPU also checks its own limit).
 pub const MAX_ENV_PIXELS: u64 = 1 << 23;
-/// Largest radiance an environment pixel may have (as scene materials' emission).
-pub const MAX_ENV_RADIANCE: f32 = 1e30;
+/// Largest radiance an environment pixel may have: the same as a material's emission
+/// ([`super::MAX_EMISSION`]). At 1e30 (the limit before) the denoiser's luminance moments,
+/// squares of radiance, overflowed 32-bit floats and its frame had NaN pixels (issue 60).
+pub const MAX_ENV_RADIANCE: f32 = super::MAX_EMISSION;
 
 /// Light arriving from infinity: see the module documentation for the map convention.
 #[derive(Debug, Clone, PartialEq)]

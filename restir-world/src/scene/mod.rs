@@ -223,6 +223,12 @@ impl Triangle {
     pub fn area(&self) -> f32 {
         0.5 * self.cross().length()
     }
+    /// Area in f64 (no underflow nor overflow of the cross product).
+    pub fn area_f64(&self) -> f64 {
+        let v = self.v.map(|p| p.as_dvec3());
+        0.5 * (v[1] - v[0]).cross(v[2] - v[0]).length()
+    }
+
     /// Whether the triangle has (numerically) no area: a zero or non-finite cross product, or
     /// edges so close to collinear that the sine of their angle is below 1e-7.
     /// Computed in f64, so that the test depends on the triangle's shape, not on its units (in
@@ -240,6 +246,12 @@ impl Triangle {
         !len.is_finite() || len == 0.0 || len <= 1e-7 * longest
     }
 }
+
+/// Smallest triangle area, in the GPU's units ([`Scene::gpu_units`]), a scene keeps: twice
+/// the area is the length of the edges' cross product, whose square must stay a normal
+/// 32-bit float (above 1.2e-38) for the normal to be computed (a lamp of area 1e-20 in a
+/// scene of 2 units rendered NaN pixels).
+pub const MIN_GPU_AREA: f32 = 1e-18;
 
 /// Largest emitted radiance per channel a scene may hold: accumulating many samples of a
 /// larger one overflows 32-bit floats (infinite pixels). [`Scene::sanitize`] clamps to it.
@@ -464,6 +476,10 @@ pub struct SanitizeReport {
     pub non_finite: usize,
     /// Triangles dropped because they had no area.
     pub degenerate: usize,
+    /// Triangles dropped because their area, in the GPU's units ([`Scene::gpu_units`]), is
+    /// below [`MIN_GPU_AREA`]: their normals' squared lengths underflow 32-bit floats (NaN
+    /// pixels), and they reflect or emit nothing a 32-bit image holds.
+    pub too_small: usize,
     /// Triangles dropped because their material index was out of range.
     pub bad_material: usize,
     /// Triangles whose shading normals were non-finite or zero and were removed (the geometric
@@ -491,7 +507,7 @@ impl SanitizeReport {
     }
     /// Number of triangles dropped.
     pub fn dropped(&self) -> usize {
-        self.non_finite + self.degenerate + self.bad_material
+        self.non_finite + self.degenerate + self.too_small + self.bad_material
     }
 }
 
@@ -499,13 +515,14 @@ impl std::fmt::Display for SanitizeReport {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         write!(
             f,
-            "dropped {} triangles ({} with NaN/Inf vertices, {} degenerate, {} with a bad material \
-             index); removed bad shading normals on {}; removed bad texture coordinates on {}; \
+            "dropped {} triangles ({} with NaN/Inf vertices, {} degenerate, {} of an area below \
+             {MIN_GPU_AREA:e} in the GPU's units, {} with a bad material index); removed bad shading normals on {}; removed bad texture coordinates on {}; \
              removed unusable tangents on {}; clamped {} materials (albedo, metallic and \
              roughness into [0, 1], emission into [0, {MAX_EMISSION:e}])",
             self.dropped(),
             self.non_finite,
             self.degenerate,
+            self.too_small,
             self.bad_material,
             self.bad_normals,
             self.bad_uvs,
@@ -603,6 +620,19 @@ impl Scene {
                     extent,
                 });
             }
+        }
+        // After the extent check: gpu_units is that of the scene the GPU receives.
+        let area_units = f64::from(self.gpu_units()).powi(2);
+        self.triangles.retain(|t| {
+            let small = t.area_f64() * area_units < f64::from(MIN_GPU_AREA);
+            report.too_small += usize::from(small);
+            !small
+        });
+        if self.triangles.is_empty() {
+            return Err(SceneError::Empty {
+                what: what.to_owned(),
+                report: Some(report),
+            });
         }
         Ok(report)
     }
@@ -887,6 +917,7 @@ mod tests {
             SanitizeReport {
                 non_finite: 2,
                 degenerate: 2,
+                too_small: 0,
                 bad_material: 1,
                 bad_normals: 1,
                 bad_uvs: 0,

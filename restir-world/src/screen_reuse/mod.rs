@@ -293,7 +293,8 @@ impl ReuseBuffers {
         let vertex_bytes = px * size_of::<GVertex>() as u64;
         let pool_bytes = u64::from(pool.max(1)) * size_of::<GVertex>() as u64;
         ctx.check_binding_size(&format!("the {stage} reservoirs"), history_bytes)?;
-        ctx.check_binding_size(&format!("the {stage} history's vertices"), vertex_bytes)?;
+        let gvertex = size_of::<GVertex>() as u64;
+        ctx.check_pixel_binding(&format!("the {stage} history's vertices"), px, gvertex)?;
         ctx.check_binding_size(&format!("the {stage} pool's vertices"), pool_bytes)?;
         let zeroed = |label: String, size| buffers::storage_zeroed(&ctx.device, &label, size);
         Ok(Self {

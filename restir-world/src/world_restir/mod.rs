@@ -477,7 +477,8 @@ impl WrBuffers {
             true => vertex_bytes,
             false => size_of::<render::GVertex>() as u64,
         };
-        ctx.check_binding_size("world-restir's last-frame vertices", vertex_bytes)?;
+        let gvertex = size_of::<render::GVertex>() as u64;
+        ctx.check_pixel_binding("world-restir's last-frame vertices", px, gvertex)?;
         let zeroed = |label: &str, size: u64| buffers::storage_zeroed(&ctx.device, label, size);
         let pair = |label: &str, size: u64| [0, 1].map(|p| zeroed(&format!("{label} {p}"), size));
         let wr_params = WrParams {
