@@ -23,8 +23,23 @@ mod render_cmd;
 mod scenes;
 mod view;
 
+/// The three commands a first user needs, shown with the help (and with no arguments).
+const FIRST_STEPS: &str = "First steps:
+  restir-demo render --scene cornell --method world-restir-gi --denoise --out out/
+      an image of world-space ReSTIR GI, raw and denoised (EXR and PNG in out/)
+  restir-demo compare --scene many-lights --methods ris,restir-gi,world-restir-gi --out out/compare
+      speed against error: each method's error and GPU time against a converged reference
+  restir-demo view --scene cornell --method world-restir-gi
+      a window onto the method, live (needs a display)";
+
 #[derive(Parser, Debug)]
-#[command(name = "restir-demo", version, about, arg_required_else_help = true)]
+#[command(
+    name = "restir-demo",
+    version,
+    about,
+    arg_required_else_help = true,
+    after_help = FIRST_STEPS
+)]
 struct Cli {
     #[command(subcommand)]
     command: Command,

@@ -1523,7 +1523,7 @@ fn cache_and_knob_cases(g: &Path) -> Vec<Case> {
                 &["--eye=0.5,0.5,0.1", "--target=0.5,0.5,1"],
             ),
             0,
-            "beyond the radiance cache's range (65504 per channel)",
+            "the radiance cache holds it in units of",
         ),
         case_of(
             "cache-albedo-one",

@@ -11,7 +11,8 @@ struct CacheParams {
     debug_view: u32,
     // Update paths per frame: ceil(pixels x update_fraction).
     update_paths: u32,
-    _pad1: u32,
+    // The unit of the cells' radiance (cache::radiance_unit): they hold radiance / unit.
+    unit: f32,
     _pad2: u32,
 }
 
@@ -65,7 +66,7 @@ fn cache_mean(slot: u32) -> vec4<f32> {
     }
     let c = &cache_cells[slot];
     let sum = vec3<f32>(f32(atomicLoad(&(*c).r)), f32(atomicLoad(&(*c).g)), f32(atomicLoad(&(*c).b)));
-    return vec4<f32>(sum / (f32(n) * CACHE_SCALE), f32(n));
+    return vec4<f32>(sum * (cache_params.unit / (f32(n) * CACHE_SCALE)), f32(n));
 }
 
 // The radiance v reflects as the cache has it (v's albedo x its cell's mean), .w = 1, or

@@ -62,28 +62,35 @@ pub const BYTES_PER_CELL: u32 = 24;
 const _: () =
     assert!((MAX_HISTORY + MAX_NEW) as f64 * SCALE as f64 * MAX_VALUE as f64 <= u32::MAX as f64);
 
-/// What a scene does to the cache that its image would not say. Its cells hold radiance up to
-/// [`MAX_VALUE`] per channel in steps of 1 / [`SCALE`] (finer values rounded at random, exact
-/// in expectation): a surface lit by an emitter brighter than that (area light or
-/// environment; a white surface reflects at most the brightest radiance it sees, more only
-/// by interreflection) may be clipped, its image darker than the truth. And an albedo of 1:
-/// the cache's paths are unbounded, so a closed scene of such surfaces keeps all of its
-/// light at every bounce and its true radiance is infinite (the cache's image grows with the
-/// frames).
+/// The unit of radiance the cache's cells hold for a scene whose brightest emission is
+/// `brightest` ([`Scene::brightest_emission`]): 1, or the power of two that brings that
+/// emission to at most 1/16 of [`MAX_VALUE`] (room for interreflection). A surface reflects at
+/// most the brightest radiance it sees (more only by interreflection), so no cell is clipped;
+/// a scale-free power of two leaves the image of a scene within range bit for bit as before.
+/// (Cells in radiance units clipped a lamp of 1e10 at 65504: 37% dark against `ris`.)
+pub fn radiance_unit(brightest: f32) -> f32 {
+    let room = MAX_VALUE / 16.0;
+    if !(brightest.is_finite() && brightest > room) {
+        return 1.0;
+    }
+    2f32.powi((brightest / room).log2().ceil() as i32)
+}
+
+/// What a scene does to the cache that its image would not say. Its cells hold radiance in
+/// steps of 1 / [`SCALE`] of their unit ([`radiance_unit`], finer values rounded at random,
+/// exact in expectation): a scene bright enough for a unit above 1 rounds its dim light
+/// coarsely (noisier, not darker). And an albedo of 1: the cache's paths are unbounded, so a
+/// closed scene of such surfaces keeps all of its light at every bounce and its true radiance
+/// is infinite (the cache's image grows with the frames).
 pub fn scene_warnings(scene: &Scene) -> Vec<String> {
     let mut warnings = Vec::new();
-    let brightest = |c: [f32; 3]| c.into_iter().fold(0.0f32, f32::max);
-    let emitted = scene.materials.iter().map(|m| brightest(m.emission));
-    let sky = scene
-        .environment
-        .iter()
-        .flat_map(|e| e.pixels.iter().map(|p| brightest(*p)));
-    let max = emitted.chain(sky).fold(0.0f32, f32::max);
-    if max > MAX_VALUE {
+    let max = scene.brightest_emission();
+    let unit = radiance_unit(max);
+    if unit > 1.0 {
         warnings.push(format!(
-            "the scene emits radiance up to {max:e}, beyond the radiance cache's range \
-             ({MAX_VALUE} per channel): cells lit by it may be clipped, their light darker \
-             than the truth; scale the emission down (the image scales with it)"
+            "the scene emits radiance up to {max:e}: the radiance cache holds it in units of \
+             {unit:e} (steps of 1/{SCALE} unit, rounded at random), so its cells are noisy where \
+             the light is far dimmer than that"
         ));
     }
     if let Some(i) = scene
@@ -215,7 +222,8 @@ pub struct CacheParams {
     pub debug_view: u32,
     /// [`CacheConfig::update_paths`] of the frame.
     pub update_paths: u32,
-    pub _pad1: u32,
+    /// [`radiance_unit`] of the scene: cells hold radiance / unit.
+    pub unit: f32,
     pub _pad2: u32,
 }
 
@@ -241,6 +249,7 @@ pub struct CacheCell {
 }
 
 impl CacheCell {
+    /// Its value, the mean in the cells' unit ([`radiance_unit`]; 1 in most scenes).
     pub fn value(&self) -> CellValue {
         let samples = self.info & 0xffff;
         let n = samples.max(1) as f32 * SCALE;
@@ -377,6 +386,8 @@ pub struct RadianceCache {
     cells: wgpu::Buffer,
     debug: wgpu::Buffer,
     passes: CachePasses,
+    /// [`radiance_unit`] of the scene.
+    unit: f32,
 }
 
 impl RadianceCache {
@@ -405,11 +416,12 @@ impl RadianceCache {
         ctx.check_binding_size("the radiance cache's cells", cell_bytes)?;
         let grid_params = HashGridParams::new(&table_config, &config.sizing(camera), camera.eye)?;
         let table = HashTable::new(device, &ctx.queue, &grid_params)?;
+        let unit = radiance_unit(renderer.brightest_emission());
         let params = CacheParams {
             knobs: config.gpu_words(),
             debug_view: 0,
             update_paths: config.update_paths(pixels),
-            _pad1: 0,
+            unit,
             _pad2: 0,
         };
         let params = buffers::with_usage(
@@ -459,6 +471,7 @@ impl RadianceCache {
             cells,
             debug,
             passes,
+            unit,
         })
     }
 
@@ -538,7 +551,13 @@ impl RadianceCache {
             .iter()
             .take_while(|(checksum, _)| *checksum != 0)
             .find(|(checksum, _)| *checksum == c.checksum)
-            .map(|(_, cell)| cell.value())
+            .map(|(_, cell)| {
+                let v = cell.value();
+                CellValue {
+                    mean: v.mean.map(|m| m * self.unit),
+                    ..v
+                }
+            })
     }
 
     /// A debug view of the cells at the last frame's primary vertices: [`DebugView::CacheRadiance`]

@@ -136,7 +136,7 @@ fn cache_add(slot: u32, e: vec3<f32>, rng: ptr<function, u32>) {
     if hash_slot_append(slot) >= CACHE_MAX_NEW {
         return;
     }
-    let q = cache_fixed(clamp(e, vec3<f32>(0.0), vec3<f32>(CACHE_MAX_VALUE)), rng);
+    let q = cache_fixed(clamp(e / cache_params.unit, vec3<f32>(0.0), vec3<f32>(CACHE_MAX_VALUE)), rng);
     atomicAdd(&cache_cells[slot].r, q.x);
     atomicAdd(&cache_cells[slot].g, q.y);
     atomicAdd(&cache_cells[slot].b, q.z);

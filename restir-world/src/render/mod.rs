@@ -202,6 +202,8 @@ pub struct Renderer {
     camera: Camera,
     /// The power of two the scene and cameras are scaled by on the GPU ([`Scene::gpu_units`]).
     units: f32,
+    /// [`Scene::brightest_emission`].
+    brightest_emission: f32,
     /// Set by [`Renderer::set_camera`]: uploaded at the start of the next frame.
     camera_changed: bool,
     estimator: Estimator,
@@ -323,6 +325,7 @@ impl Renderer {
         Ok(Self {
             camera: *camera,
             units,
+            brightest_emission: scene.brightest_emission(),
             camera_changed: false,
             estimator,
             options: *options,
@@ -332,6 +335,11 @@ impl Renderer {
             frames: 0,
             accumulated: 0,
         })
+    }
+
+    /// The largest radiance the scene emits ([`Scene::brightest_emission`]).
+    pub fn brightest_emission(&self) -> f32 {
+        self.brightest_emission
     }
 
     /// The camera of the next frame, in the scene's units.

@@ -699,6 +699,18 @@ impl Scene {
         Some(it.fold((first, first), |(lo, hi), v| (lo.min(v), hi.max(v))))
     }
 
+    /// The largest radiance any channel of the scene emits: its materials' emission and its
+    /// environment's pixels (punctual lights have no radiance).
+    pub fn brightest_emission(&self) -> f32 {
+        let brightest = |c: [f32; 3]| c.into_iter().fold(0.0f32, f32::max);
+        let emitted = self.materials.iter().map(|m| brightest(m.emission));
+        let sky = self
+            .environment
+            .iter()
+            .flat_map(|e| e.pixels.iter().map(|p| brightest(*p)));
+        emitted.chain(sky).fold(0.0f32, f32::max)
+    }
+
     /// The power of two the GPU renderer scales this scene by ([`crate::render::Renderer`]):
     /// 1 unless its extent (largest side of its bounding box) is below [`SMALLEST_GPU_EXTENT`],
     /// else the one that brings the extent into [1, 2). Products of two areas of a scene of
