@@ -62,7 +62,7 @@ fn layouts_match_wgsl() {
         CacheParams,
         src,
         "CacheParams",
-        [knobs, debug_view, update_paths, _pad1, _pad2]
+        [knobs, debug_view, update_paths, unit, _pad2]
     );
     tests::assert_knobs_layout!(CacheConfig, src, "CacheKnobs");
 }
