@@ -15,7 +15,9 @@
 //!   [`lights`] (light sampling); [`reference`](mod@reference) (the CPU reference renderer),
 //!   [`images`] (the one image set) and [`metrics`].
 //! - [`render`]: the renderer's shared passes and the `nee`/`ris` baselines.
-//! - [`light_tiles`], [`screen_reuse`] (screen-space reuse written once: parameters,
+//! - [`reuse`] (the one merge loop every reuse calls, its target, shift and neighbours as the
+//!   including kernel's hooks), [`light_tiles`], [`screen_reuse`] (screen-space reuse written
+//!   once: parameters,
 //!   reservoir buffers, neighbours, the pass chain, camera history) and [`grid`] (the
 //!   world-space grid a stage gathers its items in), then the stages that replace the renderer's shading: [`world_restir`] (light at
 //!   the secondary vertex), [`restir_gi`] (the paths, resampled between pixels) and
@@ -43,6 +45,7 @@ pub mod reference;
 pub mod render;
 pub mod restir_di;
 pub mod restir_gi;
+pub mod reuse;
 pub mod sampling;
 pub mod scene;
 pub mod screen_reuse;

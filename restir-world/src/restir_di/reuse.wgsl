@@ -1,7 +1,7 @@
 // Passes "di-temporal" and "di-spatial" (the entry point screen_reuse): each pixel (the
 // canonical reservoir, reuse_self) merges the reservoirs of the neighbours screen_neighbours
-// finds (last frame's pixel through last frame's camera, or spatial_k pixels in a disc); the
-// stored M is the sum of the merged (capped) M.
+// finds (last frame's pixel through last frame's camera, or spatial_k pixels in a disc) by the
+// one merge loop (reuse_merge); the stored M is the sum of the merged (capped) M.
 //
 // Combination (knobs.combine): the reservoir crate's reuse_* (1/M, 1/Z or pairwise MIS); light
 // samples need no shift, so every Jacobian is 1. The target is render_light_target.
@@ -13,6 +13,39 @@ fn screen_m(r: StoredReservoir) -> u32 {
     return r.m;
 }
 
+// The receiver (reuse-merge's hooks): a pixel's primary vertex, its own reservoir and sample,
+// and the screen neighbours found for it.
+struct ReuseReceiver {
+    g: GVertex,
+    own: StoredReservoir,
+    own_sample: LightSample,
+    temporal: bool,
+    nb: ScreenNeighbours,
+}
+
+fn reuse_visit_count(r: ptr<function, ReuseReceiver>) -> u32 {
+    return (*r).nb.k;
+}
+
+fn reuse_visited(r: ptr<function, ReuseReceiver>, n: u32) -> ReuseNeighbour {
+    return ReuseNeighbour((*r).nb.idx[n], (*r).nb.ms[n]);
+}
+
+fn reuse_merge_one(c: ptr<function, Reuse>, n: u32, r: ptr<function, ReuseReceiver>,
+                   nb: ReuseNeighbour, u: f32) -> bool {
+    let q = screen_source_vertex(nb.j, (*r).temporal);
+    return render_reuse_light(c, n, reuse_src[nb.j], nb.m, (*r).g, q, (*r).own_sample, u);
+}
+
+fn reuse_z_target(r: ptr<function, ReuseReceiver>, nb: ReuseNeighbour, chosen: u32) -> f32 {
+    var y = (*r).own_sample;
+    if chosen != REUSE_NO_NEIGHBOUR {
+        y = render_stored_sample(reuse_src[chosen]);
+    }
+    let q = render_reused_vertex(screen_source_vertex(nb.j, (*r).temporal));
+    return render_light_target(q, y);
+}
+
 fn screen_merge(i: u32, own: StoredReservoir, receiver: GVertex, temporal: bool,
                 nb: ScreenNeighbours, rng: ptr<function, u32>) -> StoredReservoir {
     let g = render_reused_vertex(receiver);
@@ -20,22 +53,11 @@ fn screen_merge(i: u32, own: StoredReservoir, receiver: GVertex, temporal: bool,
     let own_sample = render_stored_sample(own);
     var c = reuse_begin(screen_params.knobs.combine, PackedReservoir(own.ucw, own.m),
                         render_light_target(g, own_sample), nb.k, nb.m_sum, u_own);
+    var r = ReuseReceiver(g, own, own_sample, temporal, nb);
+    let chosen = reuse_merge(&c, &r, rng);
     var out = own;
-    for (var n = 0u; n < nb.k; n++) {
-        let u_merge = rng_next_f32(rng);
-        let src = reuse_src[nb.idx[n]];
-        let q = screen_source_vertex(nb.idx[n], temporal);
-        if render_reuse_light(&c, n, src, nb.ms[n], g, q, own_sample, u_merge) {
-            out = src;
-        }
-    }
-    if screen_params.knobs.combine == REUSE_ONE_OVER_Z && c.p_hat > 0.0 {
-        // Z: the receiver and every merged pixel whose own vertex could have produced y.
-        let y = render_stored_sample(out);
-        for (var n = 0u; n < nb.k; n++) {
-            let q = render_reused_vertex(screen_source_vertex(nb.idx[n], temporal));
-            reuse_count_z(&c, nb.ms[n], render_light_target(q, y));
-        }
+    if chosen != REUSE_NO_NEIGHBOUR {
+        out = reuse_src[chosen];
     }
     return render_reuse_store(&c, own, out);
 }

@@ -10,7 +10,7 @@
 // for the selected sample only (gi_finish; occluded, pairwise falls back to the
 // receiver's own sample), `final` traces only that one. Combination
 // (knobs.combine): the reservoir crate's reuse_* with the shift's Jacobian kept apart
-// (reuse_neighbour_shifted). Adds the merged neighbours and the rejected
+// (reuse_neighbour_shifted), by the one merge loop (reuse_merge). Adds the merged neighbours and the rejected
 // reconnections (shift or visibility failed) to gi_debug.
 
 const SCREEN_STREAM_TEMPORAL: u32 = STREAM_GI_TEMPORAL;
@@ -18,6 +18,87 @@ const SCREEN_STREAM_SPATIAL: u32 = STREAM_GI_SPATIAL;
 
 fn screen_m(r: GiReservoir) -> u32 {
     return gi_m(r);
+}
+
+// The receiver (reuse-merge's hooks): its vertex (x1 in the reuse passes, x2 in the sub-path
+// pass), its reservoir as held and its own sample, whether pairwise MIS evaluates the
+// neighbours at that sample, and its neighbours: reservoirs of reuse_src (the reuse passes) or
+// each candidate pixel's own path sample (the sub-path pass, gi_subpath_source).
+struct ReuseReceiver {
+    g: GVertex,
+    own: GiReservoir,
+    own_sample: GiSample,
+    pairwise: bool,
+    temporal: bool,
+    subpath: bool,
+    nb: ScreenNeighbours,
+    // Merged neighbours whose shift or visibility failed (for gi_debug).
+    rejected: u32,
+}
+
+fn reuse_visit_count(r: ptr<function, ReuseReceiver>) -> u32 {
+    return (*r).nb.k;
+}
+
+fn reuse_visited(r: ptr<function, ReuseReceiver>, n: u32) -> ReuseNeighbour {
+    return ReuseNeighbour((*r).nb.idx[n], (*r).nb.ms[n]);
+}
+
+// Neighbour j's reservoir and the vertex it was drawn at (x1 of its pixel).
+fn gi_source(r: ptr<function, ReuseReceiver>, j: u32) -> GiReservoir {
+    if (*r).subpath {
+        return gi_subpath_source(j);
+    }
+    return reuse_src[j];
+}
+
+fn gi_source_vertex(r: ptr<function, ReuseReceiver>, j: u32) -> GVertex {
+    if (*r).subpath {
+        return render_unpack_vertex(render_gbuffer[j]);
+    }
+    return screen_source_vertex(j, (*r).temporal);
+}
+
+// Pixel j's own path sample as its initial pass would hold it, for the sub-path pass: its x2
+// and the radiance leaving it one vertex short (W = pi / cos, 0: none; M = 1); no sample where
+// j's ray escaped or its x2 is glossy.
+fn gi_subpath_source(j: u32) -> GiReservoir {
+    let y2 = render_unpack_vertex(render_secondary[j]);
+    if y2.prim == BVH_NO_HIT || !render_reuses(y2) {
+        return GiReservoir();
+    }
+    let split = render_load_path_split(j);
+    var radiance = split.one_short;
+    if render_planted(PLANTED_SUBPATH_FULL_DEPTH) {
+        // The defect: j's radiance at its full depth (one vertex too deep here).
+        radiance = split.direct + y2.albedo * split.beyond;
+    }
+    let y = GiSample(y2.position, y2.normal, radiance);
+    let q = render_unpack_vertex(render_gbuffer[j]);
+    return gi_store(y, PackedReservoir(gi_own_ucw(q, y), 1u));
+}
+
+fn reuse_merge_one(c: ptr<function, Reuse>, n: u32, r: ptr<function, ReuseReceiver>,
+                   nb: ReuseNeighbour, u: f32) -> bool {
+    let src = gi_source(r, nb.j);
+    let pair = gi_pair((*r).g, (*r).own, (*r).pairwise, gi_source_vertex(r, nb.j), src);
+    (*r).rejected += select(0u, 1u, gi_has_sample(src) && pair.p_target == 0.0);
+    let packed = PackedReservoir(src.ucw, render_planted_m(nb.m));
+    return reuse_neighbour_shifted(c, n, packed, pair.p_target, pair.jacobian, pair.p_n_y,
+                                   pair.p_n_own, u);
+}
+
+fn reuse_z_target(r: ptr<function, ReuseReceiver>, nb: ReuseNeighbour, chosen: u32) -> f32 {
+    var y = (*r).own_sample;
+    if chosen != REUSE_NO_NEIGHBOUR {
+        y = gi_sample(gi_source(r, chosen));
+    }
+    // The sub-path pass's candidates hold no reservoir of their own at their x1.
+    var holds = GiReservoir();
+    if !(*r).subpath {
+        holds = reuse_src[nb.j];
+    }
+    return gi_shifted_target(gi_source_vertex(r, nb.j), holds, y, (*r).g.position);
 }
 
 fn screen_merge(i: u32, own: GiReservoir, g: GVertex, temporal: bool, nb: ScreenNeighbours,
@@ -31,33 +112,18 @@ fn screen_merge(i: u32, own: GiReservoir, g: GVertex, temporal: bool, nb: Screen
     }
     let combine = screen_params.knobs.combine;
     var c = reuse_begin(combine, PackedReservoir(own.ucw, gi_m(own)), p_own, nb.k, nb.m_sum, u_own);
+    let pairwise = has_own && combine == REUSE_PAIRWISE;
+    var r = ReuseReceiver(g, own, own_sample, pairwise, temporal, false, nb, 0u);
+    let chosen = reuse_merge(&c, &r, rng);
     var out = own;
-    var rejected = 0u;
-    for (var n = 0u; n < nb.k; n++) {
-        let u_merge = rng_next_f32(rng);
-        let src = reuse_src[nb.idx[n]];
-        let q = screen_source_vertex(nb.idx[n], temporal);
-        let pair = gi_pair(g, own, has_own && combine == REUSE_PAIRWISE, q, src);
-        rejected += select(0u, 1u, gi_has_sample(src) && pair.p_target == 0.0);
-        let packed = PackedReservoir(src.ucw, render_planted_m(nb.ms[n]));
-        if reuse_neighbour_shifted(&c, n, packed, pair.p_target, pair.jacobian, pair.p_n_y,
-                                   pair.p_n_own, u_merge) {
-            out = src;
-        }
-    }
-    if combine == REUSE_ONE_OVER_Z && c.p_hat > 0.0 {
-        // Z: the receiver and every merged pixel whose own vertex could have produced y.
-        let y = gi_sample(out);
-        for (var n = 0u; n < nb.k; n++) {
-            let q = screen_source_vertex(nb.idx[n], temporal);
-            reuse_count_z(&c, nb.ms[n], gi_shifted_target(q, reuse_src[nb.idx[n]], y, g.position));
-        }
+    if chosen != REUSE_NO_NEIGHBOUR {
+        out = reuse_src[chosen];
     }
     let end = gi_finish(&c, g, own, gi_sample(out));
     if end.canonical {
         out = own;
     }
-    rejected += select(0u, 1u, end.occluded);
+    let rejected = r.rejected + select(0u, 1u, end.occluded);
     gi_debug[i] += nb.k | (rejected << 8u);
     return gi_reweighted(out, end.stored);
 }

@@ -5,8 +5,9 @@
 // whose x1 lies where it does): up to subpath_k of them, each pixel j's x2 and the radiance
 // leaving it one vertex short (RenderPathSplit.one_short: a path from x2 through it has the depth
 // of the pixel's own), shifted to x2 by reconnection as restir-gi's temporal and spatial
-// passes shift to x1 (gi_pair: its target, Jacobian, visibility and pairwise MIS, with x2 as
-// the receiver and j's x1 as the neighbour's vertex). The canonical sample is x2's own: x3 and
+// passes shift to x1, by the same merge (reuse_merge with restir-gi's hooks: gi_pair's target,
+// Jacobian, visibility and pairwise MIS, with x2 as the receiver and j's x1 as the neighbour's
+// vertex; gi_subpath_source is j's sample). The canonical sample is x2's own: x3 and
 // the radiance it sends (RenderPathSplit.beyond), drawn with the cosine density at x2. The
 // pixel's path sample's radiance becomes x2's own light (RenderPathSplit.direct) plus the
 // resampled light reflected at x2 (render_path_radiance, which the initial pass reads).
@@ -40,10 +41,9 @@ fn screen_subpath(id: Invocation) {
     }
     // The candidates: pixels of x2's cell with a secondary vertex and a similar normal.
     let wanted = min(screen_params.knobs.subpath_k, SCREEN_MAX_NEIGHBOURS);
-    var idx: array<u32, SCREEN_MAX_NEIGHBOURS>;
-    var k = 0u;
+    var nb: ScreenNeighbours;
     let visit = grid_visit(x2.position, x2.normal, wanted + 1u, &rng);
-    for (var n = 0u; n < visit.count && k < wanted; n += visit.increment) {
+    for (var n = 0u; n < visit.count && nb.k < wanted; n += visit.increment) {
         let j = grid_visited(visit, n);
         // A candidate whose GI ray escaped stays one (with no sample): leaving it out would
         // make the others' weights depend on its sample, and bias them up.
@@ -55,43 +55,19 @@ fn screen_subpath(id: Invocation) {
         if dot(q.shading, x2.shading) < screen_params.knobs.normal_threshold {
             continue;
         }
-        idx[k] = j;
-        k += 1u;
+        nb.idx[nb.k] = j;
+        nb.ms[nb.k] = 1u;
+        nb.k += 1u;
     }
     let combine = screen_params.knobs.combine;
     let u_own = rng_next_f32(&rng);
-    var c = reuse_begin(combine, own, p_own, k, k, u_own);
+    var c = reuse_begin(combine, own, p_own, nb.k, nb.k, u_own);
+    let pairwise = has_own && combine == REUSE_PAIRWISE;
+    var r = ReuseReceiver(x2, own_held, own_sample, pairwise, false, true, nb, 0u);
+    let selected = reuse_merge(&c, &r, &rng);
     var chosen = own_sample;
-    for (var n = 0u; n < k; n++) {
-        let u_merge = rng_next_f32(&rng);
-        let j = idx[n];
-        let q = render_unpack_vertex(render_gbuffer[j]);
-        let y2 = render_unpack_vertex(render_secondary[j]);
-        // j's own sample as its initial pass would hold it: W = pi / cos (0: none), M = 1.
-        var src: GiReservoir;
-        if y2.prim != BVH_NO_HIT && render_reuses(y2) {
-            let split_j = render_load_path_split(j);
-            var radiance = split_j.one_short;
-            if render_planted(PLANTED_SUBPATH_FULL_DEPTH) {
-                // The defect: j's radiance at its full depth (one vertex too deep here).
-                radiance = split_j.direct + y2.albedo * split_j.beyond;
-            }
-            let y = GiSample(y2.position, y2.normal, radiance);
-            src = gi_store(y, PackedReservoir(gi_own_ucw(q, y), 1u));
-        }
-        let pair = gi_pair(x2, own_held, has_own && combine == REUSE_PAIRWISE, q, src);
-        let packed = PackedReservoir(src.ucw, render_planted_m(1u));
-        if reuse_neighbour_shifted(&c, n, packed, pair.p_target, pair.jacobian, pair.p_n_y,
-                                   pair.p_n_own, u_merge) {
-            chosen = gi_sample(src);
-        }
-    }
-    if combine == REUSE_ONE_OVER_Z && c.p_hat > 0.0 {
-        // Z: x2 and every candidate whose x1 could have produced the chosen sample.
-        for (var n = 0u; n < k; n++) {
-            let q = render_unpack_vertex(render_gbuffer[idx[n]]);
-            reuse_count_z(&c, 1u, gi_shifted_target(q, GiReservoir(), chosen, x2.position));
-        }
+    if selected != REUSE_NO_NEIGHBOUR {
+        chosen = gi_sample(gi_subpath_source(selected));
     }
     let end = gi_finish(&c, x2, own_held, chosen);
     if end.canonical {

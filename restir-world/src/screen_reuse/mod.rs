@@ -202,8 +202,9 @@ impl ScreenStage {
             modules.extend([
                 WgslModule::new("screen-neighbours", &deps, self.neighbours),
                 WgslModule::new("screen-reuse-pass", &pass_deps, REUSE_PASS_WGSL),
+                crate::reuse::merge_module(),
             ]);
-            needs.push("screen-reuse-pass");
+            needs.extend(["screen-reuse-pass", crate::reuse::MERGE]);
             if let Some(subpath) = self.subpath {
                 modules.push(WgslModule::new("screen-subpath", &deps, subpath));
                 needs.push("screen-subpath");

@@ -400,10 +400,14 @@ fn modules(k: &KernelDef, lookup: bool) -> Vec<WgslModule> {
         modules.extend(render::path_modules(false, true));
         modules.push(WgslModule::new(
             render::PATH_LIGHT,
-            &["wr-estimate"],
+            &["wr-estimate", crate::reuse::MERGE],
             PATH_LIGHT_WGSL,
         ));
         deps.push("render-path");
+    }
+    if k.name == PATH.name || k.name == REUSE.name {
+        modules.push(crate::reuse::merge_module());
+        deps.push(crate::reuse::MERGE);
     }
     modules.push(WgslModule::new(k.name, &deps, k.source));
     modules.extend(k.binds("light_tiles").then(light_tiles::reader_module));

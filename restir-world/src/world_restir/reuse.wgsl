@@ -8,8 +8,9 @@
 // generating normal differs from the receiver's beyond normal_threshold (cosine) are skipped.
 // Writes reuse_out; the stored M is always the sum of the merged (capped) M.
 //
-// Combination (wr_params.knobs.combine): the reservoir crate's reuse_* (1/M, 1/Z or pairwise MIS);
-// light samples need no shift, so every Jacobian is 1. The target is render_light_target.
+// Combination (wr_params.knobs.combine): the reservoir crate's reuse_* (1/M, 1/Z or pairwise MIS),
+// by the one merge loop (reuse_merge); light samples need no shift, so every Jacobian is 1. The
+// target is render_light_target.
 
 // The vertex that generated source reservoir j (last frame's for the temporal pass).
 fn wr_source_vertex(j: u32, temporal: bool) -> GVertex {
@@ -49,6 +50,40 @@ fn wr_merged_m(i: u32, j: u32, v: GVertex, temporal: bool, cap: u32) -> u32 {
     return select(m, reuse_cap_m(m, cap), temporal);
 }
 
+// The receiver (reuse-merge's hooks): vertex i, its own reservoir and sample, and the grid
+// cell's visit it merges from (last frame's grid in the temporal pass).
+struct ReuseReceiver {
+    i: u32,
+    v: GVertex,
+    own_sample: LightSample,
+    temporal: bool,
+    visit: WrVisit,
+}
+
+fn reuse_visit_count(r: ptr<function, ReuseReceiver>) -> u32 {
+    return grid_visited_count((*r).visit.cell);
+}
+
+fn reuse_visited(r: ptr<function, ReuseReceiver>, n: u32) -> ReuseNeighbour {
+    let cell = (*r).visit.cell;
+    let j = grid_visited(cell, n * cell.increment);
+    return ReuseNeighbour(j, wr_merged_m((*r).i, j, (*r).v, (*r).temporal, (*r).visit.cap));
+}
+
+fn reuse_merge_one(c: ptr<function, Reuse>, n: u32, r: ptr<function, ReuseReceiver>,
+                   nb: ReuseNeighbour, u: f32) -> bool {
+    let q = wr_source_vertex(nb.j, (*r).temporal);
+    return render_reuse_light(c, n, reuse_src[nb.j], nb.m, (*r).v, q, (*r).own_sample, u);
+}
+
+fn reuse_z_target(r: ptr<function, ReuseReceiver>, nb: ReuseNeighbour, chosen: u32) -> f32 {
+    var y = (*r).own_sample;
+    if chosen != REUSE_NO_NEIGHBOUR {
+        y = render_stored_sample(reuse_src[chosen]);
+    }
+    return render_light_target(render_reused_vertex(wr_source_vertex(nb.j, (*r).temporal)), y);
+}
+
 @compute @workgroup_size(WORKGROUP_SIZE)
 fn wr_reuse(id: Invocation) {
     let i = item_index(id);
@@ -70,43 +105,14 @@ fn wr_reuse(id: Invocation) {
     let u_own = rng_next_f32(&rng);
     let own_sample = render_stored_sample(own);
     let p_own = select(0.0, render_light_target(v, own_sample), own.m > 0u);
-    let visit = wr_visit(v, &rng);
-
-    // k merged neighbours and their total confidence.
-    var k = 0u;
-    var m_neighbours = 0u;
-    for (var n = 0u; n < visit.cell.count; n += visit.cell.increment) {
-        let m = wr_merged_m(i, grid_visited(visit.cell, n), v, temporal, visit.cap);
-        k += select(0u, 1u, m > 0u);
-        m_neighbours = reservoir_add_m(m_neighbours, m);
-    }
-
-    var c = reuse_begin(wr_params.knobs.combine, PackedReservoir(own.ucw, own.m), p_own, k,
-                        m_neighbours, u_own);
+    var r = ReuseReceiver(i, v, own_sample, temporal, wr_visit(v, &rng));
+    let conf = reuse_confidence(&r);
+    var c = reuse_begin(wr_params.knobs.combine, PackedReservoir(own.ucw, own.m), p_own, conf.k,
+                        conf.m_sum, u_own);
+    let chosen = reuse_merge(&c, &r, &rng);
     var out = own;
-    for (var n = 0u; n < visit.cell.count; n += visit.cell.increment) {
-        let j = grid_visited(visit.cell, n);
-        let u_merge = rng_next_f32(&rng);
-        let m = wr_merged_m(i, j, v, temporal, visit.cap);
-        if m == 0u {
-            continue;
-        }
-        let src = reuse_src[j];
-        if render_reuse_light(&c, j, src, m, v, wr_source_vertex(j, temporal), own_sample, u_merge) {
-            out = src;
-        }
-    }
-    if wr_params.knobs.combine == REUSE_ONE_OVER_Z && c.p_hat > 0.0 {
-        // Z: the receiver and every merged reservoir whose own vertex could have produced y.
-        let y = render_stored_sample(out);
-        for (var n = 0u; n < visit.cell.count; n += visit.cell.increment) {
-            let j = grid_visited(visit.cell, n);
-            let m = wr_merged_m(i, j, v, temporal, visit.cap);
-            if m > 0u {
-                let q = render_reused_vertex(wr_source_vertex(j, temporal));
-                reuse_count_z(&c, m, render_light_target(q, y));
-            }
-        }
+    if chosen != REUSE_NO_NEIGHBOUR {
+        out = reuse_src[chosen];
     }
     reuse_out[i] = render_reuse_store(&c, own, out);
 }
