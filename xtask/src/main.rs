@@ -224,10 +224,9 @@ const RESULTS_COMMON: [&str; 7] = [
 /// `out/<scene>/`.
 const DEMO_SCENES: [&str; 2] = ["cornell", "many-lights"];
 
-/// The method the demo renders: screen-space ReSTIR GI, the best at equal time on a still
-/// camera at the default paths (docs/results.md: 2.4x `ris`'s indirect efficiency on
-/// many-lights, 4.4x on cornell).
-const DEMO_METHOD: &str = "restir-gi";
+/// The method the demo renders: world-space ReSTIR GI, the one the README recommends for the
+/// lowest error per GPU time, camera still or moving (docs/results.md).
+const DEMO_METHOD: &str = "world-restir-gi";
 
 fn demo(args: &[String]) -> Result<(), String> {
     ensure_vulkan()?;
@@ -265,18 +264,21 @@ fn demo(args: &[String]) -> Result<(), String> {
             })
             .collect();
         println!(
-            "xtask: rendered {DEMO_METHOD}, the method that wins at equal time on a still camera \
-             (README: which method for what): {} (the last frame denoised; beside it the \
-             {DEMO_FRAMES} frames accumulated, -combined, -direct and -indirect, each .png and \
-             .exr)",
+            "xtask: rendered {DEMO_METHOD}, the method the README recommends for the lowest \
+             error per GPU time: {} (the last frame denoised; beside it the {DEMO_FRAMES} frames \
+             accumulated, -combined, -direct and -indirect, each .png and .exr)",
             denoised.join(", ")
         );
+        let report = root.join("out/compare/report.md");
         println!(
             "xtask: compared ris, restir-di (direct light), restir-gi and world-restir-gi \
-             (indirect light) at equal time against ris: {} (world-restir-gi wins where the \
-             camera moves: the same compare with --animation orbit)",
-            root.join("out/compare/report.md").display()
+             (indirect light) at equal time against ris ({}); what each measured, on this \
+             machine:",
+            report.display()
         );
+        for line in summary::method_lines(&report.with_extension("json"))? {
+            println!("  {line}");
+        }
         println!(
             "xtask: the +cache methods need unbounded paths and a comparison of their own: \
              cargo xtask demo {}",

@@ -81,6 +81,51 @@ pub fn summary(parts: &[(&str, &Path)]) -> Result<String, String> {
     ))
 }
 
+/// One line per scene and method of the compare report at `path`: its relMSE and GPU time,
+/// and its efficiency over [`BASELINE`]'s, for each image of [`IMAGES`] (what `cargo xtask
+/// demo` says it measured).
+pub fn method_lines(path: &Path) -> Result<Vec<String>, String> {
+    let text = std::fs::read_to_string(path).map_err(|e| format!("{}: {e}", path.display()))?;
+    let report: Value =
+        serde_json::from_str(&text).map_err(|e| format!("{}: {e}", path.display()))?;
+    let scenes = report
+        .get("scenes")
+        .and_then(Value::as_array)
+        .ok_or_else(|| format!("{}: no scenes", path.display()))?;
+    let mut lines = Vec::new();
+    for scene in scenes {
+        let name = scene.get("scene").and_then(Value::as_str).unwrap_or("?");
+        let methods: Vec<MethodFigures> = scene
+            .get("methods")
+            .and_then(Value::as_array)
+            .map(|m| m.iter().filter_map(method_figures).collect())
+            .unwrap_or_default();
+        let baseline = methods.iter().find(|m| m.name == BASELINE);
+        for m in &methods {
+            let images: Vec<String> = IMAGES
+                .iter()
+                .enumerate()
+                .map(|(i, (key, _))| {
+                    let factor = match (m.efficiency(i), baseline.and_then(|b| b.efficiency(i))) {
+                        (Some(e), Some(b)) if m.name != BASELINE => {
+                            format!(", {:.2}x `{BASELINE}`'s efficiency", e / b)
+                        }
+                        _ => String::new(),
+                    };
+                    format!("{key} relMSE {}{factor}", relmse(m.rel_mse[i]))
+                })
+                .collect();
+            lines.push(format!(
+                "{name}, {}: {} ms/frame; {}",
+                m.name,
+                ms(m.ms),
+                images.join("; ")
+            ));
+        }
+    }
+    Ok(lines)
+}
+
 /// The `--seed` of a report's command line (compare's default: 1).
 fn seed_of(command: &str) -> String {
     let words: Vec<&str> = command.split_whitespace().collect();
@@ -234,6 +279,34 @@ mod tests {
             "{row}"
         );
         assert!(!row.contains("planted"), "{row}");
+    }
+
+    #[test]
+    fn says_what_each_method_measured() {
+        let dir = std::env::temp_dir().join(format!("xtask-lines-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = dir.join("report.json");
+        std::fs::write(
+            &path,
+            r#"{"scenes": [{"scene": "cornell", "methods": [
+              {"method": "ris", "ms_per_frame_median": 100.0,
+               "images": {"combined": {"frame": {"rel_mse": 0.2}},
+                          "indirect": {"frame": {"rel_mse": 0.4}}}},
+              {"method": "fast", "ms_per_frame_median": 50.0,
+               "images": {"combined": {"frame": {"rel_mse": 0.3}},
+                          "indirect": {"frame": {"rel_mse": 0.4}}}}]}]}"#,
+        )
+        .unwrap();
+        let lines = method_lines(&path).unwrap();
+        let _ = std::fs::remove_dir_all(&dir);
+        assert_eq!(
+            lines,
+            [
+                "cornell, ris: 100 ms/frame; combined relMSE 0.200; indirect relMSE 0.400",
+                "cornell, fast: 50 ms/frame; combined relMSE 0.300, 1.33x `ris`'s efficiency; \
+                 indirect relMSE 0.400, 2.00x `ris`'s efficiency"
+            ]
+        );
     }
 
     #[test]
