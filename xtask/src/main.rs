@@ -8,6 +8,7 @@
 use std::path::{Path, PathBuf};
 use std::process::{Command, ExitCode};
 
+mod device_bench;
 mod suite;
 mod summary;
 
@@ -44,17 +45,20 @@ fn main() -> ExitCode {
         Some("test") => test(&rest),
         Some("demo") => demo(&rest),
         Some("results") => results(&rest),
+        Some("device-bench") => device_bench::main(&workspace_root(), &rest),
         _ => {
             eprintln!(
-                "usage: cargo xtask <test|demo|results> [args...]\n  test  run every test of the \
+                "usage: cargo xtask <test|demo|results|device-bench> [args...]\n  test  run every test of the \
                  workspace on the available adapter, the viewer's under Xvfb, and print each \
                  binary's time and the slowest tests ([CARGO ARGS] [-- TEST ARGS])\n  demo  build \
-                 in release, render cornell and many-lights with restir-gi (and denoised) into \
+                 in release, render cornell and many-lights with world-restir-gi (and denoised) into \
                  out/ and compare ris, restir-di, restir-gi and world-restir-gi on both (with \
                  args: run `restir-demo` with them instead)\n  results  regenerate \
                  docs/results.md: run the comparisons of its parts, then write it from their \
                  reports ([PART] [COMPARE ARGS]; `results assemble`: write it from the \
-                 committed reports, rendering nothing)"
+                 committed reports, rendering nothing)\n  device-bench  build every bench and the \
+                 demo into one bundle for a GPU machine, or run it ([--prepare] [--run \
+                 [--lavapipe] [--budget S]]; --help)"
             );
             return ExitCode::from(2);
         }
