@@ -109,7 +109,8 @@ fn check_direct(what: &str, direct: &[[f32; 3]], want: [f64; 3], bound: f64) -> 
 /// the bound is more than 4 standard deviations; RIS is tighter. Measured (seeds 11 and 5):
 /// GPU nee -0.02%, ris +0.03%; CPU nee +0.00%, ris +0.02% (one earlier 32-frame GPU nee run:
 /// -1.06%, 2.2 standard deviations, which is why the sample counts are these).
-/// Negative control: GPU `nee` with its images 4% brighter on the GPU (seed 12) must fail.
+/// Negative control: GPU `nee` with the light pdf overstated by 10% on the GPU (seed 12) must
+/// fail.
 #[test]
 fn constant_sky_furnace_is_analytic_on_gpu_and_cpu() {
     let sky = [1.0, 0.8, 0.6];
@@ -235,7 +236,7 @@ fn environment_map_sampling_matches_the_quadrature() {
 /// matches the converged `ris` reference. 48x48, 128 frames x 2 seeds against 512 frames of
 /// ris; tolerance 3% (the bias test of the built-in scenes bounds 2% with 5 seeds x 256 frames
 /// at 96x96; this one has 8 times fewer samples). Measured: -0.73%. Negative control:
-/// world-restir with its indirect frames 5% darker on the GPU (seed 23) must fail.
+/// world-restir merging without M on the GPU (seed 23) must fail (3% at least).
 #[test]
 fn world_restir_reuses_sky_samples_without_bias() {
     let mut s = Scene::default();

@@ -71,7 +71,7 @@ fn rel(got: [f64; 3], want: f64) -> f64 {
 /// the geometry), the indirect one only the cosine-sampled bounce's (32x32 x 32 samples).
 /// Measured at the default depth: direct 0.03% for every estimator (the geometry's), indirect
 /// 0.04-0.13% (Russian roulette's noise). Negative control:
-/// GPU `nee` with both images 4% brighter on the GPU (seed 6) must fail the same bound.
+/// GPU `nee` with the light pdf overstated by 10% on the GPU (seed 6) must fail the same bound.
 #[test]
 fn point_light_in_a_sphere_matches_the_closed_forms() {
     let (rho, intensity) = (0.5f32, 2.0f32);

@@ -59,7 +59,8 @@ fn furnace_error(img: &Rendered, rho: f64, le: f64) -> f64 {
 /// Tolerance 1%: 64x64 pixels x 64 frames = 262,144 samples per image. Both estimators are
 /// unbiased but heavy-tailed in the furnace (the geometry term diverges near the box's edges),
 /// so the error of the mean is skewed; measured here: < 0.5% for both methods at this count.
-/// Negative control: `nee` with both images 4% brighter on the GPU (seed 2) must fail.
+/// Negative control: `nee` with the light pdf overstated by 10% on the GPU
+/// (`Planted::LightPdfOverstated`, seed 2) must fail.
 #[test]
 fn furnace_matches_analytic_nee_and_ris() {
     let (rho, le) = (0.5f32, 1.0f32);
@@ -371,7 +372,7 @@ fn cpu_reference(
 /// within 2% per channel and image; no triangle is dropped. Measured: the means agree to 1e-4
 /// (CPU at 1e-10: 0.4%). Beyond the supported extents (1e-15 and 1e12 gave 33% too little direct light)
 /// the scene is refused with an error naming its size. Negative control: GPU nee at the first
-/// scale, 5% darker on the GPU, fails the bound.
+/// scale with the light pdf overstated by 10% on the GPU fails the bound.
 #[test]
 fn scaled_scene_renders_the_same() {
     let base = builtin("cornell", &Default::default()).expect("cornell");
@@ -433,7 +434,8 @@ fn open_scene_walled(wall_z: f32) -> Scene {
 /// darker in direct light and with no indirect light, while the closed cornell box passed):
 /// [`open_scene`] scaled by 1e-4, 1e-6 and 1e-9 renders the image means of the unscaled scene
 /// with the same seed (GPU nee, 16 frames; the CPU reference, 4 spp; 32x32), within 2% per
-/// channel and image. Negative control: GPU nee at 1e-4, 5% darker on the GPU, fails the bound.
+/// channel and image. Negative control: GPU nee at 1e-4 with the light pdf overstated by 10% on
+/// the GPU fails the bound.
 #[test]
 fn open_scene_in_small_units_renders_the_same() {
     let mut base = open_scene();
@@ -526,8 +528,9 @@ fn scenes_render_the_same_at_every_scale() {
 
 /// `base` scaled by each of `scales` renders the image means of `base` with the same seed (GPU
 /// nee, 16 frames; the CPU reference, 4 spp; 32x32) within 2% per channel and image, and no
-/// triangle is dropped; the control (GPU nee at the first scale, 5% darker on the GPU; the same
-/// seed, as the check compares same-seed renders) must fail the same bound.
+/// triangle is dropped; the control (GPU nee at the first scale with the light pdf overstated by
+/// 10% on the GPU; the same seed, as the check compares same-seed renders) must fail the same
+/// bound.
 fn assert_scale_invariant(what: &str, base: &Scene, scales: &[f32]) {
     const BOUND: f64 = 0.02;
     let size = (32, 32);
