@@ -1601,7 +1601,7 @@ fn adapter_cases(gen_dir: &Path) -> Vec<Case> {
             "max_storage_buffer_binding_size",
         ));
     } else {
-        eprintln!("skipping smoke-above-binding-limit: no adapter or a limit above 1 GiB");
+        common::skip("bad_inputs smoke-above-binding-limit: no adapter or a limit above 1 GiB");
     }
     // Issue 27, 27: a 4096 x 2048 environment map (the documented maximum before) above the
     // GPU's storage binding (32 bytes a pixel): the error names --env and the file.
@@ -1625,7 +1625,9 @@ fn adapter_cases(gen_dir: &Path) -> Vec<Case> {
             &format!("--env {big}"),
         ));
     } else {
-        eprintln!("skipping 27-27-env-above-binding-limit: no adapter or a limit above 256 MiB");
+        common::skip(
+            "bad_inputs 27-27-env-above-binding-limit: no adapter or a limit above 256 MiB",
+        );
     }
     // 1: world-restir on a backend with 16 storage buffers per stage (GL).
     match info(&[("WGPU_BACKEND", "gl")]) {
@@ -1648,7 +1650,9 @@ fn adapter_cases(gen_dir: &Path) -> Vec<Case> {
                 .env("WGPU_BACKEND", "gl"),
             );
         }
-        _ => eprintln!("skipping world-restir-on-gl: no GL adapter with under 20 storage buffers"),
+        _ => common::skip(
+            "bad_inputs world-restir-on-gl: no GL adapter with under 20 storage buffers",
+        ),
     }
 
     cases
@@ -1721,7 +1725,9 @@ fn issue_60_cases(g: &Path) -> Vec<Case> {
             c.args[4] = size;
             v.push(c);
         }
-        _ => eprintln!("skipping 60-size-above-binding-limit: no adapter or a limit above 2 GiB"),
+        _ => common::skip(
+            "bad_inputs 60-size-above-binding-limit: no adapter or a limit above 2 GiB",
+        ),
     }
     v
 }

@@ -30,8 +30,31 @@ pub mod wgsl;
 pub use restir_world::GpuContext;
 pub use restir_world::gpu::buffers;
 
+/// Says that a check did not run, and why: on stderr (shown with `--nocapture` or a failure)
+/// and as a line of the file `$RESTIR_TEST_SKIPS` names, which `cargo xtask test` sets and
+/// counts in its summary, so that a skip is never silent.
+pub fn skip(why: &str) {
+    eprintln!("skipped: {why}");
+    if let Some(path) = std::env::var_os(SKIPS_ENV) {
+        use std::io::Write;
+        let file = std::fs::OpenOptions::new()
+            .create(true)
+            .append(true)
+            .open(path);
+        if let Ok(mut f) = file {
+            // One write per line: parallel tests' lines stay whole.
+            // libtest names each test's thread after the test.
+            let test = std::thread::current().name().unwrap_or("?").to_owned();
+            let _ = f.write_all(format!("{test}: {why}\n").as_bytes());
+        }
+    }
+}
+
+/// The environment variable naming the file [`skip`] appends to.
+pub const SKIPS_ENV: &str = "RESTIR_TEST_SKIPS";
+
 /// The public test scenes (`$RESTIR_SCENES_DIR`, else `shared/scenes` next to the workspace),
-/// or `None` with the reason printed: tests that use them then pass without them.
+/// or `None` with the reason said ([`skip`]): tests that use them then pass without them.
 pub fn scenes_dir() -> Option<std::path::PathBuf> {
     let dir = std::env::var_os("RESTIR_SCENES_DIR")
         .map(std::path::PathBuf::from)
@@ -39,10 +62,10 @@ pub fn scenes_dir() -> Option<std::path::PathBuf> {
     if dir.is_dir() {
         Some(dir)
     } else {
-        eprintln!(
-            "skipping: the public scenes are not at {} (set RESTIR_SCENES_DIR)",
+        skip(&format!(
+            "the public scenes are not at {} (set RESTIR_SCENES_DIR)",
             dir.display()
-        );
+        ));
         None
     }
 }

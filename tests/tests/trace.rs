@@ -183,7 +183,7 @@ fn tracers() -> Vec<GpuContext> {
     let mut out = vec![bvh];
     match gpu::with_tracer(Tracer::RayQuery) {
         Some(rq) => out.push(rq),
-        None => eprintln!("skipped: the ray-query tracer (this adapter has no ray queries)"),
+        None => tests::skip("trace: the ray-query tracer (this adapter has no ray queries)"),
     }
     out
 }

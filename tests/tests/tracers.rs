@@ -61,7 +61,7 @@ fn difference(a: &[[f32; 3]], b: &[[f32; 3]]) -> (f64, f64) {
 #[test]
 fn ray_query_images_equal_bvh_images() {
     let Some(rq) = gpu::with_tracer(Tracer::RayQuery) else {
-        eprintln!("skipped: this adapter has no ray queries (the ray-query tracer is untested)");
+        tests::skip("tracers: this adapter has no ray queries (the ray-query tracer is untested)");
         return;
     };
     let bvh = gpu::with_tracer(Tracer::Bvh).expect("bvh");

@@ -1,7 +1,8 @@
 //! The test suite as `cargo xtask test` runs it: cargo builds every test binary of the workspace,
 //! then each runs here with libtest's per-test times, its output passed through; the doc tests
 //! run last through cargo. At the end: the time of each binary, the slowest tests, and one
-//! closing line `tests: N passed, N failed`. The same table is written to
+//! closing line `tests: N passed, N failed; checks skipped: N` (each skip listed with the table).
+//! The same table is written to
 //! `target/test-times.md` (docs/testing.md keeps a measured copy).
 //!
 //! Two binaries run at once (`XTASK_TEST_JOBS` sets another count): one binary's tests leave a
@@ -32,6 +33,10 @@ const TIMES: &str = "target/test-times.md";
 
 /// The table kept in the docs: the order on a clean clone.
 const MEASURED: &str = "docs/testing.md";
+
+/// The file the tests append a line to for each check they skip (`tests::skip`, through
+/// `RESTIR_TEST_SKIPS`): counted and listed in the summary.
+const SKIPS: &str = "target/test-skips.txt";
 
 /// One test binary cargo built: its package, target name, path and package directory (the
 /// working directory cargo test would give it).
@@ -84,12 +89,20 @@ pub fn run(
         let t = |x: &TestBinary| last.get(&x.name()).copied().unwrap_or(f64::INFINITY);
         t(b).total_cmp(&t(a))
     });
+    let skips_file = workspace.join(SKIPS);
+    let _ = std::fs::remove_file(&skips_file);
+    let skips_path = skips_file.display().to_string();
+    let mut envs = envs.to_vec();
+    envs.push(("RESTIR_TEST_SKIPS", skips_path.as_str()));
+    let envs = envs.as_slice();
     let mut outcomes = run_binaries(binaries, jobs()?, test_args, envs)?;
     // Doc tests (only for a whole-workspace run: a selection of test targets names none).
     if cargo_args.is_empty() {
         outcomes.push(run_doc_tests(workspace, test_args, envs)?);
     }
-    let table = table(&outcomes, started.elapsed().as_secs_f64());
+    let skips = std::fs::read_to_string(&skips_file).unwrap_or_default();
+    let mut table = table(&outcomes, started.elapsed().as_secs_f64());
+    table += &skipped(&skips);
     println!("\n{table}");
     let out = workspace.join(TIMES);
     if let Err(e) = std::fs::write(&out, &table) {
@@ -98,7 +111,8 @@ pub fn run(
     let (passed, failed) = outcomes
         .iter()
         .fold((0, 0), |(p, f), o| (p + o.passed, f + o.failed));
-    println!("tests: {passed} passed, {failed} failed");
+    let skipped = skips.lines().count();
+    println!("tests: {passed} passed, {failed} failed; checks skipped: {skipped}");
     let failing: Vec<&str> = outcomes
         .iter()
         .filter(|o| o.failed > 0)
@@ -326,6 +340,23 @@ fn read_line(line: &str, o: &mut Outcome) {
     }
 }
 
+/// The checks the tests skipped (one line each in `skips`), each with its count.
+fn skipped(skips: &str) -> String {
+    let mut counts: Vec<(&str, usize)> = Vec::new();
+    for line in skips.lines().filter(|l| !l.is_empty()) {
+        match counts.iter_mut().find(|(l, _)| *l == line) {
+            Some((_, n)) => *n += 1,
+            None => counts.push((line, 1)),
+        }
+    }
+    let total: usize = counts.iter().map(|(_, n)| n).sum();
+    let mut t = format!("\nChecks skipped: {total}.\n");
+    for (line, n) in counts {
+        t += &format!("- {line} (x{n})\n");
+    }
+    t
+}
+
 /// The time table: each binary's wall time and counts, then the slowest tests.
 fn table(outcomes: &[Outcome], total: f64) -> String {
     let mut t = format!(
@@ -366,6 +397,16 @@ fn table(outcomes: &[Outcome], total: f64) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn lists_the_skipped_checks_with_their_counts() {
+        let t = skipped("a: no scenes\nb: no GL\na: no scenes\n");
+        assert_eq!(
+            t,
+            "\nChecks skipped: 3.\n- a: no scenes (x2)\n- b: no GL (x1)\n"
+        );
+        assert_eq!(skipped(""), "\nChecks skipped: 0.\n");
+    }
 
     #[test]
     fn reads_libtest_lines() {
