@@ -80,6 +80,52 @@ fn f(v: &Value) -> f64 {
         .unwrap_or_else(|| panic!("expected a number, got {v}"))
 }
 
+/// A method's times add up (issue 59: the check asserted only `ms_per_frame > 0`): each frame's
+/// GPU time is the sum of its stages', the cumulative time the running sum, and the mean and
+/// median per frame are those of the timed (last `timed_frames`) frames.
+fn check_times(m: &Value) {
+    let frames = m["per_frame"].as_array().expect("per_frame");
+    let close = |a: f64, b: f64| (a - b).abs() <= 1e-6 * b.abs().max(1.0);
+    let mut cumulative = 0.0;
+    let mut gpu = Vec::new();
+    for r in frames {
+        let ms = f(&r["gpu_ms"]);
+        let stages: f64 = r["stages"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|s| f(&s["ms"]))
+            .sum();
+        assert!(
+            close(stages, ms),
+            "{}: stages {stages} against {ms}",
+            m["method"]
+        );
+        cumulative += ms;
+        assert!(
+            close(f(&r["cumulative_gpu_ms"]), cumulative),
+            "{}",
+            m["method"]
+        );
+        gpu.push(ms);
+    }
+    let timed = &mut gpu[frames.len() - f(&m["timed_frames"]) as usize..];
+    let mean = timed.iter().sum::<f64>() / timed.len() as f64;
+    assert!(close(f(&m["ms_per_frame"]), mean), "{}: mean", m["method"]);
+    timed.sort_by(f64::total_cmp);
+    let n = timed.len();
+    let median = if n % 2 == 1 {
+        timed[n / 2]
+    } else {
+        0.5 * (timed[n / 2 - 1] + timed[n / 2])
+    };
+    assert!(
+        close(f(&m["ms_per_frame_median"]), median),
+        "{}: median",
+        m["method"]
+    );
+}
+
 fn report(out: &Path) -> Value {
     let text = std::fs::read_to_string(out.join("report.json")).unwrap();
     serde_json::from_str(&text).expect("report.json parses")
@@ -110,6 +156,9 @@ fn compare_end_to_end() {
     assert_eq!(nee["per_frame"].as_array().unwrap().len(), 4);
     for m in [nee, ris, biased] {
         assert!(!timestamps || f(&m["ms_per_frame"]) > 0.0);
+        if timestamps {
+            check_times(m);
+        }
         for image in ["direct", "indirect", "combined"] {
             let e = &m["images"][image];
             for key in ["frame", "accumulated"] {
