@@ -1601,7 +1601,7 @@ fn adapter_cases(gen_dir: &Path) -> Vec<Case> {
             "max_storage_buffer_binding_size",
         ));
     } else {
-        common::skip("bad_inputs smoke-above-binding-limit: no adapter or a limit above 1 GiB");
+        tests::skip("bad_inputs smoke-above-binding-limit: no adapter or a limit above 1 GiB");
     }
     // Issue 27, 27: a 4096 x 2048 environment map (the documented maximum before) above the
     // GPU's storage binding (32 bytes a pixel): the error names --env and the file.
@@ -1625,7 +1625,7 @@ fn adapter_cases(gen_dir: &Path) -> Vec<Case> {
             &format!("--env {big}"),
         ));
     } else {
-        common::skip(
+        tests::skip(
             "bad_inputs 27-27-env-above-binding-limit: no adapter or a limit above 256 MiB",
         );
     }
@@ -1650,7 +1650,7 @@ fn adapter_cases(gen_dir: &Path) -> Vec<Case> {
                 .env("WGPU_BACKEND", "gl"),
             );
         }
-        _ => common::skip(
+        _ => tests::skip(
             "bad_inputs world-restir-on-gl: no GL adapter with under 20 storage buffers",
         ),
     }
@@ -1725,9 +1725,9 @@ fn issue_60_cases(g: &Path) -> Vec<Case> {
             c.args[4] = size;
             v.push(c);
         }
-        _ => common::skip(
-            "bad_inputs 60-size-above-binding-limit: no adapter or a limit above 2 GiB",
-        ),
+        _ => {
+            tests::skip("bad_inputs 60-size-above-binding-limit: no adapter or a limit above 2 GiB")
+        }
     }
     v
 }

@@ -32,7 +32,7 @@ pub use restir_world::gpu::buffers;
 
 /// Says that a check did not run, and why: on stderr (shown with `--nocapture` or a failure)
 /// and as a line of the file `$RESTIR_TEST_SKIPS` names, which `cargo xtask test` sets and
-/// counts in its summary, so that a skip is never silent.
+/// counts in its summary, so that a skip is never silent (the demo's tests use it too).
 pub fn skip(why: &str) {
     eprintln!("skipped: {why}");
     if let Some(path) = std::env::var_os(SKIPS_ENV) {

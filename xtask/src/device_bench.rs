@@ -112,6 +112,7 @@ pub fn main(workspace: &Path, args: &[String]) -> Result<(), String> {
 
 /// Builds the binaries and writes the bundle into `bundle` (replacing what was there).
 fn prepare(workspace: &Path, bundle: &Path, dev: bool) -> Result<(), String> {
+    // How long preparing took, said to the user (a runner's report, not a benchmark).
     let started = Instant::now();
     let mut binaries = build(workspace, dev, &["-p", "tests", "--benches"])?;
     // Apart: in one build the tests' `planted-defects` feature would reach the demo's renderer.
