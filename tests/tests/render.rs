@@ -457,8 +457,9 @@ fn open_scene_in_small_units_renders_the_same() {
 /// the box file is refused, naming its extent. Before the fixes the box's camera was dropped
 /// from 1e8 on (its target, one unit ahead, rounded onto the eye) and the default framing,
 /// outside the box, rendered black; the open scene below 1e-3 was framed from behind its wall
-/// (the framing's CPU rays missed everything): 39% dark. Both defects are -39% to -100%, so
-/// the check needs no planted control to fail on the old code. The bounds: the rounding of
+/// (the framing's CPU rays missed everything): 39% dark. Controls (nee, the box at 1e9): the
+/// light pdf overstated by 10% (-8.6%) and, near the bound, frames 2% brighter (+2.0%). The
+/// bounds: the rounding of
 /// scaled positions moves the means of nee, ris and restir-gi by at most 0.02% (1% bound);
 /// world-restir-gi's cells are powers of two of `min-cell-size`, a length in world units, so
 /// at another scale its cells, and its draws, differ: its means scatter by up to 1.0% here
@@ -480,9 +481,9 @@ fn scenes_render_the_same_at_every_scale() {
         o.sanitize("open scene").expect("sanitize");
         o
     };
-    let mean = |scene: &Scene, spec: &str| {
+    let mean_planted = |scene: &Scene, spec: &str, planted: Planted| {
         let cam = scene.camera_or_default(32, 32);
-        let mut m = gpu::build(spec, scene, &cam, gpu::planted(3, Planted::None));
+        let mut m = gpu::build(spec, scene, &cam, gpu::planted(3, planted));
         gpu::render(&mut m, 8);
         let img = gpu::images(&m);
         let n = img.direct.len() as f64;
@@ -494,6 +495,7 @@ fn scenes_render_the_same_at_every_scale() {
         }
         sum
     };
+    let mean = |scene: &Scene, spec: &str| mean_planted(scene, spec, Planted::None);
     let mut failures = Vec::new();
     for spec in ["nee", "ris", "restir-gi", "world-restir-gi"] {
         let want_box = mean(&load_box(1.0).0.unwrap().scene, spec);
@@ -526,8 +528,26 @@ fn scenes_render_the_same_at_every_scale() {
             "{e}"
         );
     }
-    let _ = std::fs::remove_dir_all(&dir);
     assert!(failures.is_empty(), "{}", failures.join("\n"));
+    // Controls, nee on the box at 1e9 against scale 1 (same seed): the light pdf overstated by
+    // 10% in the estimator, and, near the 1% bound, its frames 2% brighter (2x the bound; the
+    // check's scatter for nee is 0.02%, so it detects about 0.1% nine times in ten).
+    let want = mean(&load_box(1.0).0.unwrap().scene, "nee");
+    let far = load_box(1e9).0.unwrap().scene;
+    let near_bound = Planted::Scale {
+        direct: 102,
+        indirect: 102,
+    };
+    for planted in [Planted::LightPdfOverstated, near_bound] {
+        let got = mean_planted(&far, "nee", planted);
+        let rel: Vec<f64> = (0..3).map(|c| got[c] / want[c] - 1.0).collect();
+        eprintln!("box at 1e9, nee, control {planted:?}: off {rel:+.5?}");
+        assert!(
+            rel.iter().any(|r| r.abs() >= 0.01),
+            "control {planted:?} went unnoticed: {rel:+.4?}"
+        );
+    }
+    let _ = std::fs::remove_dir_all(&dir);
 }
 
 /// `base` scaled by each of `scales` renders the image means of `base` with the same seed (GPU
