@@ -143,8 +143,7 @@ pub fn default_camera(scene: &Scene, width: u32, height: u32) -> Camera {
         .bounds()
         .map_or(1.0, |(lo, hi)| (hi - lo).max_element());
     if extent.is_finite() && extent > 0.0 && !(1.0 / 1024.0..=1024.0).contains(&extent) {
-        let e = extent.log2().floor().clamp(-126.0, 126.0) as i32;
-        let k = 2f32.powi(-e);
+        let k = crate::scene::unit_extent_scale(extent);
         return framed(&scene.scaled(k), width, height).scaled(1.0 / k);
     }
     framed(scene, width, height)

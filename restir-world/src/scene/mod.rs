@@ -435,6 +435,13 @@ impl PunctualLight {
 /// ([`Scene::gpu_units`]): 2^-10, about a millimetre in metres.
 pub const SMALLEST_GPU_EXTENT: f32 = 1.0 / 1024.0;
 
+/// The power of two that brings a finite, positive `extent` into [1, 2) (exact: scaling by
+/// it changes no mantissa): with extent = m 2^e, m in [1, 2), it is 2^-e (within 2^+-126).
+pub fn unit_extent_scale(extent: f32) -> f32 {
+    let e = extent.log2().floor().clamp(-126.0, 126.0) as i32;
+    2f32.powi(-e)
+}
+
 /// A scene ready to render: triangles with materials, and an optional camera from the file.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct Scene {
@@ -724,9 +731,7 @@ impl Scene {
         if !(extent.is_finite() && extent > 0.0) || extent >= SMALLEST_GPU_EXTENT {
             return 1.0;
         }
-        // extent = m 2^e with m in [1, 2): scale by 2^-e (at most 2^126, finite).
-        let e = extent.log2().floor() as i32;
-        2f32.powi(-e.max(-126))
+        unit_extent_scale(extent)
     }
 
     /// This scene in units `k` times smaller (every position times `k`, a punctual light's
