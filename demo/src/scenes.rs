@@ -60,16 +60,48 @@ pub struct SceneArgs {
           allow_hyphen_values = true)]
     pub punctual_intensity: f32,
     /// The surfaces' materials: `scene` as the scene has them (glTF metallic-roughness where a
-    /// file gives it), `diffuse` every surface matte with its base colour (for comparison).
-    #[arg(long, value_enum, default_value_t = Materials::Scene)]
+    /// file gives it); for comparison, `diffuse` every surface matte with its base colour, or
+    /// `dielectric:R` / `metal:R` every surface that glTF material at perceptual roughness R in
+    /// [0, 1] with its base colour (a method measured against the lobe's width).
+    #[arg(long, value_parser = parse_materials, default_value = "scene")]
     pub materials: Materials,
 }
 
 /// `--materials`.
-#[derive(clap::ValueEnum, Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Materials {
     Scene,
     Diffuse,
+    /// Every surface glTF metallic-roughness with `metallic` (0 or 1) at `roughness`.
+    Uniform {
+        metallic: f32,
+        roughness: f32,
+    },
+}
+
+fn parse_materials(s: &str) -> Result<Materials, String> {
+    let expected = "expected scene, diffuse, dielectric:R or metal:R (R a roughness in [0, 1])";
+    match s.trim() {
+        "scene" => return Ok(Materials::Scene),
+        "diffuse" => return Ok(Materials::Diffuse),
+        _ => {}
+    }
+    let (kind, r) = s
+        .trim()
+        .split_once(':')
+        .ok_or_else(|| format!("{s:?}: {expected}"))?;
+    let metallic = match kind {
+        "dielectric" => 0.0,
+        "metal" => 1.0,
+        _ => return Err(format!("{s:?}: {expected}")),
+    };
+    match r.trim().parse::<f32>() {
+        Ok(roughness) if (0.0..=1.0).contains(&roughness) => Ok(Materials::Uniform {
+            metallic,
+            roughness,
+        }),
+        _ => Err(format!("{s:?}: {expected}")),
+    }
 }
 
 fn non_negative_f32(s: &str) -> Result<f32, String> {
@@ -144,8 +176,13 @@ pub fn load(name: &str, opts: &SceneArgs, size: Option<(u32, u32)>) -> Result<Sc
 
 /// Applies `--materials`, `--camera`, `--add-lights`, `--sky` and `--env`.
 fn prepare(s: &mut Scene, opts: &SceneArgs) -> Result<()> {
-    if opts.materials == Materials::Diffuse {
-        *s = std::mem::take(s).with_diffuse_materials();
+    match opts.materials {
+        Materials::Scene => {}
+        Materials::Diffuse => *s = std::mem::take(s).with_diffuse_materials(),
+        Materials::Uniform {
+            metallic,
+            roughness,
+        } => *s = std::mem::take(s).with_uniform_gloss(metallic, roughness),
     }
     if opts.punctual_intensity == 0.0 {
         s.lights.clear();

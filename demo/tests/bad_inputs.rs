@@ -1298,6 +1298,19 @@ fn cases(tmp: &Path, gen_dir: &Path) -> Vec<Case> {
             2,
             "--add-light-size <ADD_LIGHT_SIZE>",
         ),
+        // --materials' uniform gloss: a roughness outside [0, 1], an unknown material.
+        cornell(
+            "materials-roughness-above-one",
+            &["--materials", "metal:2"],
+            2,
+            "(R a roughness in [0, 1])",
+        ),
+        cornell(
+            "materials-unknown",
+            &["--materials", "glass:0.1"],
+            2,
+            "expected scene, diffuse, dielectric:R or metal:R",
+        ),
         // Issue 15: environment light flags.
         cornell("sky-negative", &["--sky=-1,0,0"], 1, "--sky -1,0,0"),
         cornell("sky-nan", &["--sky", "nan"], 1, "must be finite"),

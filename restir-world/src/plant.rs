@@ -18,7 +18,8 @@
 //!   the neighbours' M, Russian roulette without its division, an overstated light pdf, a path
 //!   one bounce short, cache updates without their tail, sub-path reuse one bounce too deep or without its
 //!   escaped candidates, the reuse's forward ray untested, a glossy BRDF losing energy, the
-//!   reuse taking glossy vertices as diffuse ones.
+//!   reuse taking glossy vertices as diffuse ones, and one of tunable size (light samples' MIS
+//!   weights scaled by a few percent: a control near a check's bound).
 //!   These are the controls of the bias tests: each must fail the check its test makes.
 //! - power checks ([`Planted::Scale`]): the finished frames scaled as they are accumulated.
 //!   They show only that a bound can see a shift of that size, never that a check catches a
@@ -87,6 +88,11 @@ pub enum Planted {
     /// no hand-off to the path, so their targets, shifts and shading read a glossy vertex as
     /// albedo / pi and its radiance as the same in every direction.
     ReuseTakesGlossy,
+    /// Tunable: the MIS weight of every light sample of an area or environment light
+    /// (render_light_mis_at: NEE, RIS and every reused reservoir's shading) scaled to `percent`,
+    /// the emission hits' weights kept: the two no longer sum to one, and the light the light
+    /// side carries is off by `percent` - 100.
+    LightMisScaled { percent: u32 },
 }
 
 impl Planted {
@@ -109,6 +115,7 @@ impl Planted {
             Self::ForwardUntested => 13,
             Self::GlossyEnergyLoss => 14,
             Self::ReuseTakesGlossy => 15,
+            Self::LightMisScaled { .. } => 16,
         }
     }
 
@@ -122,6 +129,15 @@ impl Planted {
         match self {
             Self::Scale { direct, indirect } => (direct as f32 / 100.0, indirect as f32 / 100.0),
             _ => (1.0, 1.0),
+        }
+    }
+
+    /// The size of a tunable defect (`render_params.planted_amount`): the factor of
+    /// [`Planted::LightMisScaled`], 1 otherwise.
+    pub fn amount(self) -> f32 {
+        match self {
+            Self::LightMisScaled { percent } => percent as f32 / 100.0,
+            _ => 1.0,
         }
     }
 
@@ -170,6 +186,7 @@ impl Planted {
             ("FORWARD_UNTESTED", Self::ForwardUntested),
             ("GLOSSY_ENERGY_LOSS", Self::GlossyEnergyLoss),
             ("REUSE_TAKES_GLOSSY", Self::ReuseTakesGlossy),
+            ("LIGHT_MIS_SCALED", Self::LightMisScaled { percent: 100 }),
         ];
         let mut s = String::from(
             "// Planted defects (restir_world::plant), compared with render_params.planted.\n",
@@ -203,6 +220,7 @@ mod tests {
             Planted::ForwardUntested,
             Planted::GlossyEnergyLoss,
             Planted::ReuseTakesGlossy,
+            Planted::LightMisScaled { percent: 104 },
         ];
         let mut ids: Vec<u32> = all.iter().map(|p| p.id()).collect();
         ids.sort_unstable();
@@ -212,6 +230,8 @@ mod tests {
         assert!(!Planted::None.is_defect() && !Planted::indirect_scaled(96).is_defect());
         assert_eq!(Planted::None.scales(), (1.0, 1.0));
         assert_eq!(Planted::indirect_scaled(96).scales(), (1.0, 0.96));
+        assert_eq!(Planted::LightMisScaled { percent: 104 }.amount(), 1.04);
+        assert_eq!(Planted::MergeWithoutM.amount(), 1.0);
         assert!(Planted::wgsl().contains("const PLANTED_MERGE_WITHOUT_M: u32 = 2u;"));
     }
 }

@@ -294,7 +294,7 @@ fn render_structs_match_wgsl_layout() {
             planted_direct_scale,
             planted_indirect_scale,
             path_split,
-            _pad0,
+            planted_amount,
             _pad1,
             _pad2
         ]

@@ -249,7 +249,9 @@ pub struct RenderParams {
     pub planted_indirect_scale: f32,
     /// 1: the path pass records the path split (`render_path_split`, [`RenderOptions::path_split`]).
     pub path_split: u32,
-    pub _pad0: u32,
+    /// [`Planted::amount`](crate::plant::Planted::amount): a tunable defect's size (1 but in
+    /// tests' negative controls).
+    pub planted_amount: f32,
     pub _pad1: u32,
     pub _pad2: u32,
 }
@@ -277,7 +279,7 @@ impl RenderParams {
             planted_direct_scale: options.planted().scales().0,
             planted_indirect_scale: options.planted().scales().1,
             path_split: u32::from(options.path_split),
-            _pad0: 0,
+            planted_amount: options.planted().amount(),
             _pad1: 0,
             _pad2: 0,
         }

@@ -88,8 +88,9 @@ fn render_unpack_vertex(p: PackedVertex) -> GVertex {
                    render_vec3(p.emission), shading, p.material, shading);
 }
 
-// Whether the reuse stages take vertex v (its light sample, its path sample, its cell): a
-// diffuse vertex, whose reflected radiance is the same in every direction. A glossy one is left
+// Whether the world-space and path reuse stages take vertex v (its light sample at a shared
+// cell, its path sample, its cell): a diffuse vertex, whose reflected radiance is the same in
+// every direction (restir-di's screen-space light reuse takes glossy ones too: di_reuses). A glossy one is left
 // to the renderer's own estimators (render_direct_pixel, render_indirect_pixel, the path's light
 // sample), which a stage calls for it where it replaces them; a sample reconnected at a glossy
 // vertex is none (its radiance would be another direction's). Decided here, once; always true
@@ -194,7 +195,8 @@ struct RenderParams {
     planted_indirect_scale: f32,
     // 1: the path pass records each pixel's path split (render_path_split, RenderPathSplit).
     path_split: u32,
-    _pad0: u32,
+    // restir_world::plant: a tunable defect's size (1 but in tests' negative controls).
+    planted_amount: f32,
     _pad1: u32,
     _pad2: u32,
 }
@@ -538,14 +540,20 @@ fn render_power_heuristic(a: f32, b: f32) -> f32 {
 // RENDER_MIS_CANDIDATES (world-restir's default candidates; its reuse only sharpens the real
 // density). Both strategies compute it from the same y and the same e (an estimate independent
 // of the frame's light sample and ray) and weigh themselves by the power heuristic, so the two
-// weights sum to one for every y; e <= 0 (no estimate): the light table's density.
+// weights sum to one for every y; e <= 0 (no estimate): the light table's density. At a glossy
+// vertex p_hat / I = lum(f(wi) Le(y)) cos / e with e = I itself (render_light_estimate): the
+// lobe's shape, which the BRDF sample's density p_ray also follows.
 const RENDER_MIS_CANDIDATES: f32 = 16.0;
 
-fn render_light_density(p_table: f32, p_ray: f32, le: vec3<f32>, e: f32) -> f32 {
+fn render_light_density(v: GVertex, wi: vec3<f32>, p_table: f32, p_ray: f32, le: vec3<f32>,
+                        e: f32) -> f32 {
     if e <= 0.0 {
         return p_table;
     }
-    let p_res = p_ray * render_luminance(le) / e;
+    var p_res = p_ray * render_luminance(le) / e;
+    if RENDER_GLOSSY && v.material != 0u {
+        p_res = render_luminance(render_brdf(v, wi) * le) * max(dot(v.shading, wi), 0.0) / e;
+    }
     if !(p_table > 0.0) || !(p_res > 0.0) {
         // No ray reaches y (p_ray = 0), or the table cannot draw it: the table's alone.
         return p_table;
@@ -556,14 +564,13 @@ fn render_light_density(p_table: f32, p_ray: f32, le: vec3<f32>, e: f32) -> f32 
 
 
 // An estimate e of vertex v's unshadowed cosine-weighted mean incident luminance (the target's
-// integral over lum(albedo), render_light_density) from k light samples of the light table
-// that no reservoir sees; 0 with k = 0 (MIS with the light table's density) and without MIS
-// (nothing reads it).
+// integral over lum(albedo), render_light_density; at a glossy vertex the target's integral
+// itself) from k light samples of the light table that no reservoir sees; 0 with k = 0 (MIS
+// with the light table's density) and without MIS (nothing reads it).
 fn render_light_estimate(v: GVertex, k: u32, rng: ptr<function, u32>) -> f32 {
-    let a = render_luminance(v.albedo);
-    // A glossy vertex weighs with the light table's density (render_light_density's
-    // approximation assumes a cosine lobe).
-    if k == 0u || render_params.mis == 0u || !(a > 0.0) || v.material != 0u {
+    let glossy = RENDER_GLOSSY && v.material != 0u;
+    let a = select(render_luminance(v.albedo), 1.0, glossy);
+    if k == 0u || render_params.mis == 0u || !(a > 0.0) {
         return 0.0;
     }
     var sum = 0.0;
@@ -591,12 +598,14 @@ fn render_light_mis_at(v: GVertex, s: LightSample, e: f32) -> f32 {
         p_table = lights_pdf_solid_angle(lights_pdf_area(s.light), to, s.normal);
     }
     let p_ray = render_brdf_pdf(v, wi);
-    var p_light = render_light_density(p_table, p_ray, s.emission, e);
+    var p_light = render_light_density(v, wi, p_table, p_ray, s.emission, e);
     if e > 0.0 && render_planted(PLANTED_LIGHT_MIS_DOUBLED) {
         // Planted defect: the light side's density doubled, the ray side's not.
         p_light *= 2.0;
     }
-    return render_power_heuristic(p_light, p_ray);
+    let w = render_power_heuristic(p_light, p_ray);
+    // Planted defect LIGHT_MIS_SCALED: the light side's weight off by a tunable factor.
+    return select(w, w * render_params.planted_amount, render_planted(PLANTED_LIGHT_MIS_SCALED));
 }
 
 // The emission a ray from v drawn by its path step (render_path_step) found at w (a hit, or an
@@ -622,7 +631,7 @@ fn render_hit_emission_at(v: GVertex, w: GVertex, e: f32) -> vec3<f32> {
         p_table = lights_pdf_hit(bvh_triangles[w.prim].index, v.position, w.position, w.normal);
     }
     let p_ray = render_brdf_pdf(v, dir);
-    return w.emission * render_power_heuristic(p_ray, render_light_density(p_table, p_ray, w.emission, e));
+    return w.emission * render_power_heuristic(p_ray, render_light_density(v, dir, p_table, p_ray, w.emission, e));
 }
 
 // f(y) of a stored reservoir's light sample y at vertex v (MIS-weighted with MIS on, against
@@ -652,13 +661,11 @@ fn render_shade_stored(f: vec3<f32>, res: StoredReservoir, weight: vec3<f32>) ->
 
 // Reuse of stored light reservoirs (restir-di, world-restir): merges neighbour n's reservoir
 // `src` (confidence m, capped), generated at vertex `source`, into the combination c at vertex
-// `receiver`, whose own sample is own_sample; both as the reuse evaluates them
-// (render_reused_vertex). Light samples need no shift: every Jacobian is 1. Returns true when
-// src's sample is now selected.
+// `receiver`, whose own sample is own_sample; both as the stage evaluates them (each with its own
+// view direction where it is glossy: restir-di; render_reused_vertex: world-restir). Light
+// samples need no shift: every Jacobian is 1. Returns true when src's sample is now selected.
 fn render_reuse_light(c: ptr<function, Reuse>, n: u32, src: StoredReservoir, m: u32,
-                      receiver: GVertex, source: GVertex, own_sample: LightSample, u: f32) -> bool {
-    let v = render_reused_vertex(receiver);
-    let q = render_reused_vertex(source);
+                      v: GVertex, q: GVertex, own_sample: LightSample, u: f32) -> bool {
     let y = render_stored_sample(src);
     var p_n_y = 0.0;
     var p_n_own = 0.0;

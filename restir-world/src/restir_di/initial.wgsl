@@ -2,18 +2,20 @@
 // drawn uniformly from the tile its 8x8 pixel block picked this frame (one random tile per
 // block per frame: coherent memory), target = luminance of the unshadowed reflected radiance. The stored
 // confidence is 1 (one frame of candidates), as RTXDI's. Writes screen_out, and the pixel's MIS
-// estimate (render_light_estimate, from light samples of its own) to di_estimate. A vertex the
-// reuse does not take (render_reuses: glossy) holds no reservoir (M = 0): no neighbour merges
-// it, and di-shade gives it the renderer's own direct light.
+// estimate (render_light_estimate, from light samples of its own) to di_estimate. At a glossy
+// vertex the target is its BRDF's towards the camera (light samples need no shift, so glossy
+// vertices are reused as diffuse ones are; each receiver evaluates a neighbour's sample with its
+// own BRDF and view direction). A glossy vertex below knobs.min_roughness holds no reservoir
+// (M = 0: no neighbour merges it) and di-shade gives it the renderer's own direct light.
 
 @compute @workgroup_size(WORKGROUP_SIZE)
 fn screen_initial(id: Invocation) {
     let i = item_index(id);
     if i >= render_params.pixel_count { return; }
     var out: StoredReservoir;
-    let g = render_unpack_vertex(render_gbuffer[i]);
+    let g = render_primary_vertex(i);
     di_estimate[i] = 0.0;
-    if g.prim == BVH_NO_HIT || !render_reuses(g) {
+    if g.prim == BVH_NO_HIT || !di_reuses(g) {
         screen_out[i] = out;
         return;
     }
@@ -22,7 +24,7 @@ fn screen_initial(id: Invocation) {
         screen_out[i] = out;
         return;
     }
-    let v = render_reused_vertex(g);
+    let v = g;
     let first = light_tiles_first(i, screen_params.knobs.tiles, screen_params.knobs.tile_size);
     var rng = render_rng_salted(i, STREAM_DI_INITIAL, SALT_CANDIDATES);
     let ris = light_tiles_ris(v, first, screen_params.knobs.tile_size, screen_params.knobs.candidates,

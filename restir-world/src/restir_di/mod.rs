@@ -24,6 +24,7 @@ use crate::screen_reuse::{
     self, Chain, Kernel, ScreenReuse, ScreenReuseError, ScreenStage, StageBuffers,
 };
 
+const LIBRARY_WGSL: &str = include_str!("restir_di.wgsl");
 const INITIAL_WGSL: &str = include_str!("initial.wgsl");
 const REUSE_WGSL: &str = include_str!("reuse.wgsl");
 const SHADE_WGSL: &str = include_str!("shade.wgsl");
@@ -67,6 +68,10 @@ crate::knobs! {
         /// Combination weights (default pairwise MIS, unbiased; `biased` is the paper's 1/M,
         /// `one-over-z` Bitterli et al.'s 1/Z).
         [gpu] combine: Combination = Combination::Pairwise, "combine";
+        /// Perceptual roughness below which a glossy primary vertex is not reused: it holds no
+        /// reservoir and gets the renderer's own direct light (default 0: every vertex is
+        /// reused, its target the full BRDF towards its camera).
+        [gpu] min_roughness: f32 = 0.0, "min-roughness", 0.0..=1.0;
         /// The light tiles also feed world-restir's generate pass (default off; only in
         /// `world-restir+restir-di`): its GI vertices draw their candidates from the tile of
         /// their pixel's block.
@@ -109,7 +114,7 @@ pub static STAGE: ScreenStage = ScreenStage {
     short: "di",
     reservoirs: "array<StoredReservoir>",
     reservoir_size: size_of::<render::StoredReservoir>(),
-    library: "",
+    library: LIBRARY_WGSL,
     constants: constants_wgsl,
     sources: [INITIAL_WGSL, REUSE_WGSL, SHADE_WGSL],
     own: [

@@ -42,13 +42,13 @@ fn reuse_z_target(r: ptr<function, ReuseReceiver>, nb: ReuseNeighbour, chosen: u
     if chosen != REUSE_NO_NEIGHBOUR {
         y = render_stored_sample(reuse_src[chosen]);
     }
-    let q = render_reused_vertex(screen_source_vertex(nb.j, (*r).temporal));
+    let q = screen_source_vertex(nb.j, (*r).temporal);
     return render_light_target(q, y);
 }
 
 fn screen_merge(i: u32, own: StoredReservoir, receiver: GVertex, temporal: bool,
                 nb: ScreenNeighbours, rng: ptr<function, u32>) -> StoredReservoir {
-    let g = render_reused_vertex(receiver);
+    let g = receiver;
     let u_own = rng_next_f32(rng);
     let own_sample = render_stored_sample(own);
     var c = reuse_begin(screen_params.knobs.combine, PackedReservoir(own.ucw, own.m),

@@ -699,6 +699,25 @@ impl Scene {
         self
     }
 
+    /// The scene with every material glTF metallic-roughness at `metallic` and `roughness`
+    /// (their textures dropped), keeping its base colour, emission and normal map: the same
+    /// scene as glossy as asked, for measuring a method against the lobe's width.
+    pub fn with_uniform_gloss(mut self, metallic: f32, roughness: f32) -> Scene {
+        for m in &mut self.materials {
+            *m = Material {
+                base_color_texture: m.base_color_texture,
+                emissive_texture: m.emissive_texture,
+                normal_texture: m.normal_texture,
+                normal_scale: m.normal_scale,
+                ..Material {
+                    emission: m.emission,
+                    ..Material::metal_roughness(m.albedo, metallic, roughness)
+                }
+            };
+        }
+        self
+    }
+
     /// Axis-aligned bounds of all vertices, `(min, max)`; `None` for an empty scene.
     pub fn bounds(&self) -> Option<(Vec3, Vec3)> {
         let mut it = self.triangles.iter().flat_map(|t| t.v);

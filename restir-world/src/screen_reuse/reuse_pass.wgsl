@@ -21,16 +21,21 @@ struct ScreenNeighbours {
     m_sum: u32,
 }
 
-// The primary vertex that produced source reservoir j (last frame's in the temporal pass).
+// The primary vertex that produced source reservoir j (last frame's in the temporal pass), seen
+// from the camera that saw it (a glossy vertex's target depends on its view direction).
 fn screen_source_vertex(j: u32, temporal: bool) -> GVertex {
     if temporal {
         let n = render_params.pixel_count;
+        var q: GVertex;
         if j >= n {
-            return render_unpack_vertex(screen_prev_pool[j - n]);
+            q = render_unpack_vertex(screen_prev_pool[j - n]);
+        } else {
+            q = render_unpack_vertex(screen_prev_gbuffer[j]);
         }
-        return render_unpack_vertex(screen_prev_gbuffer[j]);
+        q.wo = normalize(screen_params.prev_camera.eye - q.position);
+        return q;
     }
-    return render_unpack_vertex(render_gbuffer[j]);
+    return render_primary_vertex(j);
 }
 
 // Last frame's pixel that saw receiver vertex g through last frame's camera (render_project),
@@ -53,7 +58,7 @@ fn screen_reuse(id: Invocation) {
     let i = item_index(id);
     if i >= render_params.pixel_count { return; }
     let own = reuse_self[i];
-    let g = render_unpack_vertex(render_gbuffer[i]);
+    let g = render_primary_vertex(i);
     if g.prim == BVH_NO_HIT || screen_m(own) == 0u {
         reuse_out[i] = own;
         return;

@@ -71,7 +71,7 @@ fn reuse_visited(r: ptr<function, ReuseReceiver>, n: u32) -> ReuseNeighbour {
 
 fn reuse_merge_one(c: ptr<function, Reuse>, n: u32, r: ptr<function, ReuseReceiver>,
                    nb: ReuseNeighbour, u: f32) -> bool {
-    return render_reuse_light(c, n, wr_final[nb.j], nb.m, (*r).w, wr_vertex(nb.j),
+    return render_reuse_light(c, n, wr_final[nb.j], nb.m, (*r).w, render_reused_vertex(wr_vertex(nb.j)),
                               (*r).own_sample, u);
 }
 

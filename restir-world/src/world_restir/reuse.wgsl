@@ -72,7 +72,7 @@ fn reuse_visited(r: ptr<function, ReuseReceiver>, n: u32) -> ReuseNeighbour {
 
 fn reuse_merge_one(c: ptr<function, Reuse>, n: u32, r: ptr<function, ReuseReceiver>,
                    nb: ReuseNeighbour, u: f32) -> bool {
-    let q = wr_source_vertex(nb.j, (*r).temporal);
+    let q = render_reused_vertex(wr_source_vertex(nb.j, (*r).temporal));
     return render_reuse_light(c, n, reuse_src[nb.j], nb.m, (*r).v, q, (*r).own_sample, u);
 }
 
