@@ -1,20 +1,21 @@
 // Pass "gi-initial": each pixel's own path sample from this frame: x2 = its secondary vertex, L
-// = the radiance leaving it that the indirect passes recorded (render_path_radiance). The GI ray was drawn with the cosine density about
-// the primary's shading normal, so W = 1 / pdf = pi / cos (one RIS candidate). M = 1; a GI ray
-// that escaped or found no light gives W = 0. Writes screen_out; clears gi_debug. The reuse
-// takes diffuse vertices only (render_reuses): a glossy x1 holds no reservoir (M = 0: no
-// neighbour merges it, and gi-shade gives it the pixel's own path); a glossy x2 is no sample
-// (W = 0, M = 1, as an escaped ray: its radiance is x1's direction's alone), and gi-shade adds
-// that pixel's own path instead.
+// = the radiance leaving it that the indirect passes recorded (render_path_radiance). The GI
+// ray was drawn by x1's path step (the cosine density about the primary's shading normal, or
+// its BRDF's), so W = 1 / pdf (one RIS candidate). M = 1; a GI ray that escaped or found no
+// light gives W = 0. Writes screen_out; clears gi_debug. An x1 the reuse does not take
+// (gi_reuses: glossy below min-roughness) holds no reservoir (M = 0: no neighbour merges it,
+// and gi-shade gives it the pixel's own path); a glossy x2 is no sample (W = 0, M = 1, as an
+// escaped ray: its radiance is x1's direction's alone), and gi-shade adds that pixel's own
+// path instead.
 
 @compute @workgroup_size(WORKGROUP_SIZE)
 fn screen_initial(id: Invocation) {
     let i = item_index(id);
     if i >= render_params.pixel_count { return; }
     gi_debug[i] = 0u;
-    let g = render_unpack_vertex(render_gbuffer[i]);
+    let g = render_primary_vertex(i);
     var out: GiReservoir;
-    if g.prim == BVH_NO_HIT || !render_reuses(g) {
+    if g.prim == BVH_NO_HIT || !gi_reuses(g) {
         screen_out[i] = out;
         return;
     }

@@ -123,6 +123,11 @@ crate::knobs! {
         /// ways per neighbour, unbiased; `final`: only the selected sample's ray, biased;
         /// `off`: none, the paper's biased mode).
         [gpu] visibility: Visibility = Visibility::Selected, "visibility";
+        /// Perceptual roughness below which a glossy primary vertex x1 holds no path sample
+        /// and keeps its own path (default 1: only glossy x1 at roughness 1, glTF's default, are
+        /// reused; on cornell-glossy reusing every x1 measured break-even). A reconnection
+        /// vertex x2 is reused where diffuse only.
+        [gpu] min_roughness: f32 = 1.0, "min-roughness", 0.0..=1.0;
     }
 }
 

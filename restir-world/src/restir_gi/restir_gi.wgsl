@@ -79,9 +79,19 @@ fn gi_has_sample(r: GiReservoir) -> bool {
     return gi_m(r) > 0u && r.ucw > 0.0;
 }
 
-// The sample's contribution at primary vertex g: f(x1) L cos = albedo / pi * L * cos, 0 where
-// the direction to x2 is below g's surface or x2 faces away from g (its L is for the other
-// side).
+// Whether the reuse takes primary vertex g as an x1 (holds a path sample there): a diffuse one,
+// or a glossy one at knobs.min_roughness or rougher (half the packed roughness' step below: a
+// material at the knob's value is taken). Its x2 must be diffuse (render_reuses): a sample's
+// radiance is the one leaving x2 towards the x1 that found it, the same towards any other
+// x1 only where x2 is diffuse.
+fn gi_reuses(g: GVertex) -> bool {
+    return render_reuses(g)
+        || render_vertex_brdf(g).roughness >= screen_params.knobs.min_roughness - 0.5 / 65535.0;
+}
+
+// The sample's contribution at primary vertex g: f(x1) L cos (albedo / pi * L * cos at a
+// diffuse x1, the BRDF towards g's camera at a glossy one), 0 where the direction to x2 is
+// below g's surface or x2 faces away from g (its L is for the other side).
 fn gi_contribution(g: GVertex, s: GiSample) -> vec3<f32> {
     let d = s.position - g.position;
     let d2 = dot(d, d);
@@ -93,6 +103,9 @@ fn gi_contribution(g: GVertex, s: GiSample) -> vec3<f32> {
     if cos_x1 <= 0.0 || dot(g.normal, dir) <= 0.0 || dot(s.normal, dir) >= 0.0 {
         return vec3<f32>(0.0);
     }
+    if RENDER_GLOSSY && g.material != 0u {
+        return render_brdf(g, dir) * s.radiance * cos_x1;
+    }
     return g.albedo * SAMPLING_INV_PI * s.radiance * cos_x1;
 }
 
@@ -101,10 +114,16 @@ fn gi_target(g: GVertex, s: GiSample) -> f32 {
     return render_luminance(gi_contribution(g, s));
 }
 
-// W of a vertex's own sample s, drawn by a ray with the cosine density about g's shading
-// normal: 1 / pdf = pi / cos (one RIS candidate); 0 where the pdf or the target is 0.
+// W of a vertex's own sample s, drawn by its path step (the cosine density about g's shading
+// normal at a diffuse g, the BRDF's at a glossy one): 1 / pdf (one RIS candidate); 0 where the
+// pdf or the target is 0.
 fn gi_own_ucw(g: GVertex, s: GiSample) -> f32 {
-    let pdf = max(dot(g.shading, normalize(s.position - g.position)), 0.0) * SAMPLING_INV_PI;
+    var dir = normalize(s.position - g.position);
+    if RENDER_GLOSSY && g.material != 0u {
+        // The direction the ray took, from its origin (a narrow lobe's density differs).
+        dir = normalize(s.position - render_offset(g.position, g.normal));
+    }
+    let pdf = render_brdf_pdf(g, dir);
     if pdf > 0.0 && gi_target(g, s) > 0.0 {
         return 1.0 / pdf;
     }

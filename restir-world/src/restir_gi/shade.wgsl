@@ -3,7 +3,7 @@
 // With `visibility` on, `selected` or `final`, every sample a pixel holds with weight is
 // unoccluded from its x1 (its own, or one whose reconnection ray was traced), so no ray is
 // traced; off (the paper's biased mode), none was, and none is. Where the reuse does not take a
-// vertex (render_reuses), the pixel's own path stands for it: at a glossy x1, all of its
+// vertex (gi_reuses, render_reuses), the pixel's own path stands for it: at such an x1, all of its
 // indirect light (its GI ray's weight x the radiance its path found leaving x2); at a diffuse
 // x1 whose x2 is glossy (no sample, gi-initial), the light through that x2.
 
@@ -16,11 +16,11 @@ fn screen_shade(id: Invocation) {
     var c = vec3<f32>(0.0);
     if g.prim != BVH_NO_HIT {
         let x2 = render_secondary_vertex(i, g);
-        let own = x2.prim != BVH_NO_HIT && (!render_reuses(g) || !render_reuses(x2));
+        let own = x2.prim != BVH_NO_HIT && (!gi_reuses(g) || !render_reuses(x2));
         if own {
             c = render_throughput(g, x2) * render_path_radiance[i].xyz;
         }
-        if render_reuses(g) && gi_has_sample(r) {
+        if gi_reuses(g) && gi_has_sample(r) {
             c += gi_contribution(g, gi_sample(r)) * r.ucw;
         }
     }

@@ -89,6 +89,10 @@ crate::knobs! {
         /// Visibility rays of the reconnections (default `selected`; `on`, `final`, `off`:
         /// [`Visibility`]).
         [gpu] visibility: Visibility = Visibility::Selected, "visibility";
+        /// Perceptual roughness below which a glossy primary vertex x1 holds no path sample
+        /// (default 1: only glossy x1 at roughness 1 are reused; restir-gi's knob). A glossy x1 that holds one
+        /// merges its cells' samples but enters no cell.
+        [gpu] min_roughness: f32 = 1.0, "min-roughness", 0.0..=1.0;
         /// Targeted projected cell size in pixels (default 8: a cell holds about 8 x 8 pixels'
         /// primary vertices where it faces the camera).
         projected_size: f32 = 8.0, "projected-size", 0.5..=4096.0;
