@@ -150,8 +150,9 @@ fn demo_cache_compare() -> Vec<&'static str> {
 /// The configurations of docs/results.md: (part, title, output folder, compare arguments). The
 /// default depth is what a user gets; unbounded paths are what the radiance cache is measured
 /// against; one bounce without MIS is the comparison every method was first measured in; the
-/// glossy scenes are where the reuse leaves glossy vertices to the path (a part of their own:
-/// their own scenes, at 128x128, every kernel of theirs specialized for glossy materials).
+/// glossy scenes are where resampling is hard (restir-di reuses light at glossy vertices, the
+/// other stages leave most of them to the path; a part of their own: their own scenes, at
+/// 128x128, every kernel of theirs specialized for glossy materials).
 /// A part's arguments follow [`RESULTS_COMMON`]'s; one that names `--scene` or `--size` replaces
 /// [`RESULTS_SCENES`] or [`RESULTS_SIZE`].
 const RESULTS_PARTS: [(&str, &str, &str, &[&str]); 4] = [
