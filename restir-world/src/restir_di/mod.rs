@@ -236,7 +236,7 @@ mod tests {
 
     #[test]
     fn the_knob_struct_is_the_wgsl_one() {
-        assert_eq!(RestirDiConfig::GPU_KNOBS, 10);
+        assert_eq!(RestirDiConfig::GPU_KNOBS, 11);
         assert!(constants_wgsl().contains("struct ScreenKnobs {\n    tiles: u32,"));
     }
 }
