@@ -327,10 +327,10 @@ fn restir_di_reuses_glossy_light_without_bias() {
 /// image's channel means, seeds 1-2 at 256 frames (32x32), within 2%. Against `ris` instead,
 /// each seed's fireflies (the metal block's glossy paths) scatter the mean by 3-5% per seed,
 /// restir-gi's default as much. Power: the per-seed differences are printed; measured
-/// -0.40/-0.08/-0.35% and -0.36/-0.43/-0.47% (the same sign on both seeds: a bias of about
-/// -1% over the glossy x1 pixels, a third of the image, or their fireflies' heavy tail, not
-/// resolved), a scatter of about 0.2% per seed: a bias of 2.3% over the whole image fails
-/// nine times in ten. Controls (one seed, 128 frames), both must fail: the merge without M
+/// -0.40/-0.08/-0.35% and -0.36/-0.43/-0.47% (the same sign on both seeds; on the shipped
+/// cornell-glossy at 512 frames, seeds 1-6 read -0.4, -0.4, +0.2, 0.0, 0.0, +0.4% in red, the
+/// demo's 4 digits: no consistent sign), a scatter of about 0.3% per seed: a bias of 2.3% over
+/// the whole image fails nine times in ten. Controls (one seed, 128 frames), both must fail: the merge without M
 /// (`Planted::MergeWithoutM`: -42/-41/-36%) and, near the bound, light samples' MIS weights
 /// at 104% (`Planted::LightMisScaled`, in the paths' light samples: +5.4/+4.6/+4.9%).
 #[test]
