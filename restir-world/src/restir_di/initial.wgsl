@@ -24,13 +24,12 @@ fn screen_initial(id: Invocation) {
         screen_out[i] = out;
         return;
     }
-    let v = g;
     let first = light_tiles_first(i, screen_params.knobs.tiles, screen_params.knobs.tile_size);
     var rng = render_rng_salted(i, STREAM_DI_INITIAL, SALT_CANDIDATES);
-    let ris = light_tiles_ris(v, first, screen_params.knobs.tile_size, screen_params.knobs.candidates,
+    let ris = light_tiles_ris(g, first, screen_params.knobs.tile_size, screen_params.knobs.candidates,
                               &rng);
     out = render_store_reservoir(ris.light, PackedReservoir(ris.reservoir.ucw, 1u));
     screen_out[i] = out;
     var rng_e = render_rng_salted(i, STREAM_DI_INITIAL, SALT_ESTIMATE);
-    di_estimate[i] = render_light_estimate(v, screen_params.knobs.mis_candidates, &rng_e);
+    di_estimate[i] = render_light_estimate(g, screen_params.knobs.mis_candidates, &rng_e);
 }

@@ -46,9 +46,8 @@ fn reuse_z_target(r: ptr<function, ReuseReceiver>, nb: ReuseNeighbour, chosen: u
     return render_light_target(q, y);
 }
 
-fn screen_merge(i: u32, own: StoredReservoir, receiver: GVertex, temporal: bool,
+fn screen_merge(i: u32, own: StoredReservoir, g: GVertex, temporal: bool,
                 nb: ScreenNeighbours, rng: ptr<function, u32>) -> StoredReservoir {
-    let g = receiver;
     let u_own = rng_next_f32(rng);
     let own_sample = render_stored_sample(own);
     var c = reuse_begin(screen_params.knobs.combine, PackedReservoir(own.ucw, own.m),
