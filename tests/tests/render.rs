@@ -295,7 +295,7 @@ fn render_structs_match_wgsl_layout() {
             planted_indirect_scale,
             path_split,
             planted_amount,
-            _pad1,
+            glossy_x2,
             _pad2
         ]
     );

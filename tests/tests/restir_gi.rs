@@ -31,7 +31,9 @@ fn layouts_match_wgsl() {
         GiReservoir,
         src,
         "GiReservoir",
-        [position, ucw, radiance, normal_m]
+        [
+            position, ucw, radiance, normal_m, light, material, base, shading, wl, wi
+        ]
     );
     tests::wgsl::assert_screen_params_layout(src, RestirGiConfig::GPU_WORDS);
     tests::assert_knobs_layout!(RestirGiConfig, src, "ScreenKnobs");

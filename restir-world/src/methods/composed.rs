@@ -52,9 +52,23 @@ impl Composed {
         settings.validate()?;
         settings.check_paths(&options.paths)?;
         let plan = settings.plan(&options.paths)?;
-        // world-restir-gi's sub-path reuse reads the path split.
+        // world-restir-gi's sub-path reuse reads the path split, restir-gi's reconnection at a
+        // glossy x2 the glossy record it holds there (only a scene with glossy materials has one).
+        let x2_roughness = match (settings.gi, settings.wgi) {
+            (Some(g), _) => Some(g.x2_min_roughness),
+            (None, Some(w)) => Some(w.x2_min_roughness),
+            (None, None) => None,
+        };
+        // Half the packed roughness' step below the knob (as min-roughness): a material at the
+        // knob's value is taken whichever way its roughness rounded when packed.
+        let glossy_x2 = x2_roughness
+            .filter(|_| scene.glossy_materials() > 0)
+            .map(|r| (r.clamp(0.0, 1.0) * 65535.0 - 0.5).ceil().max(0.0) as u16);
         let options = &RenderOptions {
-            path_split: options.path_split || settings.wgi.is_some_and(|w| w.subpath_k > 0),
+            path_split: options.path_split
+                || glossy_x2.is_some()
+                || settings.wgi.is_some_and(|w| w.subpath_k > 0),
+            glossy_x2,
             ..*options
         };
         let renderer = Renderer::with_options(ctx, scene, camera, settings.estimator, options)?;

@@ -114,6 +114,12 @@ pub struct RenderOptions {
     /// rest, the radiance one vertex short and x3; 64 bytes a pixel), what world-restir-gi's
     /// sub-path reuse reads. Off: the buffer is one dummy record.
     pub path_split: bool,
+    /// With `path_split`: a glossy secondary vertex x2 at this perceptual roughness (unorm16,
+    /// as materials pack it) or rougher is sampled as a white diffuse surface (cosine ray, a
+    /// light target without its BRDF) and its glossy record kept in the path split, what
+    /// restir-gi's reconnection at a glossy x2 reads (its knob `x2-min-roughness`). None: no
+    /// x2 is.
+    pub glossy_x2: Option<u16>,
 }
 
 impl RenderOptions {

@@ -40,7 +40,8 @@ fn render_path_spread(v: GVertex, w: GVertex, dir: vec3<f32>) -> f32 {
 // (render_params.mis), which weighs both ways to the light and traces one more ray for the last
 // bounce's hits. A vertex whose cached radiance path_cache_radiance gives ends the path: that
 // radiance stands for its light estimate and every bounce beyond it. With
-// render_params.path_split on, also records the pixel's path split (RenderPathSplit).
+// render_params.path_split on, also records the pixel's path split (RenderPathSplit), or at a
+// glossy x2 its record's continuation (RenderGlossyX2).
 fn render_path_pixel(i: u32) {
     let g = render_primary_vertex(i);
     var v = render_secondary_vertex(i, g);
@@ -64,10 +65,26 @@ fn render_path_pixel(i: u32) {
     split.one_short = select(vec3<f32>(0.0), split.direct, bounces >= 2u);
     // The throughput of what x3 sends towards x2.
     var beyond = vec3<f32>(1.0);
+    // A recorded glossy x2's continuation (RenderGlossyX2): its ray's direction, cos / pdf
+    // (pi: cosine-distributed) and the emission it found over the roulette at x2.
+    let x2 = v;
+    var x2_wi = vec3<f32>(0.0);
+    var x2_ratio = 0.0;
+    var x2_found = vec3<f32>(0.0);
     for (var bounce = 2u; bounce <= last; bounce++) {
         var rng = render_rng_salted(i, STREAM_PATH, SALT_PATH_BOUNCE + bounce);
+        // A recorded glossy x2 is sampled as a white diffuse surface (RenderGlossyX2), its
+        // roulette too: its step's weight is f cos / (cos / pi).
+        // Planted defect GLOSSY_X2_DRAWN_BY_BRDF (restir_world::plant): by x2's BRDF.
+        let x2_recorded = bounce == 2u && render_records_glossy(v)
+            && !render_planted(PLANTED_GLOSSY_X2_DRAWN_BY_BRDF);
+        let x2_by_brdf = bounce == 2u && render_records_glossy(v) && !x2_recorded;
+        var sv = v;
+        if x2_recorded {
+            sv = render_sampled_as_diffuse(v);
+        }
         if render_params.roulette_from != 0u && bounce >= render_params.roulette_from {
-            let q = render_roulette_survival(v);
+            let q = render_roulette_survival(sv);
             if !(rng_next_f32(&rng) < q) {
                 break;
             }
@@ -75,19 +92,29 @@ fn render_path_pixel(i: u32) {
             reflected /= render_roulette_divisor(q);
             beyond /= render_roulette_divisor(q);
         }
-        let w = render_path_step(v, &rng);
-        let t = render_throughput(v, w);
+        let w = render_path_step(sv, &rng);
+        var t = render_throughput(v, w);
+        if x2_recorded {
+            t = render_brdf(v, render_step_direction(v, w)) * SAMPLING_PI;
+        }
         leaving *= t;
         reflected *= t;
         if bounce > 2u {
             beyond *= t;
         }
         // The ray from v weighs what it finds as v's light sample was.
-        let found = render_hit_emission_at(v, w, e_v);
+        let found = render_hit_emission_at(sv, w, e_v);
         render_path_add(&light, leaving, reflected, found);
         // Split: the emission x2's ray finds is x2's own light; the one vertex k's ray finds is
         // vertex k's light (k = bounce), in the short radiance where k is at most `bounces`.
         if bounce == 2u {
+            x2_wi = render_step_direction(v, w);
+            x2_ratio = select(0.0, SAMPLING_PI, w.prim != BVH_NO_HIT || any(w.shading != vec3<f32>(0.0)));
+            if x2_by_brdf {
+                let pdf = render_brdf_pdf(v, x2_wi);
+                x2_ratio = select(0.0, max(dot(v.shading, x2_wi), 0.0) / pdf, pdf > 0.0);
+            }
+            x2_found = beyond * found;
             split.direct += leaving * found;
             split.x3 = w.position;
             split.x3_normal = w.normal;
@@ -100,7 +127,7 @@ fn render_path_pixel(i: u32) {
         if w.prim == BVH_NO_HIT || bounce > bounces {
             break;
         }
-        footprint += render_path_spread(v, w, normalize(w.position - v.position));
+        footprint += render_path_spread(sv, w, normalize(w.position - v.position));
         let cached = path_cache_radiance(w, bounce, footprint);
         // Vertex w is vertex bounce + 1: its light (or the cache's radiance) is in the short
         // radiance where that is at most `bounces`.
@@ -121,7 +148,11 @@ fn render_path_pixel(i: u32) {
     }
     render_path_radiance[i] += vec4<f32>(light.leaving, 0.0);
     render_indirect_frame[i] += vec4<f32>(light.reflected, 0.0);
-    if render_params.path_split != 0u {
+    if render_records_glossy(x2) {
+        if x2_ratio > 0.0 {
+            render_store_glossy_continuation(i, x2_wi, x2_ratio * (x2_found + split.beyond));
+        }
+    } else if render_params.path_split != 0u {
         render_store_path_split(i, split);
     }
 }

@@ -252,7 +252,10 @@ pub struct RenderParams {
     /// [`Planted::amount`](crate::plant::Planted::amount): a tunable defect's size (1 but in
     /// tests' negative controls).
     pub planted_amount: f32,
-    pub _pad1: u32,
+    /// The smallest packed roughness (unorm16, as [`pack_material`] packs it) of a glossy
+    /// secondary vertex whose record the passes keep ([`RenderOptions::glossy_x2`]); `u32::MAX`:
+    /// none.
+    pub glossy_x2: u32,
     pub _pad2: u32,
 }
 
@@ -280,7 +283,10 @@ impl RenderParams {
             planted_indirect_scale: options.planted().scales().1,
             path_split: u32::from(options.path_split),
             planted_amount: options.planted().amount(),
-            _pad1: 0,
+            glossy_x2: match options.glossy_x2 {
+                Some(r) if options.path_split => u32::from(r),
+                _ => u32::MAX,
+            },
             _pad2: 0,
         }
     }

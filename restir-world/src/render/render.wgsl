@@ -197,7 +197,9 @@ struct RenderParams {
     path_split: u32,
     // restir_world::plant: a tunable defect's size (1 but in tests' negative controls).
     planted_amount: f32,
-    _pad1: u32,
+    // The smallest packed roughness (unorm16) of a glossy x2 whose record the passes keep
+    // (render_records_glossy; restir-gi's x2-min-roughness); 0xffffffff: none.
+    glossy_x2: u32,
     _pad2: u32,
 }
 
@@ -250,6 +252,60 @@ fn render_store_path_split(i: u32, s: RenderPathSplit) {
     render_path_split[4u * i + 2u] = vec4<f32>(s.one_short, s.x3_normal.z);
     // The last word: 0 no x3, 1 x3, 2 a glossy x3.
     render_path_split[4u * i + 3u] = vec4<f32>(s.x3, select(0.0, 1.0, s.x3_hit) + select(0.0, 1.0, s.x3_glossy));
+}
+
+// At a glossy x2 that restir-gi reconnects to (render_records_glossy), the same four vec4 hold
+// x2's glossy record instead (the sub-path reuse reads only diffuse x2's split): the radiance
+// leaving x2 towards any x1 is f(x2; wo, wl) a_l + f(x2; wo, wi) a_i, from x2's light sample
+// (direction wl, a_l its light x cos / pdf with its MIS weight) and the continuation its path
+// step drew (direction wi, a_i = cos / pdf x the radiance arriving along wi: the MIS-weighted
+// emission and the light beyond, over the roulette at x2). Such an x2 is sampled as a white
+// diffuse surface would be (render_sampled_as_diffuse), so that the record's distribution
+// is the same whichever x1 drew it: a neighbour's record is then an estimate of the radiance
+// towards the receiver from the same distribution as the receiver's own would be (what
+// reconnecting to a diffuse x2 relies on; a record drawn by the BRDF's sampler towards one x1's
+// wo biased cornell-glossy's indirect light by +2 to +4%). The light pass writes it
+// (render_store_glossy_light, the continuation zero), the path pass the continuation
+// (render_store_glossy_continuation).
+struct RenderGlossyX2 {
+    a_l: vec3<f32>,
+    wl: vec3<f32>,
+    a_i: vec3<f32>,
+    wi: vec3<f32>,
+}
+
+fn render_store_glossy_light(i: u32, wl: vec3<f32>, a_l: vec3<f32>) {
+    render_path_split[4u * i] = vec4<f32>(a_l, 0.0);
+    render_path_split[4u * i + 1u] = vec4<f32>(wl, 0.0);
+    render_path_split[4u * i + 2u] = vec4<f32>(0.0);
+    render_path_split[4u * i + 3u] = vec4<f32>(0.0);
+}
+
+fn render_store_glossy_continuation(i: u32, wi: vec3<f32>, a_i: vec3<f32>) {
+    render_path_split[4u * i + 2u] = vec4<f32>(a_i, 0.0);
+    render_path_split[4u * i + 3u] = vec4<f32>(wi, 0.0);
+}
+
+fn render_load_glossy_x2(i: u32) -> RenderGlossyX2 {
+    return RenderGlossyX2(render_path_split[4u * i].xyz, render_path_split[4u * i + 1u].xyz,
+                          render_path_split[4u * i + 2u].xyz, render_path_split[4u * i + 3u].xyz);
+}
+
+// Whether secondary vertex v is a glossy x2 whose record the passes keep (RenderGlossyX2):
+// glossy, at render_params.glossy_x2's packed roughness or rougher (restir-gi's
+// x2-min-roughness; 0xffffffff: none), and the path split on.
+fn render_records_glossy(v: GVertex) -> bool {
+    return RENDER_GLOSSY && v.material != 0u && (v.material & 65535u) >= render_params.glossy_x2
+        && render_params.path_split != 0u;
+}
+
+// A recorded glossy x2 as its light sample and path step see it: a white diffuse surface
+// (cosine-distributed ray, a light target without the BRDF), whatever x1 saw it from.
+fn render_sampled_as_diffuse(v: GVertex) -> GVertex {
+    var d = v;
+    d.material = 0u;
+    d.albedo = vec3<f32>(1.0);
+    return d;
 }
 
 fn render_load_path_split(i: u32) -> RenderPathSplit {
@@ -698,17 +754,22 @@ fn render_throughput(v: GVertex, w: GVertex) -> vec3<f32> {
     if !RENDER_GLOSSY || v.material == 0u {
         return v.albedo;
     }
-    var dir = w.shading;
-    if w.prim != BVH_NO_HIT {
-        // From the ray's origin, not from v: a narrow lobe's weight at a direction off by
-        // offset / distance (near where two surfaces meet) lost 2% of a smooth metal's light.
-        dir = normalize(w.position - render_offset(v.position, v.normal));
-    }
+    let dir = render_step_direction(v, w);
     let pdf = render_brdf_pdf(v, dir);
     if !(pdf > 0.0) {
         return vec3<f32>(0.0);
     }
     return render_brdf(v, dir) * (max(dot(v.shading, dir), 0.0) / pdf);
+}
+
+// The direction of the step from v to w (a hit, or an escaped ray's w.shading) at a glossy v:
+// from the ray's origin, not from v: a narrow lobe's weight at a direction off by offset /
+// distance (near where two surfaces meet) lost 2% of a smooth metal's light.
+fn render_step_direction(v: GVertex, w: GVertex) -> vec3<f32> {
+    if w.prim == BVH_NO_HIT {
+        return w.shading;
+    }
+    return normalize(w.position - render_offset(v.position, v.normal));
 }
 
 // Pixel i's direct light, as the renderer estimates it (render_shade_direct; a stage that
@@ -733,12 +794,35 @@ fn render_direct_pixel(i: u32) -> vec3<f32> {
 // stage that replaces that pass calls it for a secondary vertex it does not take): NEE at the
 // secondary vertex is the radiance leaving it towards the primary, which reflects it with the
 // GI ray's weight (render_throughput).
+// At a recorded glossy x2 (render_records_glossy) its light sample is drawn as a white diffuse
+// surface's and kept (render_store_glossy_light).
 fn render_indirect_pixel(i: u32) -> PathLight {
     let g = render_primary_vertex(i);
     let s = render_secondary_vertex(i, g);
     var light = PathLight(vec3<f32>(0.0), vec3<f32>(0.0));
     if g.prim != BVH_NO_HIT && s.prim != BVH_NO_HIT {
         var rng = render_rng(i, STREAM_INDIRECT);
+        if render_records_glossy(s) {
+            // Planted defect GLOSSY_X2_DRAWN_BY_BRDF (restir_world::plant): drawn by x2's BRDF.
+            let by_brdf = render_planted(PLANTED_GLOSSY_X2_DRAWN_BY_BRDF);
+            var view = render_sampled_as_diffuse(s);
+            if by_brdf {
+                view = s;
+            }
+            let nee = render_nee_sampled(view, &rng, 0.0);
+            // The white surface's BRDF 1 / pi divided out (the defect: x2's).
+            var a_l = nee.light * SAMPLING_PI;
+            if by_brdf {
+                let f = render_brdf(s, nee.wi);
+                a_l = select(vec3<f32>(0.0), nee.light / f, f > vec3<f32>(0.0));
+            }
+            render_store_glossy_light(i, nee.wi, a_l);
+            var leaving = vec3<f32>(0.0);
+            if any(a_l > vec3<f32>(0.0)) {
+                leaving = render_brdf(s, nee.wi) * a_l;
+            }
+            return PathLight(render_throughput(g, s) * leaving, leaving);
+        }
         let nee = render_nee(s, &rng);
         light = PathLight(render_throughput(g, s) * nee, nee);
     }
@@ -1032,8 +1116,19 @@ fn render_nee(v: GVertex, rng: ptr<function, u32>) -> vec3<f32> {
 // shaded with one shadow ray, f / pdf or f W. One shading block for both methods, so that a
 // kernel carries one copy of the BRDF's evaluation and density here, not two.
 fn render_nee_at(v: GVertex, rng: ptr<function, u32>, e: f32) -> vec3<f32> {
+    return render_nee_sampled(v, rng, e).light;
+}
+
+// render_nee_at's light and the direction its light sample arrives from (0 where none).
+struct RenderNee {
+    light: vec3<f32>,
+    wi: vec3<f32>,
+}
+
+fn render_nee_sampled(v: GVertex, rng: ptr<function, u32>, e: f32) -> RenderNee {
+    var none = RenderNee(vec3<f32>(0.0), vec3<f32>(0.0));
     if lights_info.count == 0u {
-        return vec3<f32>(0.0);
+        return none;
     }
     let ris_method = render_params.method == RENDER_METHOD_RIS;
     var s: LightSample;
@@ -1043,25 +1138,29 @@ fn render_nee_at(v: GVertex, rng: ptr<function, u32>, e: f32) -> vec3<f32> {
         s = ris.light;
         ucw = ris.reservoir.ucw;
         if ucw <= 0.0 {
-            return vec3<f32>(0.0);
+            return none;
         }
     } else {
         s = render_light_sample(render_rand4(rng), rng);
         if s.pdf_area <= 0.0 {
-            return vec3<f32>(0.0);
+            return none;
         }
     }
     var f = render_vertex_light(v, s);
     if all(f == vec3<f32>(0.0)) || !render_visible_sample(v.position, v.normal, s) {
-        return vec3<f32>(0.0);
+        return none;
     }
     if render_params.mis != 0u {
         f *= render_light_mis_at(v, s, e);
     }
-    if ris_method {
-        return f * ucw;
+    var wi = s.position;
+    if !lights_at_infinity(s.kind) {
+        wi = normalize(s.position - v.position);
     }
-    return f / s.pdf_area;
+    if ris_method {
+        return RenderNee(f * ucw, wi);
+    }
+    return RenderNee(f / s.pdf_area, wi);
 }
 
 // The debug views' heat map of t in [0, 1]: blue .. cyan .. yellow .. red (twin: render::heat).

@@ -126,8 +126,14 @@ crate::knobs! {
         /// Perceptual roughness below which a glossy primary vertex x1 holds no path sample
         /// and keeps its own path (default 1: only glossy x1 at roughness 1, glTF's default, are
         /// reused; on cornell-glossy reusing every x1 measured break-even). A reconnection
-        /// vertex x2 is reused where diffuse only.
+        /// vertex x2 is taken by the knob below.
         [gpu] min_roughness: f32 = 1.0, "min-roughness", 0.0..=1.0;
+        /// Perceptual roughness below which a glossy secondary vertex x2 is no reconnection
+        /// vertex (its light stays the pixel's own path's); at or above it the sample keeps
+        /// x2's BRDF and the directions and weights of its light sample and its path's ray,
+        /// and each receiver evaluates x2's BRDF towards itself; such an x2 is sampled as a
+        /// diffuse one (RenderOptions::glossy_x2) (default 0.5).
+        x2_min_roughness: f32 = 0.5, "x2-min-roughness", 0.0..=1.0;
     }
 }
 
@@ -174,8 +180,11 @@ impl RestirGiConfig {
     }
 }
 
-/// WGSL `GiReservoir` (32 bytes): the sample's x2 and the radiance leaving it, W, and x2's
-/// normal (octahedral, two 11-bit snorm) with M in the top 10 bits.
+/// WGSL `GiReservoir` (64 bytes): the sample's x2 and the radiance leaving it, W, and x2's
+/// normal (octahedral, two 11-bit snorm) with M in the top 10 bits; at a glossy x2
+/// (`material` not 0) `radiance` is its continuation's weight and the rest its light sample's
+/// weight, its BRDF (base colour as unorm10 x3, the material word, the shading normal) and the
+/// two directions (octahedral snorm16 x2).
 #[repr(C)]
 #[derive(Debug, Clone, Copy, Default, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
 pub struct GiReservoir {
@@ -183,6 +192,12 @@ pub struct GiReservoir {
     pub ucw: f32,
     pub radiance: [f32; 3],
     pub normal_m: u32,
+    pub light: [f32; 3],
+    pub material: u32,
+    pub base: u32,
+    pub shading: u32,
+    pub wl: u32,
+    pub wi: u32,
 }
 
 impl GiReservoir {
@@ -533,7 +548,7 @@ mod tests {
 
     #[test]
     fn the_structs_are_the_wgsl_ones() {
-        assert_eq!(size_of::<GiReservoir>(), 32);
+        assert_eq!(size_of::<GiReservoir>(), 64);
         assert!(constants_wgsl().contains("struct ScreenKnobs {\n    temporal_m_cap: u32,"));
         assert!(WGSL.contains("struct GiReservoir {\n    position: vec3<f32>,\n    ucw: f32,"));
     }

@@ -8,23 +8,76 @@
 // primary saw it from) and the radiance leaving it towards that primary, L (the pixel's path
 // sample as the indirect passes record it, PathLight: x2's light estimate and the path beyond
 // it). Samples live in the solid angle at the primary vertex x1: a pixel's own sample has
-// the GI ray's cosine density; a neighbour's is shifted to the receiver by reconnection (the
-// receiver's x1 joins the neighbour's x2; L is kept: x2 is diffuse).
+// the GI ray's density; a neighbour's is shifted to the receiver by reconnection (the
+// receiver's x1 joins the neighbour's x2). At a diffuse x2 L is kept (the same towards any
+// x1); at a glossy x2 (x2-min-roughness or rougher) the sample keeps x2's BRDF and its glossy
+// record (RenderGlossyX2: its light sample's and its continuation's directions and weights),
+// and L towards each x1 is f(x2; wo, wl) a_l + f(x2; wo, wi) a_i, wo towards that x1: the
+// reconnection shift of a path whose vertices beyond x2 stay, its Jacobian the same.
 
-// A pixel's reservoir as stored, 32 bytes (Rust twin: restir_gi::GiReservoir): its sample's x2
-// and L, W, and normal_m = x2's normal (octahedral, two 11-bit snorm) | M << 22 (M saturates
-// at GI_MAX_M; M = 0: no primary vertex).
+// A pixel's reservoir as stored, 64 bytes (Rust twin: restir_gi::GiReservoir): its sample's x2
+// and L (a glossy x2: a_i), W, normal_m = x2's normal (octahedral, two 11-bit snorm) | M << 22
+// (M saturates at GI_MAX_M; M = 0: no primary vertex); at a glossy x2 (material != 0) a_l,
+// x2's base colour (unorm10 x3), its shading normal and the directions wl and wi (octahedral
+// snorm16 x2).
 struct GiReservoir {
     position: vec3<f32>,
     ucw: f32,
     radiance: vec3<f32>,
     normal_m: u32,
+    light: vec3<f32>,
+    material: u32,
+    base: u32,
+    shading: u32,
+    wl: u32,
+    wi: u32,
 }
 
+// A path sample (GiReservoir's): at a diffuse x2 (material 0) its position, normal and L; at a
+// glossy one also its BRDF (base colour, shading normal, material word) and its glossy record
+// (radiance = a_i, light = a_l).
 struct GiSample {
     position: vec3<f32>,
     normal: vec3<f32>,
     radiance: vec3<f32>,
+    material: u32,
+    base: vec3<f32>,
+    shading: vec3<f32>,
+    light: vec3<f32>,
+    wl: vec3<f32>,
+    wi: vec3<f32>,
+}
+
+// A sample at a diffuse x2: L leaving it.
+fn gi_diffuse_sample(position: vec3<f32>, normal: vec3<f32>, radiance: vec3<f32>) -> GiSample {
+    var s: GiSample;
+    s.position = position;
+    s.normal = normal;
+    s.radiance = radiance;
+    return s;
+}
+
+// A sample at glossy x2 with its record r.
+fn gi_glossy_sample(x2: GVertex, r: RenderGlossyX2) -> GiSample {
+    return GiSample(x2.position, x2.normal, r.a_i, x2.material, x2.albedo, x2.shading, r.a_l,
+                    r.wl, r.wi);
+}
+
+fn gi_pack_direction(d: vec3<f32>) -> u32 {
+    return pack2x16snorm(sampling_oct_encode(d));
+}
+
+fn gi_unpack_direction(b: u32) -> vec3<f32> {
+    return sampling_oct_decode(unpack2x16snorm(b));
+}
+
+fn gi_pack_unorm10(c: vec3<f32>) -> u32 {
+    let q = vec3<u32>(round(clamp(c, vec3<f32>(0.0), vec3<f32>(1.0)) * 1023.0));
+    return q.x | (q.y << 10u) | (q.z << 20u);
+}
+
+fn gi_unpack_unorm10(b: u32) -> vec3<f32> {
+    return vec3<f32>(vec3<u32>(b, b >> 10u, b >> 20u) & vec3<u32>(1023u)) / 1023.0;
 }
 
 fn gi_snorm11(x: f32) -> u32 {
@@ -59,7 +112,17 @@ fn gi_m(r: GiReservoir) -> u32 {
 
 fn gi_store(s: GiSample, packed: PackedReservoir) -> GiReservoir {
     let m = min(packed.m, GI_MAX_M);
-    return GiReservoir(s.position, packed.ucw, s.radiance, gi_encode_normal(s.normal) | (m << 22u));
+    var r = GiReservoir(s.position, packed.ucw, s.radiance, gi_encode_normal(s.normal) | (m << 22u),
+                        vec3<f32>(0.0), 0u, 0u, 0u, 0u, 0u);
+    if RENDER_GLOSSY && s.material != 0u {
+        r.light = s.light;
+        r.material = s.material;
+        r.base = gi_pack_unorm10(s.base);
+        r.shading = gi_pack_direction(s.shading);
+        r.wl = gi_pack_direction(s.wl);
+        r.wi = gi_pack_direction(s.wi);
+    }
+    return r;
 }
 
 // Reservoir r with the W and M of `packed` (its sample's bits kept as they are).
@@ -71,7 +134,16 @@ fn gi_reweighted(r: GiReservoir, packed: PackedReservoir) -> GiReservoir {
 }
 
 fn gi_sample(r: GiReservoir) -> GiSample {
-    return GiSample(r.position, gi_decode_normal(r.normal_m), r.radiance);
+    var s = gi_diffuse_sample(r.position, gi_decode_normal(r.normal_m), r.radiance);
+    if RENDER_GLOSSY && r.material != 0u {
+        s.material = r.material;
+        s.light = r.light;
+        s.base = gi_unpack_unorm10(r.base);
+        s.shading = gi_unpack_direction(r.shading);
+        s.wl = gi_unpack_direction(r.wl);
+        s.wi = gi_unpack_direction(r.wi);
+    }
+    return s;
 }
 
 // Whether the reservoir holds a sample with weight (an escaped GI ray, a black one: none).
@@ -81,17 +153,47 @@ fn gi_has_sample(r: GiReservoir) -> bool {
 
 // Whether the reuse takes primary vertex g as an x1 (holds a path sample there): a diffuse one,
 // or a glossy one at knobs.min_roughness or rougher (half the packed roughness' step below: a
-// material at the knob's value is taken). Its x2 must be diffuse (render_reuses): a sample's
-// radiance is the one leaving x2 towards the x1 that found it, the same towards any other
-// x1 only where x2 is diffuse.
+// material at the knob's value is taken). Its x2 is one gi_takes_x2 takes.
 fn gi_reuses(g: GVertex) -> bool {
     return render_reuses(g)
         || render_vertex_brdf(g).roughness >= screen_params.knobs.min_roughness - 0.5 / 65535.0;
 }
 
+// Whether the reuse takes x2 (the secondary vertex of a path from a primary vertex it takes) as
+// a sample's reconnection vertex: a diffuse one, or a glossy one whose glossy record the passes
+// keep (render_records_glossy: x2-min-roughness or rougher). Other x2 are no sample
+// (gi-initial), their light the pixel's own path's (gi-shade).
+fn gi_takes_x2(x2: GVertex) -> bool {
+    return render_reuses(x2) || render_records_glossy(x2);
+}
+
+// The radiance sample s's x2 sends towards primary vertex g: L at a diffuse x2; at a glossy
+// one its record reflected by x2's BRDF towards g (wo from g's ray origin, as the path's own
+// x2 saw it: render_secondary_vertex).
+fn gi_radiance(g: GVertex, s: GiSample) -> vec3<f32> {
+    if !RENDER_GLOSSY || s.material == 0u {
+        return s.radiance;
+    }
+    var x2: GVertex;
+    x2.position = s.position;
+    x2.normal = s.normal;
+    x2.albedo = s.base;
+    x2.shading = s.shading;
+    x2.material = s.material;
+    x2.wo = normalize(render_offset(g.position, g.normal) - s.position);
+    var l = vec3<f32>(0.0);
+    if any(s.light > vec3<f32>(0.0)) {
+        l += render_brdf(x2, s.wl) * s.light;
+    }
+    if any(s.radiance > vec3<f32>(0.0)) {
+        l += render_brdf(x2, s.wi) * s.radiance;
+    }
+    return l;
+}
+
 // The sample's contribution at primary vertex g: f(x1) L cos (albedo / pi * L * cos at a
-// diffuse x1, the BRDF towards g's camera at a glossy one), 0 where the direction to x2 is
-// below g's surface or x2 faces away from g (its L is for the other side).
+// diffuse x1, the BRDF towards g's camera at a glossy one; L towards g, gi_radiance), 0 where
+// the direction to x2 is below g's surface or x2 faces away from g (its L is for the other side).
 fn gi_contribution(g: GVertex, s: GiSample) -> vec3<f32> {
     let d = s.position - g.position;
     let d2 = dot(d, d);
@@ -103,10 +205,11 @@ fn gi_contribution(g: GVertex, s: GiSample) -> vec3<f32> {
     if cos_x1 <= 0.0 || dot(g.normal, dir) <= 0.0 || dot(s.normal, dir) >= 0.0 {
         return vec3<f32>(0.0);
     }
+    let l = gi_radiance(g, s);
     if RENDER_GLOSSY && g.material != 0u {
-        return render_brdf(g, dir) * s.radiance * cos_x1;
+        return render_brdf(g, dir) * l * cos_x1;
     }
-    return g.albedo * SAMPLING_INV_PI * s.radiance * cos_x1;
+    return g.albedo * SAMPLING_INV_PI * l * cos_x1;
 }
 
 // The target p_hat at g: luminance of the sample's contribution.

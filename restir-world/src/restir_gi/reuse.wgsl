@@ -73,7 +73,7 @@ fn gi_subpath_source(j: u32) -> GiReservoir {
         // The defect: j's radiance at its full depth (one vertex too deep here).
         radiance = split.direct + y2.albedo * split.beyond;
     }
-    let y = GiSample(y2.position, y2.normal, radiance);
+    let y = gi_diffuse_sample(y2.position, y2.normal, radiance);
     let q = render_unpack_vertex(render_gbuffer[j]);
     return gi_store(y, PackedReservoir(gi_own_ucw(q, y), 1u));
 }

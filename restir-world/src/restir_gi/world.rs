@@ -93,6 +93,9 @@ crate::knobs! {
         /// (default 1: only glossy x1 at roughness 1 are reused; restir-gi's knob). A glossy x1 that holds one
         /// merges its cells' samples but enters no cell.
         [gpu] min_roughness: f32 = 1.0, "min-roughness", 0.0..=1.0;
+        /// Perceptual roughness below which a glossy secondary vertex x2 is no reconnection
+        /// vertex (default 0.5; restir-gi's knob).
+        x2_min_roughness: f32 = 0.5, "x2-min-roughness", 0.0..=1.0;
         /// Targeted projected cell size in pixels (default 8: a cell holds about 8 x 8 pixels'
         /// primary vertices where it faces the camera).
         projected_size: f32 = 8.0, "projected-size", 0.5..=4096.0;

@@ -28,7 +28,7 @@ fn screen_subpath(id: Invocation) {
     }
     let split = render_load_path_split(i);
     var rng = render_rng_salted(i, STREAM_GI_TEMPORAL, SALT_GI_SUBPATH);
-    let own_sample = GiSample(split.x3, split.x3_normal, split.beyond);
+    let own_sample = gi_diffuse_sample(split.x3, split.x3_normal, split.beyond);
     var own = PackedReservoir(0.0, 1u);
     if split.x3_hit && !split.x3_glossy {
         own.ucw = gi_own_ucw(x2, own_sample);
