@@ -93,13 +93,6 @@ pub enum Planted {
     /// the emission hits' weights kept: the two no longer sum to one, and the light the light
     /// side carries is off by `percent` - 100.
     LightMisScaled { percent: u32 },
-    /// A glossy x2 that restir-gi reconnects to keeps the record its BRDF's own sampling drew
-    /// (the light sample resampled towards the BRDF seen from the x1 that found it, the path's
-    /// ray by the BRDF's sampler, each weight that density's) instead of one drawn as a white
-    /// diffuse surface's: unbiased for that x1, but its distribution now depends on which x1
-    /// drew it, which the reuse's weights do not see (measured +2 to +4% in green and blue on
-    /// cornell-glossy before it was found).
-    GlossyX2DrawnByBrdf,
 }
 
 impl Planted {
@@ -123,7 +116,6 @@ impl Planted {
             Self::GlossyEnergyLoss => 14,
             Self::ReuseTakesGlossy => 15,
             Self::LightMisScaled { .. } => 16,
-            Self::GlossyX2DrawnByBrdf => 17,
         }
     }
 
@@ -195,7 +187,6 @@ impl Planted {
             ("GLOSSY_ENERGY_LOSS", Self::GlossyEnergyLoss),
             ("REUSE_TAKES_GLOSSY", Self::ReuseTakesGlossy),
             ("LIGHT_MIS_SCALED", Self::LightMisScaled { percent: 100 }),
-            ("GLOSSY_X2_DRAWN_BY_BRDF", Self::GlossyX2DrawnByBrdf),
         ];
         let mut s = String::from(
             "// Planted defects (restir_world::plant), compared with render_params.planted.\n",
@@ -230,7 +221,6 @@ mod tests {
             Planted::GlossyEnergyLoss,
             Planted::ReuseTakesGlossy,
             Planted::LightMisScaled { percent: 104 },
-            Planted::GlossyX2DrawnByBrdf,
         ];
         let mut ids: Vec<u32> = all.iter().map(|p| p.id()).collect();
         ids.sort_unstable();

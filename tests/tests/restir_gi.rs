@@ -32,7 +32,7 @@ fn layouts_match_wgsl() {
         src,
         "GiReservoir",
         [
-            position, ucw, radiance, normal_m, light, material, base, shading, wl, wi
+            position, ucw, radiance, normal_m, material, base, shading, light
         ]
     );
     tests::wgsl::assert_screen_params_layout(src, RestirGiConfig::GPU_WORDS);

@@ -75,10 +75,7 @@ fn render_path_pixel(i: u32) {
         var rng = render_rng_salted(i, STREAM_PATH, SALT_PATH_BOUNCE + bounce);
         // A recorded glossy x2 is sampled as a white diffuse surface (RenderGlossyX2), its
         // roulette too: its step's weight is f cos / (cos / pi).
-        // Planted defect GLOSSY_X2_DRAWN_BY_BRDF (restir_world::plant): by x2's BRDF.
-        let x2_recorded = bounce == 2u && render_records_glossy(v)
-            && !render_planted(PLANTED_GLOSSY_X2_DRAWN_BY_BRDF);
-        let x2_by_brdf = bounce == 2u && render_records_glossy(v) && !x2_recorded;
+        let x2_recorded = bounce == 2u && render_records_glossy(v);
         var sv = v;
         if x2_recorded {
             sv = render_sampled_as_diffuse(v);
@@ -110,10 +107,6 @@ fn render_path_pixel(i: u32) {
         if bounce == 2u {
             x2_wi = render_step_direction(v, w);
             x2_ratio = select(0.0, SAMPLING_PI, w.prim != BVH_NO_HIT || any(w.shading != vec3<f32>(0.0)));
-            if x2_by_brdf {
-                let pdf = render_brdf_pdf(v, x2_wi);
-                x2_ratio = select(0.0, max(dot(v.shading, x2_wi), 0.0) / pdf, pdf > 0.0);
-            }
             x2_found = beyond * found;
             split.direct += leaving * found;
             split.x3 = w.position;

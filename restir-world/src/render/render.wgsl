@@ -803,19 +803,9 @@ fn render_indirect_pixel(i: u32) -> PathLight {
     if g.prim != BVH_NO_HIT && s.prim != BVH_NO_HIT {
         var rng = render_rng(i, STREAM_INDIRECT);
         if render_records_glossy(s) {
-            // Planted defect GLOSSY_X2_DRAWN_BY_BRDF (restir_world::plant): drawn by x2's BRDF.
-            let by_brdf = render_planted(PLANTED_GLOSSY_X2_DRAWN_BY_BRDF);
-            var view = render_sampled_as_diffuse(s);
-            if by_brdf {
-                view = s;
-            }
-            let nee = render_nee_sampled(view, &rng, 0.0);
-            // The white surface's BRDF 1 / pi divided out (the defect: x2's).
-            var a_l = nee.light * SAMPLING_PI;
-            if by_brdf {
-                let f = render_brdf(s, nee.wi);
-                a_l = select(vec3<f32>(0.0), nee.light / f, f > vec3<f32>(0.0));
-            }
+            let nee = render_nee_sampled(render_sampled_as_diffuse(s), &rng, 0.0);
+            // The white surface's BRDF 1 / pi divided out.
+            let a_l = nee.light * SAMPLING_PI;
             render_store_glossy_light(i, nee.wi, a_l);
             var leaving = vec3<f32>(0.0);
             if any(a_l > vec3<f32>(0.0)) {

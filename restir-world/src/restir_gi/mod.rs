@@ -180,24 +180,24 @@ impl RestirGiConfig {
     }
 }
 
-/// WGSL `GiReservoir` (64 bytes): the sample's x2 and the radiance leaving it, W, and x2's
-/// normal (octahedral, two 11-bit snorm) with M in the top 10 bits; at a glossy x2
-/// (`material` not 0) `radiance` is its continuation's weight and the rest its light sample's
-/// weight, its BRDF (base colour as unorm10 x3, the material word, the shading normal) and the
-/// two directions (octahedral snorm16 x2).
+/// WGSL `GiReservoir` (48 bytes, so that world-restir-gi's pixels' and pool's reservoirs fit
+/// one 128 MiB binding at 1920x1080): the sample's x2, W, the radiance leaving x2 (f32 bits),
+/// and x2's normal (octahedral, two 11-bit snorm) with M in the top 10 bits; at a glossy x2
+/// (`material` not 0) `radiance` holds its continuation's weight (shared-exponent RGB) and the
+/// directions of its light sample and its path's ray (octahedral snorm16 x2), and the rest its
+/// BRDF (the material word, base colour as unorm10 x3, the shading normal) and its light
+/// sample's weight (shared-exponent RGB).
 #[repr(C)]
 #[derive(Debug, Clone, Copy, Default, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
 pub struct GiReservoir {
     pub position: [f32; 3],
     pub ucw: f32,
-    pub radiance: [f32; 3],
+    pub radiance: [u32; 3],
     pub normal_m: u32,
-    pub light: [f32; 3],
     pub material: u32,
     pub base: u32,
     pub shading: u32,
-    pub wl: u32,
-    pub wi: u32,
+    pub light: u32,
 }
 
 impl GiReservoir {
@@ -548,7 +548,7 @@ mod tests {
 
     #[test]
     fn the_structs_are_the_wgsl_ones() {
-        assert_eq!(size_of::<GiReservoir>(), 64);
+        assert_eq!(size_of::<GiReservoir>(), 48);
         assert!(constants_wgsl().contains("struct ScreenKnobs {\n    temporal_m_cap: u32,"));
         assert!(WGSL.contains("struct GiReservoir {\n    position: vec3<f32>,\n    ucw: f32,"));
     }

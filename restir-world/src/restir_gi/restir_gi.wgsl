@@ -15,22 +15,22 @@
 // and L towards each x1 is f(x2; wo, wl) a_l + f(x2; wo, wi) a_i, wo towards that x1: the
 // reconnection shift of a path whose vertices beyond x2 stay, its Jacobian the same.
 
-// A pixel's reservoir as stored, 64 bytes (Rust twin: restir_gi::GiReservoir): its sample's x2
-// and L (a glossy x2: a_i), W, normal_m = x2's normal (octahedral, two 11-bit snorm) | M << 22
-// (M saturates at GI_MAX_M; M = 0: no primary vertex); at a glossy x2 (material != 0) a_l,
-// x2's base colour (unorm10 x3), its shading normal and the directions wl and wi (octahedral
-// snorm16 x2).
+// A pixel's reservoir as stored, 48 bytes (Rust twin: restir_gi::GiReservoir; 48 so that
+// world-restir-gi's reservoirs, the pixels' and the pool's, fit one 128 MiB binding at
+// 1920x1080): its sample's x2, W, `radiance` (a diffuse x2's L as f32 bits; a glossy x2's a_i
+// as shared-exponent RGB and the directions wl and wi, octahedral snorm16 x2), normal_m = x2's
+// normal (octahedral, two 11-bit snorm) | M << 22 (M saturates at GI_MAX_M; M = 0: no primary
+// vertex); at a glossy x2 (material != 0) its material word, base colour (unorm10 x3), shading
+// normal (octahedral snorm16 x2) and a_l (shared-exponent RGB).
 struct GiReservoir {
     position: vec3<f32>,
     ucw: f32,
-    radiance: vec3<f32>,
+    radiance: vec3<u32>,
     normal_m: u32,
-    light: vec3<f32>,
     material: u32,
     base: u32,
     shading: u32,
-    wl: u32,
-    wi: u32,
+    light: u32,
 }
 
 // A path sample (GiReservoir's): at a diffuse x2 (material 0) its position, normal and L; at a
@@ -80,6 +80,31 @@ fn gi_unpack_unorm10(b: u32) -> vec3<f32> {
     return vec3<f32>(vec3<u32>(b, b >> 10u, b >> 20u) & vec3<u32>(1023u)) / 1023.0;
 }
 
+// Non-negative RGB in 32 bits: three 9-bit mantissas and a shared 5-bit exponent (as
+// EXT_texture_shared_exponent's, its bias moved to cover 2^-21 .. 5.2e5, a glossy record's
+// weights: relative error at most 1/1024 of the largest channel; larger values clamp).
+const GI_RGB9E5_BIAS: i32 = 21;
+
+fn gi_pack_rgb9e5(c: vec3<f32>) -> u32 {
+    let top = 511.0 * exp2(f32(31 - GI_RGB9E5_BIAS));
+    let v = clamp(c, vec3<f32>(0.0), vec3<f32>(top));
+    let most = max(v.x, max(v.y, v.z));
+    if !(most > 0.0) {
+        return 0u;
+    }
+    var e = clamp(i32(floor(log2(most))) + 1 + GI_RGB9E5_BIAS - 9, 0, 31);
+    if round(most * exp2(f32(GI_RGB9E5_BIAS - e))) > 511.0 && e < 31 {
+        e += 1;
+    }
+    let q = vec3<u32>(min(round(v * exp2(f32(GI_RGB9E5_BIAS - e))), vec3<f32>(511.0)));
+    return q.x | (q.y << 9u) | (q.z << 18u) | (u32(e) << 27u);
+}
+
+fn gi_unpack_rgb9e5(b: u32) -> vec3<f32> {
+    let q = vec3<u32>(b, b >> 9u, b >> 18u) & vec3<u32>(511u);
+    return vec3<f32>(q) * exp2(f32(i32(b >> 27u) - GI_RGB9E5_BIAS));
+}
+
 fn gi_snorm11(x: f32) -> u32 {
     return u32(round((clamp(x, -1.0, 1.0) * 0.5 + 0.5) * 2047.0));
 }
@@ -112,15 +137,15 @@ fn gi_m(r: GiReservoir) -> u32 {
 
 fn gi_store(s: GiSample, packed: PackedReservoir) -> GiReservoir {
     let m = min(packed.m, GI_MAX_M);
-    var r = GiReservoir(s.position, packed.ucw, s.radiance, gi_encode_normal(s.normal) | (m << 22u),
-                        vec3<f32>(0.0), 0u, 0u, 0u, 0u, 0u);
+    var r = GiReservoir(s.position, packed.ucw, bitcast<vec3<u32>>(s.radiance),
+                        gi_encode_normal(s.normal) | (m << 22u), 0u, 0u, 0u, 0u);
     if RENDER_GLOSSY && s.material != 0u {
-        r.light = s.light;
+        r.radiance = vec3<u32>(gi_pack_rgb9e5(s.radiance), gi_pack_direction(s.wl),
+                               gi_pack_direction(s.wi));
         r.material = s.material;
         r.base = gi_pack_unorm10(s.base);
         r.shading = gi_pack_direction(s.shading);
-        r.wl = gi_pack_direction(s.wl);
-        r.wi = gi_pack_direction(s.wi);
+        r.light = gi_pack_rgb9e5(s.light);
     }
     return r;
 }
@@ -134,14 +159,15 @@ fn gi_reweighted(r: GiReservoir, packed: PackedReservoir) -> GiReservoir {
 }
 
 fn gi_sample(r: GiReservoir) -> GiSample {
-    var s = gi_diffuse_sample(r.position, gi_decode_normal(r.normal_m), r.radiance);
+    var s = gi_diffuse_sample(r.position, gi_decode_normal(r.normal_m), bitcast<vec3<f32>>(r.radiance));
     if RENDER_GLOSSY && r.material != 0u {
+        s.radiance = gi_unpack_rgb9e5(r.radiance.x);
+        s.wl = gi_unpack_direction(r.radiance.y);
+        s.wi = gi_unpack_direction(r.radiance.z);
         s.material = r.material;
-        s.light = r.light;
         s.base = gi_unpack_unorm10(r.base);
         s.shading = gi_unpack_direction(r.shading);
-        s.wl = gi_unpack_direction(r.wl);
-        s.wi = gi_unpack_direction(r.wi);
+        s.light = gi_unpack_rgb9e5(r.light);
     }
     return s;
 }

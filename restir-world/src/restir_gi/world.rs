@@ -191,9 +191,10 @@ pub const MAX_HISTORY_FRAMES: u32 = 1000;
 
 /// Pixels per record the pool has room for. It keeps one record per cell: on many-lights at
 /// 256x256 (small lights, each face its own cell) 9,098 of them for 65,536 pixels with a still
-/// camera, 1,141 for 4,096 at 64x64, so half leaves room for cells out of view (when more
-/// want in, the oldest are dropped: they come last in item order).
-pub const PIXELS_PER_POOL_RECORD: u32 = 2;
+/// camera, 1,141 for 4,096 at 64x64, so a quarter leaves room for cells out of view (when more
+/// want in, the oldest are dropped: they come last in item order), and the pixels' and the
+/// pool's 48-byte reservoirs fit one 128 MiB binding at 1920x1080 (a half did not).
+pub const PIXELS_PER_POOL_RECORD: u32 = 4;
 
 /// The records the pool of a frame of `pixels` keeps at most.
 pub fn pool_capacity(pixels: u32) -> u32 {
