@@ -426,6 +426,7 @@ fn info(
             "--denoise: info prints the denoiser's place in a method's frame: give --method"
         );
     }
+    let paths = paths.paths()?;
     let plan = match method {
         Some(spec) => {
             let mut settings = restir_world::methods::parse_spec(spec).context("--method")?;
@@ -435,22 +436,88 @@ fn info(
                         .map_err(|e| anyhow::anyhow!("--denoise: {e}"))
                 })
                 .transpose()?;
-            let paths = paths.paths()?;
             settings.check_paths(&paths).context("--method")?;
-            Some((spec, settings.plan(&paths).context("--method")?))
+            let plan = settings.plan(&paths).context("--method")?;
+            Some((spec, settings, plan))
         }
         None => None,
     };
     // What needs no adapter first: the methods are listed on a machine without one too.
     print_methods();
-    if let Some((spec, plan)) = plan {
+    if let Some((spec, _, plan)) = &plan {
         println!("one frame of {spec} (each step enters its owner once):\n{plan}");
     }
-    if let Some(name) = scene_name {
-        print_scene(name, &scenes::load(name, opts, None)?);
-    }
+    let scene = match scene_name {
+        Some(name) => {
+            let scene = scenes::load(name, opts, None)?;
+            print_scene(name, &scene);
+            scene
+        }
+        None => scenes::load("cornell", opts, None)?,
+    };
     let ctx = gpu_context()?;
     print_adapter(&ctx);
+    let methods = match plan {
+        Some((spec, settings, _)) => vec![(spec.to_owned(), settings)],
+        None => restir_world::methods::registry()
+            .iter()
+            .map(|e| {
+                Ok((
+                    e.name.to_owned(),
+                    restir_world::methods::parse_spec(e.name)?,
+                ))
+            })
+            .collect::<Result<_, restir_world::methods::MethodError>>()?,
+    };
+    print_largest_images(
+        &ctx,
+        scene_name.unwrap_or("cornell"),
+        &scene,
+        &methods,
+        &paths,
+    )
+}
+
+/// The largest image each of `methods` renders of `scene` on this adapter: its widest
+/// per-pixel buffer against one storage binding, measured by building the method at 8x8.
+fn print_largest_images(
+    ctx: &GpuContext,
+    scene_name: &str,
+    scene: &Scene,
+    methods: &[(String, MethodSettings)],
+    paths: &render::Paths,
+) -> Result<()> {
+    println!(
+        "largest image of {scene_name} on this adapter (--size above it is refused before any work):"
+    );
+    let camera = scene.camera_or_default(8, 8);
+    for (spec, settings) in methods {
+        // In the listing, the cache's methods at the unbounded paths they need.
+        let paths = match settings.check_paths(paths) {
+            Ok(()) => *paths,
+            Err(_) => restir_world::sampling::Paths::bounces(render::MAX_BOUNCES),
+        };
+        let options = RenderOptions {
+            paths,
+            ..Default::default()
+        };
+        let probe = ctx.measuring_pixel_bindings();
+        settings
+            .build_with(&probe, scene, &camera, &options)
+            .with_context(|| format!("building {spec} to measure its buffers"))?;
+        let Some((bytes, what, pixels)) = probe.largest_pixel_binding() else {
+            continue;
+        };
+        // The largest 16:9 image 16k x 9k and square image that fit.
+        let k = ((pixels / 144) as f64).sqrt() as u64;
+        let side = (pixels as f64).sqrt() as u64;
+        println!(
+            "  {spec}: {pixels} pixels ({what}, {bytes} bytes a pixel): up to {}x{} at 16:9, \
+             {side}x{side} square",
+            16 * k,
+            9 * k
+        );
+    }
     Ok(())
 }
 

@@ -265,6 +265,61 @@ fn bad_settings_are_errors() {
     assert!(Renderer::new(ctx, &empty, &camera, Estimator::Nee, 0).is_err());
 }
 
+/// What `restir-demo info` states as each method's largest image holds: every registered
+/// method, denoised, on a glossy scene (whose path split keeps glossy records) builds at
+/// exactly the pixels its widest checked per-pixel binding allows, and one row more is
+/// refused with the size named. Guards that no per-pixel buffer escapes
+/// `check_pixel_binding` (it would fail in wgpu's validation here instead).
+#[test]
+fn every_method_builds_at_the_largest_image_info_states() {
+    use restir_world::methods::{parse_spec, registry};
+    let ctx = gpu::context();
+    let scene = builtin("cornell-glossy", &Default::default()).expect("cornell-glossy");
+    let small = scene.camera_or_default(8, 8);
+    // The sub-path variant keeps per-pixel sub-paths of its own (the 2048x1025 case).
+    let specs = registry()
+        .iter()
+        .map(|e| e.name)
+        .chain(["world-restir-gi:subpath"]);
+    for spec in specs {
+        let mut settings = parse_spec(spec).expect("registered");
+        settings.denoise = Some(Default::default());
+        let paths = match settings.check_paths(&Default::default()) {
+            Ok(()) => Default::default(),
+            Err(_) => restir_world::sampling::Paths::bounces(restir_world::render::MAX_BOUNCES),
+        };
+        let options = RenderOptions {
+            paths,
+            ..Default::default()
+        };
+        let probe = ctx.measuring_pixel_bindings();
+        drop(
+            settings
+                .build_with(&probe, &scene, &small, &options)
+                .expect(spec),
+        );
+        let (bytes, what, pixels) = probe.largest_pixel_binding().expect("a per-pixel binding");
+        let width = 2048;
+        let rows = (pixels / u64::from(width)) as u32;
+        eprintln!("{spec}: {pixels} pixels ({what}, {bytes} bytes a pixel)");
+        let largest = scene.camera_or_default(width, rows);
+        drop(
+            settings
+                .build_with(ctx, &scene, &largest, &options)
+                .expect(spec),
+        );
+        let over = scene.camera_or_default(width, rows + 1);
+        let refused = settings
+            .build_with(ctx, &scene, &over, &options)
+            .map(|_| ());
+        let message = refused.expect_err(spec).to_string();
+        assert!(
+            message.contains(restir_world::gpu::IMAGE_TOO_LARGE),
+            "{spec}: {message}"
+        );
+    }
+}
+
 #[test]
 fn render_structs_match_wgsl_layout() {
     use restir_world::render::{GVertex, RenderParams, RenderState, passes_source};

@@ -143,7 +143,14 @@ pub struct GpuContext {
     pub tracer: Tracer,
     /// The kernels created on this context (shared by its clones).
     pub kernels: KernelCache,
+    /// The widest per-pixel binding checked on this context (shared by its clones but for
+    /// [`GpuContext::measuring_pixel_bindings`]'s), for [`GpuContext::largest_pixel_binding`].
+    pub pixel_peak: PixelPeak,
 }
+
+/// The widest per-pixel binding [`GpuContext::check_pixel_binding`] saw: bytes a pixel and
+/// what the buffer is (shared by clones, fresh in [`GpuContext::measuring_pixel_bindings`]).
+pub type PixelPeak = std::sync::Arc<std::sync::Mutex<Option<(u64, String)>>>;
 
 impl fmt::Debug for GpuContext {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
@@ -314,6 +321,7 @@ impl GpuContext {
             features,
             tracer,
             kernels: KernelCache::default(),
+            pixel_peak: PixelPeak::default(),
         })
     }
 
@@ -367,6 +375,11 @@ impl GpuContext {
         pixels: u64,
         bytes_per_pixel: u64,
     ) -> Result<(), GpuError> {
+        if let Ok(mut peak) = self.pixel_peak.lock()
+            && peak.as_ref().is_none_or(|(b, _)| bytes_per_pixel > *b)
+        {
+            *peak = Some((bytes_per_pixel, what.to_owned()));
+        }
         let limit = self.max_binding_bytes();
         if pixels.saturating_mul(bytes_per_pixel) > limit {
             return Err(GpuError::ImageTooLarge {
@@ -377,6 +390,23 @@ impl GpuContext {
             });
         }
         Ok(())
+    }
+
+    /// A clone of this context (the same device and kernels) that measures the per-pixel
+    /// bindings checked through it afresh: build a method on it, then ask
+    /// [`GpuContext::largest_pixel_binding`] how large an image that method can render.
+    pub fn measuring_pixel_bindings(&self) -> Self {
+        Self {
+            pixel_peak: PixelPeak::default(),
+            ..self.clone()
+        }
+    }
+
+    /// The widest per-pixel binding checked on this context so far, in bytes a pixel, with
+    /// what it holds, and the most pixels it allows in one of the adapter's bindings.
+    pub fn largest_pixel_binding(&self) -> Option<(u64, String, u64)> {
+        let peak = self.pixel_peak.lock().ok()?.clone()?;
+        Some((peak.0, peak.1, self.max_binding_bytes() / peak.0.max(1)))
     }
 
     /// Checks that a buffer of `bytes` for `what` fits one storage binding.
