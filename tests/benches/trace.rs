@@ -7,6 +7,10 @@
 //!
 //! On lavapipe the "GPU" is the same CPU, so the CPU traversal is the honest peer: the ratios
 //! bvh_rays_per_s / cpu_rays_per_s and rq_rays_per_s / cpu_rays_per_s are the numbers to read.
+//!
+//! What a ray costs, device-independently: the nodes and triangles our GPU traversal tests a
+//! ray (`gpu_nodes_per_ray`, `gpu_tris_per_ray`, and the bytes of both it fetches) beside
+//! obvhs's CPU traversal of the same BVH and rays (`cpu_*`).
 
 use std::time::Instant;
 
@@ -17,7 +21,7 @@ use restir_world::GpuContext;
 use restir_world::gpu::Tracer;
 use restir_world::sampling::CameraGpu;
 use restir_world::scene::{BuiltinOptions, Scene, builtin};
-use restir_world::trace::{Bvh, Hit, Ray, TraceBinding, TraceKernel};
+use restir_world::trace::{Bvh, Hit, Ray, TraceBinding, TraceKernel, Visits};
 use tests::{bench, buffers, gpu};
 
 const SIDE: u32 = 256;
@@ -149,13 +153,56 @@ fn gpu_ms(ctx: &GpuContext, t: &Traced) -> f64 {
     bench::gpu_ms(ctx, 5, |enc| t.kernel.encode_with(enc, &t.binding))
 }
 
-/// Rays per second of each tracer on one kind of ray, and their BVHs' build times.
+/// Rays per second of each tracer on one kind of ray, their BVHs' build times, and what a
+/// ray visits on the GPU and in obvhs's CPU traversal.
 struct Rates {
     bvh: f64,
     ray_query: Option<f64>,
     cpu: f64,
     bvh_build_ms: f64,
     rq_build_ms: Option<f64>,
+    gpu_visits: VisitsPerRay,
+    cpu_visits: VisitsPerRay,
+}
+
+/// Nodes, triangles and bytes a ray, averaged over a kind of ray.
+struct VisitsPerRay {
+    nodes: f64,
+    triangles: f64,
+    bytes: f64,
+}
+
+impl VisitsPerRay {
+    fn of(visits: &[Visits]) -> Self {
+        let n = visits.len().max(1) as f64;
+        let sum = |f: &dyn Fn(&Visits) -> f64| visits.iter().map(f).sum::<f64>() / n;
+        Self {
+            nodes: sum(&|v| f64::from(v.nodes)),
+            triangles: sum(&|v| f64::from(v.triangles)),
+            bytes: sum(&|v| v.bytes() as f64),
+        }
+    }
+}
+
+/// What each ray visits in our GPU traversal (the counting kernel, once).
+fn gpu_visits(
+    ctx: &GpuContext,
+    bvh: &restir_world::trace::GpuBvh,
+    rays: &wgpu::Buffer,
+    hits: &wgpu::Buffer,
+    n: u32,
+    any_hit: bool,
+) -> Vec<Visits> {
+    let kernel = TraceKernel::counting(&ctx.device);
+    let bytes = u64::from(n) * size_of::<Visits>() as u64;
+    let counts = buffers::storage_zeroed(&ctx.device, "visits", bytes);
+    let binding = kernel
+        .bind_counted(&ctx.device, bvh, rays, hits, &counts, n, any_hit)
+        .expect("bind");
+    gpu::run(ctx, |enc| kernel.encode_with(enc, &binding));
+    let mut v: Vec<Visits> = buffers::read(ctx, &counts).expect("readback");
+    v.truncate(n as usize);
+    v
 }
 
 /// The RESULT pairs of one scene's kind of ray (`unavailable` where the adapter has no ray
@@ -191,6 +238,12 @@ fn result_pairs(
             r.rq_build_ms
                 .map_or_else(unavailable, |ms| format!("{ms:.3}")),
         ),
+        ("gpu_nodes_per_ray", format!("{:.2}", r.gpu_visits.nodes)),
+        ("cpu_nodes_per_ray", format!("{:.2}", r.cpu_visits.nodes)),
+        ("gpu_tris_per_ray", format!("{:.2}", r.gpu_visits.triangles)),
+        ("cpu_tris_per_ray", format!("{:.2}", r.cpu_visits.triangles)),
+        ("gpu_bytes_per_ray", format!("{:.0}", r.gpu_visits.bytes)),
+        ("cpu_bytes_per_ray", format!("{:.0}", r.cpu_visits.bytes)),
         (
             "cpu_threads",
             std::thread::available_parallelism()
@@ -251,7 +304,11 @@ fn trace(c: &mut Criterion) {
                 f64::from(n) / (gpu_ms(ctx, &hw) * 1e-3)
             });
             let cpu_rps = cpu_rays_per_s(&bvh, rays, any_hit);
+            let gv = gpu_visits(ctx, &gpu_bvh, &rays_buf, &hits_buf, n, any_hit);
+            let cv: Vec<Visits> = rays.iter().map(|r| bvh.traverse(r, any_hit).1).collect();
             let rates = Rates {
+                gpu_visits: VisitsPerRay::of(&gv),
+                cpu_visits: VisitsPerRay::of(&cv),
                 bvh: gpu_rps,
                 ray_query: rq_rps,
                 cpu: cpu_rps,

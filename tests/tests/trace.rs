@@ -450,6 +450,77 @@ fn gpu_structs_match_wgsl_layout() {
     tests::assert_wgsl_layout!(Hit, src, "Hit", [t, prim, b1, b2]);
 }
 
+/// The GPU traversal's nodes and triangles per ray (`TraceKernel::counting`) against obvhs's
+/// CPU traversal of the same BVH and rays (`Bvh::traverse`), closest and any hit, on a
+/// triangle soup and many-lights: the same walk, so the same counts up to the rays whose
+/// floating-point box tests differ. Guards the traversal's work (an extra node a ray, a lost
+/// front-to-back order) where the hit tests above see only its answers.
+#[test]
+fn gpu_traversal_visits_what_obvhs_visits() {
+    use restir_world::scene::{BuiltinOptions, builtin};
+    use restir_world::trace::Visits;
+    let mut ctx = gpu::context().clone();
+    ctx.set_tracer(Some(Tracer::Bvh)).expect("bvh");
+    let many = builtin("many-lights", &BuiltinOptions::default()).expect("many-lights");
+    for (name, scene, seed) in [("soup", soup(5_000, 3), 31), ("many-lights", many, 32)] {
+        let bvh = Bvh::build(&scene).expect("build");
+        let rays = random_rays(&scene, RAYS, seed);
+        let gpu_bvh = bvh.upload(&ctx).expect("upload");
+        let kernel = TraceKernel::counting(&ctx.device);
+        let rays_buf = buffers::storage_from(&ctx.device, "rays", &rays);
+        let n = rays.len() as u64;
+        let hits_buf = buffers::storage_zeroed(&ctx.device, "hits", n * size_of::<Hit>() as u64);
+        let counts_buf =
+            buffers::storage_zeroed(&ctx.device, "visits", n * size_of::<Visits>() as u64);
+        for any_hit in [false, true] {
+            let binding = kernel
+                .bind_counted(
+                    &ctx.device,
+                    &gpu_bvh,
+                    &rays_buf,
+                    &hits_buf,
+                    &counts_buf,
+                    rays.len() as u32,
+                    any_hit,
+                )
+                .expect("bind");
+            gpu::run(&ctx, |enc| kernel.encode_with(enc, &binding));
+            let gpu: Vec<Visits> = buffers::read(&ctx, &counts_buf).expect("readback");
+            let cpu: Vec<Visits> = rays.iter().map(|r| bvh.traverse(r, any_hit).1).collect();
+            let total = |v: &[Visits]| {
+                v.iter().take(rays.len()).fold((0u64, 0u64), |(a, b), x| {
+                    (a + u64::from(x.nodes), b + u64::from(x.triangles))
+                })
+            };
+            let (g, c) = (total(&gpu), total(&cpu));
+            let same = gpu.iter().zip(&cpu).filter(|(a, b)| a == b).count();
+            eprintln!(
+                "{name} (any hit: {any_hit}): nodes a ray GPU {:.3} CPU {:.3}, triangles GPU \
+                 {:.3} CPU {:.3}, the same counts on {same} of {} rays",
+                g.0 as f64 / n as f64,
+                c.0 as f64 / n as f64,
+                g.1 as f64 / n as f64,
+                c.1 as f64 / n as f64,
+                rays.len()
+            );
+            // 1%: rays whose box tests round differently (FMA on the GPU, SSE on the CPU, and
+            // obvhs's 1e-4 clamp of the node tmin) walk a few nodes more or fewer.
+            for (what, gv, cv) in [("nodes", g.0, c.0), ("triangles", g.1, c.1)] {
+                let ratio = gv as f64 / cv.max(1) as f64;
+                assert!(
+                    (0.99..=1.01).contains(&ratio),
+                    "{name}: the GPU visits {ratio:.4}x obvhs's {what}"
+                );
+            }
+            assert!(
+                same as f64 >= 0.95 * rays.len() as f64,
+                "{name}: the same counts on only {same} of {} rays",
+                rays.len()
+            );
+        }
+    }
+}
+
 #[test]
 fn builtin_scenes_match_obvhs() {
     use restir_world::scene::{BUILTIN_NAMES, BuiltinOptions, builtin};

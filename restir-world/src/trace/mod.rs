@@ -15,7 +15,7 @@ use glam::{Vec3, Vec3A};
 use obvhs::{
     BvhBuildParams,
     cwbvh::{CwBvh, builder::build_cwbvh_from_tris, node::CwBvhNode},
-    ray::{Ray as ObvhsRay, RayHit},
+    ray::Ray as ObvhsRay,
 };
 
 use crate::gpu::{
@@ -102,6 +102,23 @@ pub struct BvhTriangle {
     pub index: u32,
     pub v2: [f32; 3],
     pub flags: u32,
+}
+
+/// What one ray's traversal visited (WGSL `bvh_visits`, read by `trace_rays_counted`): node
+/// boxes tested (80 bytes each fetched) and triangles tested (48 bytes each).
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct Visits {
+    pub nodes: u32,
+    pub triangles: u32,
+}
+
+impl Visits {
+    /// The bytes of nodes and triangles these visits fetched.
+    pub fn bytes(&self) -> u64 {
+        u64::from(self.nodes) * size_of::<CwBvhNode>() as u64
+            + u64::from(self.triangles) * size_of::<BvhTriangle>() as u64
+    }
 }
 
 /// A ray as the GPU reads it.
@@ -310,6 +327,20 @@ impl Bvh {
 
     /// Closest hit by obvhs's CPU traversal with the watertight test (twin of `trace_closest`).
     pub fn closest_hit(&self, ray: &Ray) -> Hit {
+        self.traverse(ray, false).0
+    }
+
+    /// Whether anything blocks the ray within [tmin, tmax] (twin of `trace_any`).
+    pub fn any_hit(&self, ray: &Ray) -> bool {
+        self.traverse(ray, true).0.is_hit()
+    }
+
+    /// obvhs's CPU traversal (its `traverse!`, as its `ray_traverse` and `ray_traverse_miss`
+    /// run it) with the watertight test: the closest hit, or with `any_hit` the first hit
+    /// found, and the nodes and triangles it visited (twin of `bvh_traverse` and its
+    /// `bvh_visits`).
+    pub fn traverse(&self, ray: &Ray, any_hit: bool) -> (Hit, Visits) {
+        use glam::UVec2; // The macro names it unqualified.
         let wt = Watertight::new(Vec3::from(ray.dir));
         let origin = Vec3::from(ray.origin);
         let mut best = Hit {
@@ -318,35 +349,45 @@ impl Bvh {
             b1: 0.0,
             b2: 0.0,
         };
-        let mut hit = RayHit::none();
-        self.cwbvh
-            .ray_traverse(Self::obvhs_ray(ray), &mut hit, |r, id| {
-                match wt.intersect(origin, ray.tmin, r.tmax, &self.triangles[id]) {
-                    Some((t, b1, b2)) if t < r.tmax => {
+        let mut visits = Visits::default();
+        if self.cwbvh.nodes.is_empty() {
+            return (best, visits);
+        }
+        let mut obvhs_ray = Self::obvhs_ray(ray);
+        let mut state = self.cwbvh.new_traversal(obvhs_ray.direction);
+        let mut node;
+        // A labelled block: a `break` inside the macro's primitive loop would only end that loop.
+        'traversal: {
+            obvhs::traverse!(
+                self.cwbvh,
+                node,
+                state,
+                {
+                    visits.nodes += 1;
+                    node.intersect_ray(&obvhs_ray, state.oct_inv4)
+                },
+                {
+                    visits.triangles += 1;
+                    let id = state.primitive_id as usize;
+                    if let Some((t, b1, b2)) =
+                        wt.intersect(origin, ray.tmin, obvhs_ray.tmax, &self.triangles[id])
+                        && t < obvhs_ray.tmax
+                    {
                         best = Hit {
                             t,
                             prim: id as u32,
                             b1,
                             b2,
                         };
-                        t
+                        if any_hit {
+                            break 'traversal;
+                        }
+                        obvhs_ray.tmax = t;
                     }
-                    _ => f32::INFINITY,
                 }
-            });
-        best
-    }
-
-    /// Whether anything blocks the ray within [tmin, tmax] (twin of `trace_any`).
-    pub fn any_hit(&self, ray: &Ray) -> bool {
-        let wt = Watertight::new(Vec3::from(ray.dir));
-        let origin = Vec3::from(ray.origin);
-        !self.cwbvh.ray_traverse_miss(Self::obvhs_ray(ray), |r, id| {
-            match wt.intersect(origin, ray.tmin, r.tmax, &self.triangles[id]) {
-                Some((t, _, _)) => t,
-                None => f32::INFINITY,
-            }
-        })
+            );
+        }
+        (best, visits)
     }
 
     /// Uploads nodes (as-is) and triangles, and for [`Tracer::RayQuery`] (`ctx.tracer`) builds
@@ -499,8 +540,34 @@ pub fn io_bindings() -> BindingSet {
         .buffer("trace_params", "TraceParams", Access::Uniform)
 }
 
+/// The counting kernel's entry point: `trace_rays`, and each ray's [`Visits`] written beside
+/// its hit (the software traversal only).
+const COUNTED_KERNEL_WGSL: &str = "
+@compute @workgroup_size(WORKGROUP_SIZE)
+fn trace_rays_counted(id: Invocation) {
+    let i = item_index(id);
+    if i >= trace_params.count { return; }
+    bvh_visits = vec2<u32>(0u);
+    trace_hits_out[i] = bvh_traverse(trace_rays_in[i], trace_params.any_hit != 0u);
+    trace_counts_out[i] = bvh_visits;
+}
+";
+
+/// The counting kernel's output: one [`Visits`] per ray.
+fn counts_bindings() -> BindingSet {
+    BindingSet::new("trace_rays counts").buffer(
+        "trace_counts_out",
+        "array<vec2<u32>>",
+        Access::ReadWrite,
+    )
+}
+
 /// Composed source of [`TraceKernel`] on `tracer`.
 pub fn kernel_source(tracer: Tracer) -> String {
+    compose(&kernel_modules(tracer)).expect("the tracer's modules compose")
+}
+
+fn kernel_modules(tracer: Tracer) -> Vec<WgslModule> {
     let mut m = modules(1, tracer);
     m.push(WgslModule::new("workgroup", &[], workgroup_size_wgsl()));
     m.push(WgslModule::new("trace-io", &[], io_bindings().wgsl(0)));
@@ -509,7 +576,7 @@ pub fn kernel_source(tracer: Tracer) -> String {
         &["trace", "trace-io", "workgroup"],
         KERNEL_WGSL,
     ));
-    compose(&m).expect("the tracer's modules compose")
+    m
 }
 
 /// Traces a buffer of [`Ray`]s into a buffer of [`Hit`]s (closest or any hit).
@@ -518,6 +585,8 @@ pub struct TraceKernel {
     kernel: Kernel,
     io_layout: BindGroupLayout,
     bvh_layout: BindGroupLayout,
+    /// [`TraceKernel::counting`]'s output layout.
+    counts_layout: Option<BindGroupLayout>,
 }
 
 impl TraceKernel {
@@ -536,6 +605,41 @@ impl TraceKernel {
             kernel,
             io_layout,
             bvh_layout,
+            counts_layout: None,
+        }
+    }
+
+    /// The software traversal's kernel that also counts what each ray visited
+    /// ([`TraceKernel::bind_counted`]): the GPU side of the traversal counts that
+    /// [`Bvh::traverse`] gives on the CPU.
+    pub fn counting(device: &wgpu::Device) -> Self {
+        let io_layout = io_bindings().layout(device);
+        let bvh_layout = bindings(Tracer::Bvh).layout(device);
+        let counts_layout = counts_bindings().layout(device);
+        let mut m = kernel_modules(Tracer::Bvh);
+        m.push(WgslModule::new(
+            "trace-counts",
+            &[],
+            counts_bindings().wgsl(2),
+        ));
+        m.push(WgslModule::new(
+            "trace_rays_counted",
+            &["trace_rays", "trace-counts"],
+            COUNTED_KERNEL_WGSL,
+        ));
+        let source = compose(&m).expect("the counting kernel's modules compose");
+        let kernel = Kernel::new(
+            device,
+            "trace_rays_counted",
+            &source,
+            &[&io_layout, &bvh_layout, &counts_layout],
+            &["trace_rays_counted"],
+        );
+        Self {
+            kernel,
+            io_layout,
+            bvh_layout,
+            counts_layout: Some(counts_layout),
         }
     }
 
@@ -547,6 +651,33 @@ impl TraceKernel {
         bvh: &GpuBvh,
         rays: &wgpu::Buffer,
         hits: &wgpu::Buffer,
+        count: u32,
+        any_hit: bool,
+    ) -> Result<TraceBinding, GpuError> {
+        self.bind_with(device, bvh, (rays, hits, None), count, any_hit)
+    }
+
+    /// [`Self::bind`] of a [`TraceKernel::counting`] kernel, each ray's [`Visits`] into
+    /// `counts`.
+    #[allow(clippy::too_many_arguments)]
+    pub fn bind_counted(
+        &self,
+        device: &wgpu::Device,
+        bvh: &GpuBvh,
+        rays: &wgpu::Buffer,
+        hits: &wgpu::Buffer,
+        counts: &wgpu::Buffer,
+        count: u32,
+        any_hit: bool,
+    ) -> Result<TraceBinding, GpuError> {
+        self.bind_with(device, bvh, (rays, hits, Some(counts)), count, any_hit)
+    }
+
+    fn bind_with(
+        &self,
+        device: &wgpu::Device,
+        bvh: &GpuBvh,
+        (rays, hits, counts): (&wgpu::Buffer, &wgpu::Buffer, Option<&wgpu::Buffer>),
         count: u32,
         any_hit: bool,
     ) -> Result<TraceBinding, GpuError> {
@@ -565,12 +696,22 @@ impl TraceKernel {
             ],
         )?;
         let bvh = self.bvh_layout.bind(device, bvh.resources())?;
-        Ok(TraceBinding(self.kernel.pass(
-            device,
-            "trace_rays",
-            &[&io, &bvh],
-            count,
-        )))
+        let (entry, groups) = match (&self.counts_layout, counts) {
+            (None, None) => ("trace_rays", vec![io, bvh]),
+            (Some(layout), Some(counts)) => {
+                let out = layout.bind(device, [("trace_counts_out", counts.into())])?;
+                ("trace_rays_counted", vec![io, bvh, out])
+            }
+            _ => {
+                return Err(GpuError::Binding(
+                    "a counting trace kernel binds with bind_counted, the other with bind".into(),
+                ));
+            }
+        };
+        let groups: Vec<&wgpu::BindGroup> = groups.iter().collect();
+        Ok(TraceBinding(
+            self.kernel.pass(device, entry, &groups, count),
+        ))
     }
 
     /// Records the trace of a bound dispatch.

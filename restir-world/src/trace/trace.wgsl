@@ -137,6 +137,10 @@ fn bvh_intersect_node(node: BvhNode, origin: vec3<f32>, inv_dir: vec3<f32>, neg:
     return hit_mask;
 }
 
+// The nodes (x) and triangles (y) the invocation's traversals tested, for `trace_rays_counted`
+// (a kernel that never reads it pays nothing: the driver drops the stores).
+var<private> bvh_visits: vec2<u32>;
+
 // Traverses the BVH. `any_hit` stops at the first hit in [tmin, tmax] (shadow rays).
 fn bvh_traverse(ray: Ray, any_hit: bool) -> Hit {
     var hit: Hit;
@@ -161,6 +165,7 @@ fn bvh_traverse(ray: Ray, any_hit: bool) -> Hit {
             prims.y &= ~(1u << local);
             let id = prims.x + local;
             let tri = bvh_triangles[id];
+            bvh_visits.y += 1u;
             let r = bvh_intersect_triangle(wt, ray.origin, ray.tmin, hit.t, tri.v0, tri.v1, tri.v2);
             if r.x >= 0.0 && r.x < hit.t {
                 hit.t = r.x;
@@ -186,6 +191,7 @@ fn bvh_traverse(ray: Ray, any_hit: bool) -> Hit {
             let slot = (child_offset - 24u) ^ oct_inv;
             let relative = countOneBits(hits_imask & ~(0xffffffffu << slot));
             let node = bvh_nodes[base + relative];
+            bvh_visits.x += 1u;
             let mask = bvh_intersect_node(node, ray.origin, inv_dir, neg, tmin, hit.t, oct_inv);
             current = vec2<u32>(node.child_base_idx, (mask & 0xff000000u) | (node.e_imask >> 24u));
             prims = vec2<u32>(node.primitive_base_idx, mask & 0x00ffffffu);
