@@ -813,6 +813,18 @@ pub struct ScanBinding {
     work: Option<Work>,
 }
 
+impl ScanBinding {
+    /// The compute dispatches one [`Scan::encode`] of this binding records: 0 for an empty
+    /// scan, 1 for a direct one, 2 for an indirect one (its pre-pass and the scan).
+    pub fn dispatches(&self) -> u32 {
+        match self.work.as_ref().map(|w| &w.dispatch) {
+            None => 0,
+            Some(Dispatch::Direct(_)) => 1,
+            Some(Dispatch::Indirect(_)) => 2,
+        }
+    }
+}
+
 #[derive(Debug)]
 struct Work {
     bind_group: wgpu::BindGroup,

@@ -119,6 +119,8 @@ impl SceneRuns<'_> {
             if let Some(t) = s.times {
                 spans.add(t);
             }
+            tally.dispatches.0 += u64::from(s.dispatches);
+            tally.dispatches.1 += u64::from(s.frames);
             if !s.record_done {
                 return Ok(());
             }
@@ -261,6 +263,8 @@ struct Tally {
     reuse_bytes_per_pixel: Option<f64>,
     bytes_per_pixel: f64,
     denoised: DenoisedTally,
+    /// Compute dispatches and the frames they were recorded for.
+    dispatches: (u64, u64),
 }
 
 /// Mean over pixels and channels of ((a - a_before) - (r - r_before))^2 / (r^2 + 0.01): the
@@ -291,6 +295,7 @@ impl Tally {
             reuse_bytes_per_pixel: None,
             bytes_per_pixel: 0.0,
             denoised: DenoisedTally::default(),
+            dispatches: (0, 0),
         }
     }
 
@@ -438,6 +443,7 @@ impl Tally {
             cache: self.cache,
             reuse_bytes_per_pixel: self.reuse_bytes_per_pixel,
             bytes_per_pixel: self.bytes_per_pixel,
+            dispatches_per_frame: self.dispatches.0 as f64 / self.dispatches.1.max(1) as f64,
             images: RunImages {
                 raw: self.image_errors(refs)?,
                 denoised: self.denoised_errors(refs)?,

@@ -302,6 +302,7 @@ fn write_times(s: &mut String, methods: &[MethodRun]) {
         "median ms by stage",
         "grid overflows (most in a frame)",
         "bytes/pixel (path reuse)",
+        "dispatches/frame",
     ]);
     let rows = methods.iter().map(|m| {
         let stages: Vec<String> = m
@@ -320,6 +321,7 @@ fn write_times(s: &mut String, methods: &[MethodRun]) {
                 Some(r) => format!("{:.0} ({r:.0})", m.bytes_per_pixel),
                 None => format!("{:.0}", m.bytes_per_pixel),
             },
+            format!("{:.1}", m.dispatches_per_frame),
         ]
     });
     table(s, &header, rows);

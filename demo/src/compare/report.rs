@@ -199,6 +199,9 @@ pub struct MethodRun {
     /// Bytes per pixel of every per-frame buffer the method keeps (the renderer's per-pixel
     /// buffers and each stage's, the denoiser's too; the scene's not).
     pub bytes_per_pixel: f64,
+    /// Compute dispatches a frame records (mean over the run's frames): its fixed cost, which
+    /// a GPU pays per dispatch where lavapipe hardly does.
+    pub dispatches_per_frame: f64,
     pub images: RunImages,
     pub per_frame: Vec<FrameRecord>,
 }

@@ -14,6 +14,8 @@ pub struct FrameEncoder<'a> {
     encoder: &'a mut wgpu::CommandEncoder,
     timer: Option<&'a mut GpuTimer>,
     device: &'a wgpu::Device,
+    /// Compute dispatches recorded through it (a frame's fixed cost on a GPU).
+    dispatches: u32,
 }
 
 impl<'a> FrameEncoder<'a> {
@@ -26,7 +28,13 @@ impl<'a> FrameEncoder<'a> {
             encoder,
             timer,
             device,
+            dispatches: 0,
         }
+    }
+
+    /// The compute dispatches recorded through this encoder so far.
+    pub fn dispatches(&self) -> u32 {
+        self.dispatches
     }
 
     /// Records `body` as the stage `name`.
@@ -45,9 +53,22 @@ impl<'a> FrameEncoder<'a> {
     /// Records `pass`.
     pub fn dispatch(&mut self, pass: &Pass) {
         pass.record(self.encoder);
+        self.dispatches += 1;
     }
 
-    /// The encoder, for primitives that record into it themselves.
+    /// Records a bound gpu-scan.
+    pub fn scan(
+        &mut self,
+        scan: &gpu_scan::Scan,
+        binding: &gpu_scan::ScanBinding,
+    ) -> Result<(), gpu_scan::ScanError> {
+        scan.encode(self.encoder, binding)?;
+        self.dispatches += binding.dispatches();
+        Ok(())
+    }
+
+    /// The encoder, for clears and copies (dispatches go through [`FrameEncoder::dispatch`]
+    /// and [`FrameEncoder::scan`], which count them).
     pub fn raw(&mut self) -> &mut wgpu::CommandEncoder {
         self.encoder
     }

@@ -403,7 +403,7 @@ impl WorldGrid {
         f.upload(self.tables[p].params(), 0, &grid);
         self.tables[p].encode_clear(f.raw());
         f.dispatch(&self.passes.insert[p]);
-        self.scan.encode(f.raw(), &self.scan_bindings[p])?;
+        f.scan(&self.scan, &self.scan_bindings[p])?;
         f.dispatch(&self.passes.scatter[p]);
         if let Some(sort) = &self.passes.sort {
             f.dispatch(&sort[p]);

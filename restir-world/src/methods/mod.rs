@@ -160,6 +160,8 @@ pub struct Submitted<'a> {
     pub record_done: bool,
     /// The submission's spans (`None` without timestamps or when not timed).
     pub times: Option<&'a SpanTimes>,
+    /// The compute dispatches its frames recorded (a restart's clears not included).
+    pub dispatches: u32,
 }
 
 /// The one frame loop: runs `l` on `m`, calling `after` after each submission (the GPU is
@@ -192,9 +194,11 @@ pub fn run_frames<E: From<MethodError>>(
             if done == 0 && l.restart {
                 m.restart_accumulation(&mut f);
             }
+            let restart_dispatches = f.dispatches();
             for _ in 0..n {
                 m.encode_frame(&mut f)?;
             }
+            let dispatches = f.dispatches() - restart_dispatches;
             if let Some(t) = timer.as_ref() {
                 t.resolve(&mut encoder);
             }
@@ -216,6 +220,7 @@ pub fn run_frames<E: From<MethodError>>(
                 frames: n,
                 record_done: done == l.samples,
                 times: times.as_ref(),
+                dispatches,
             };
             after(m, &s)?;
         }

@@ -471,7 +471,7 @@ impl Pool {
         f.copy(&buffers.vertices, history.pool_vertices);
         f.copy(&buffers.age, &self.history_age);
         f.dispatch(&self.flag[parity]);
-        self.scan.encode(f.raw(), &self.scan_binding)?;
+        f.scan(&self.scan, &self.scan_binding)?;
         f.dispatch(&self.scatter);
         Ok(())
     }
