@@ -17,6 +17,10 @@ pub const WG_SUBGROUP_WGSL: &str = include_str!("wgsl/wg_subgroup.wgsl");
 /// The indirect pre-pass.
 pub const PREPARE_WGSL: &str = include_str!("wgsl/prepare.wgsl");
 
+/// The longest run an invocation keeps in registers ([`KernelConfig::keeps_run`]): 16 elements,
+/// four vec4s.
+pub const MAX_KEPT_ITEMS: u32 = 16;
+
 /// Everything Rust decides about a compiled scan kernel.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct KernelConfig {
@@ -78,7 +82,23 @@ impl KernelConfig {
             s.push_str(&format!("const {name}: u32 = {v}u;\n"));
         }
         s.push_str(&format!("const SCAN_COUNTERS: bool = {};\n", self.counters));
+        s.push_str(&format!(
+            "const SCAN_KEEP_RUN: bool = {};\nconst SCAN_KEPT_VEC4S: u32 = {}u;\n",
+            self.keeps_run(),
+            if self.keeps_run() {
+                self.items_per_thread / 4
+            } else {
+                1
+            }
+        ));
         s
+    }
+
+    /// Whether an invocation keeps its run in registers between the sum and the write (the
+    /// GPU shapes, as the decoupled-fallback paper's kernel keeps its 16 elements a thread)
+    /// instead of reading it from memory twice (lavapipe's 1024-element runs cannot).
+    pub fn keeps_run(&self) -> bool {
+        self.items_per_thread <= MAX_KEPT_ITEMS
     }
 
     /// The composed scan kernel (entry point `scan_main`).

@@ -35,7 +35,10 @@
 @group(0) @binding(6) var<storage, read> scan_in4: array<vec4<u32>>;
 @group(0) @binding(7) var<storage, read_write> scan_out4: array<vec4<u32>>;
 
-// Broadcast slot for values thread 0 reads (ticket, polled state).
+// The look-back found the whole prefix (no tile to fall back on).
+const SCAN_NO_TILE: u32 = 0xFFFFFFFFu;
+
+// Broadcast slot for values thread 0 finds (ticket, the tile to fall back on, the prefix).
 var<workgroup> scan_bcast: vec2<u32>;
 
 fn scan_publish(tile: u32, flag: u32, value: u32) {
@@ -62,11 +65,14 @@ fn scan_reduce_tile(li: u32, tile: u32, vec4_ok: bool) -> u32 {
 }
 
 // Exclusive prefix of tile `tile` (> 0) from its predecessors' states. Called by the whole
-// workgroup; every branch depends only on workgroup-uniform values.
+// workgroup. Thread 0 walks back alone, with no barrier per step (as the decoupled-fallback
+// paper's single-thread look-back does), until it holds the prefix or a predecessor stayed
+// empty for SCAN_SPIN_LIMIT polls; only then does the workgroup meet, to reduce that tile
+// (the fallback) or to take the prefix. Every branch after a meeting depends only on
+// workgroup-uniform values.
 fn scan_lookback(li: u32, tile: u32, vec4_ok: bool) -> u32 {
-    var prefix = 0u;
+    var prefix = 0u; // thread 0's running sum
     var j = tile - 1u;
-    var polls = 0u;
     // Testing knob: with SCAN_SPIN_LIMIT = 0 every tile takes the fallback for its predecessor
     // without polling, then falls back at once on any predecessor that is not ready.
     var force = SCAN_SPIN_LIMIT == 0u;
@@ -75,58 +81,64 @@ fn scan_lookback(li: u32, tile: u32, vec4_ok: bool) -> u32 {
     var fallbacks = 0u;
     loop {
         if li == 0u {
-            var lo = 0u;
-            var hi = 0u;
-            if !force {
-                lo = atomicLoad(&scan_scratch[1u + 2u * j]);
-                hi = atomicLoad(&scan_scratch[2u + 2u * j]);
+            // The tile the workgroup must reduce, or SCAN_NO_TILE once the prefix is whole.
+            var stuck = SCAN_NO_TILE;
+            var polls = 0u;
+            loop {
+                if force {
+                    stuck = j;
+                    break;
+                }
+                let lo = atomicLoad(&scan_scratch[1u + 2u * j]);
+                let hi = atomicLoad(&scan_scratch[2u + 2u * j]);
+                let flag = lo & SCAN_FLAG_MASK;
+                // Halves of a publish in progress (flags differ) are not usable yet.
+                if flag != 0u && (hi & SCAN_FLAG_MASK) == flag {
+                    prefix += (lo & 0xFFFFu) | (hi << 16u);
+                    steps += 1u;
+                    polls = 0u;
+                    if flag == SCAN_FLAG_PREFIX || j == 0u {
+                        break;
+                    }
+                    j -= 1u;
+                    continue;
+                }
+                polls += 1u;
+                failed += 1u;
+                if polls > SCAN_SPIN_LIMIT {
+                    stuck = j;
+                    break;
+                }
             }
-            var flag = lo & SCAN_FLAG_MASK;
-            if (hi & SCAN_FLAG_MASK) != flag {
-                flag = 0u; // halves of a publish in progress: not usable yet
-            }
-            scan_bcast = vec2<u32>(flag, (lo & 0xFFFFu) | (hi << 16u));
+            scan_bcast.x = stuck;
         }
-        let state = workgroupUniformLoad(&scan_bcast);
-        if state.x == SCAN_FLAG_PREFIX {
-            prefix += state.y;
-            steps += 1u;
+        let stuck = workgroupUniformLoad(&scan_bcast).x;
+        if stuck == SCAN_NO_TILE {
             break;
         }
-        if state.x == SCAN_FLAG_AGGREGATE {
-            prefix += state.y;
-            steps += 1u;
-            polls = 0u;
-            if j == 0u {
-                break;
-            }
-            j -= 1u;
-            continue;
-        }
-        polls += 1u;
-        failed += select(1u, 0u, force);
-        if force || polls > SCAN_SPIN_LIMIT {
-            force = false;
-            let agg = scan_reduce_tile(li, j, vec4_ok);
-            if li == 0u {
-                // The sum of tile 0 is its inclusive prefix.
-                scan_publish(j, select(SCAN_FLAG_AGGREGATE, SCAN_FLAG_PREFIX, j == 0u), agg);
-            }
+        force = false;
+        let agg = scan_reduce_tile(li, stuck, vec4_ok);
+        if li == 0u {
+            // The sum of tile 0 is its inclusive prefix.
+            scan_publish(stuck, select(SCAN_FLAG_AGGREGATE, SCAN_FLAG_PREFIX, stuck == 0u), agg);
             prefix += agg;
             fallbacks += 1u;
-            polls = 0u;
-            if j == 0u {
-                break;
-            }
-            j -= 1u;
         }
+        if stuck == 0u {
+            break;
+        }
+        j = stuck - 1u;
     }
     if SCAN_COUNTERS && li == 0u {
         atomicAdd(&scan_counters[1], steps);
         atomicAdd(&scan_counters[2], failed);
         atomicAdd(&scan_counters[3], fallbacks);
     }
-    return prefix;
+    // Thread 0 holds the prefix: one meeting gives it to the workgroup.
+    if li == 0u {
+        scan_bcast.y = prefix;
+    }
+    return workgroupUniformLoad(&scan_bcast).y;
 }
 
 // One invocation's run of SCAN_ITEMS consecutive elements starting at `run` (a multiple of 4)
@@ -136,10 +148,11 @@ fn scan_run_is_vec4(run: u32, n: u32, len4: u32) -> bool {
 }
 
 // Thread-coarsened tile: each invocation owns a run of SCAN_ITEMS consecutive elements. Pass 1
-// sums its run in registers (no workgroup memory, no private array); one workgroup scan of the
-// run sums and the look-back give the run's exclusive prefix; pass 2 re-reads the run (from
-// cache: a tile is SCAN_TILE * 4 bytes) and writes its scan (scan_run_sum, scan_run_write). Runs that reach past n (the last
-// tile only) or past the vec4 views (indirect scans) take scalar accesses.
+// sums its run in registers (no workgroup memory); one workgroup scan of the run sums and the
+// look-back give the run's exclusive prefix; pass 2 writes the run's scan from the vec4s it
+// kept (SCAN_KEEP_RUN: runs of at most 16 elements, the GPU shapes) or re-reads them (a tile
+// is SCAN_TILE * 4 bytes, in cache) (scan_run_sum, scan_run_write). Runs that reach past n (the
+// last tile only) or past the vec4 views (indirect scans) take scalar accesses.
 fn scan_tile(li: u32) {
     if li == 0u {
         scan_bcast.x = atomicAdd(&scan_scratch[0], 1u);
@@ -187,12 +200,19 @@ fn scan_tile(li: u32) {
     scan_run_write(run, n, fast, prefix + local.x);
 }
 
-// Pass 1 of a run: the sum of its elements inside n (SCAN_ITEMS / 4 vec4 loads when `fast`).
+// A fast run's vec4s between its sum and its write, where SCAN_KEEP_RUN (GPU shapes).
+var<private> scan_kept: array<vec4<u32>, SCAN_KEPT_VEC4S>;
+
+// Pass 1 of a run: the sum of its elements inside n (SCAN_ITEMS / 4 vec4 loads when `fast`,
+// kept in registers for pass 2 where SCAN_KEEP_RUN).
 fn scan_run_sum(run: u32, n: u32, fast: bool) -> u32 {
     var x = 0u;
     if fast {
         for (var q = 0u; q < SCAN_ITEMS / 4u; q++) {
             let v = scan_in4[run / 4u + q];
+            if SCAN_KEEP_RUN {
+                scan_kept[q] = v;
+            }
             x += (v.x + v.y) + (v.z + v.w);
         }
     } else {
@@ -212,7 +232,12 @@ fn scan_run_write(run: u32, n: u32, fast: bool, prefix: u32) {
     if fast {
         let at = run / 4u;
         for (var q = 0u; q < SCAN_ITEMS / 4u; q++) {
-            let v = scan_in4[at + q];
+            var v: vec4<u32>;
+            if SCAN_KEEP_RUN {
+                v = scan_kept[q];
+            } else {
+                v = scan_in4[at + q];
+            }
             let a = s + v.x;
             let b = a + v.y;
             let c = b + v.z;
