@@ -155,7 +155,7 @@ fn demo_cache_compare() -> Vec<&'static str> {
 /// 128x128, every kernel of theirs specialized for glossy materials).
 /// A part's arguments follow [`RESULTS_COMMON`]'s; one that names `--scene` or `--size` replaces
 /// [`RESULTS_SCENES`] or [`RESULTS_SIZE`].
-const RESULTS_PARTS: [(&str, &str, &str, &[&str]); 4] = [
+const RESULTS_PARTS: [(&str, &str, &str, &[&str]); 5] = [
     (
         "default-depth",
         "the default paths (3 bounces, MIS)",
@@ -163,8 +163,14 @@ const RESULTS_PARTS: [(&str, &str, &str, &[&str]); 4] = [
         &[
             "--methods",
             "nee,ris,world-restir,restir-di,world-restir+restir-di,restir-gi,\
-             restir-gi+world-restir",
+             restir-gi+world-restir,world-restir-gi",
         ],
+    ),
+    (
+        "denoised",
+        "denoised (the default paths, `--denoise`)",
+        "docs/results/denoised",
+        &["--methods", "ris,restir-gi,world-restir-gi", "--denoise"],
     ),
     (
         "cache",

@@ -14,9 +14,10 @@ const BASELINE: &str = "ris";
 /// The images summarised: the combined image (what a user sees) and the indirect light (what
 /// the global-illumination methods change). The direct image is left out: a method that
 /// leaves it alone but runs a faster frame would "win" it.
-const IMAGES: [(&str, &str); 2] = [
+const IMAGES: [(&str, &str); 3] = [
     ("combined", "combined image"),
     ("indirect", "indirect light"),
+    ("denoised", "denoised image"),
 ];
 
 /// One method of one scene's run: its name, median GPU ms per frame, and single-frame relMSE
@@ -73,11 +74,13 @@ pub fn summary(parts: &[(&str, &Path)]) -> Result<String, String> {
          per frame), for the combined image and for the indirect light; its factor over \
          `{BASELINE}`'s efficiency in the same run (above 1: lower error than `{BASELINE}` at \
          equal GPU time), its relMSE and its GPU time per frame. On a CPU adapter the times \
-         are CPU times: compare within a row. Three seeds, moving cameras, `world-restir-gi` \
-         and the denoiser are measured in the notes after the reports.\n\n\
+         are CPU times: compare within a row. The denoised image (the last frame after the \
+         denoiser, its time included) only where a part runs `--denoise`. Three seeds and \
+         moving cameras are measured in the notes after the reports.\n\n\
          | part | scene, camera | `{BASELINE}`: relMSE combined / indirect, ms per frame \
-         | best for the combined image | best for the indirect light |\n\
-         |---|---|---|---|---|\n{rows}\n"
+         | best for the combined image | best for the indirect light | best for the denoised \
+         image |\n\
+         |---|---|---|---|---|---|\n{rows}\n"
     ))
 }
 
@@ -105,6 +108,7 @@ pub fn method_lines(path: &Path) -> Result<Vec<String>, String> {
             let images: Vec<String> = IMAGES
                 .iter()
                 .enumerate()
+                .filter(|(i, _)| m.rel_mse[*i].is_some())
                 .map(|(i, (key, _))| {
                     let factor = match (m.efficiency(i), baseline.and_then(|b| b.efficiency(i))) {
                         (Some(e), Some(b)) if m.name != BASELINE => {
@@ -252,7 +256,8 @@ mod tests {
             r#"{"scene": "cornell", "camera": "static", "width": 64, "height": 64, "methods": [
               {"method": "ris", "ms_per_frame_median": 100.0, "planted_bias": null,
                "images": {"combined": {"frame": {"rel_mse": 0.2}},
-                          "indirect": {"frame": {"rel_mse": 0.4}}}},
+                          "indirect": {"frame": {"rel_mse": 0.4}},
+                          "denoised": {"frame": {"rel_mse": 0.01}}}},
               {"method": "fast", "ms_per_frame_median": 50.0,
                "frame_combined": {"rel_mse": 0.3}, "frame_indirect": {"rel_mse": 0.4}},
               {"method": "planted", "ms_per_frame_median": 1.0, "planted_bias": 0.5,
@@ -279,6 +284,11 @@ mod tests {
             "{row}"
         );
         assert!(!row.contains("planted"), "{row}");
+        // Only ris has a denoised image: it is the best there (1x itself).
+        assert!(
+            row.ends_with("`ris`: **1.00x** `ris`, relMSE 0.0100 at 100 ms |\n"),
+            "{row}"
+        );
     }
 
     #[test]
