@@ -173,6 +173,13 @@ fn compare_end_to_end() {
     assert!(!timestamps || f(&ris["ms_per_frame_median"]) > 0.0);
     assert_eq!(f(&wr["max_grid_overflows"]), 0.0);
     assert!(nee["max_grid_overflows"].is_null());
+    // Dispatches are counted a frame, world-restir's grid passes and scan beside the path's.
+    let dispatches = |m: &Value| f(&m["dispatches_per_frame"]);
+    assert!(dispatches(ris) >= 1.0 && dispatches(ris).fract() == 0.0);
+    assert!(
+        dispatches(wr) > dispatches(ris),
+        "world-restir's grid passes uncounted"
+    );
     // Accumulating frames lowers the error of an unbiased method.
     let ris_indirect = &ris["images"]["indirect"];
     assert!(f(&ris_indirect["accumulated"]["rel_mse"]) < f(&ris_indirect["frame"]["rel_mse"]));
