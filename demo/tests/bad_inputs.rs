@@ -1897,6 +1897,35 @@ fn check_outputs(c: &Case, out: &Path) -> Vec<String> {
     problems
 }
 
+/// `info` stands on an adapter that cannot run every method (GL: 16 storage buffers a stage,
+/// the renderer's pass needs 20): it names each such method with its reason and exits 0. It
+/// exited 1 after its largest-image listing came in, which turned bad_inputs' GL case into a
+/// skip.
+#[test]
+fn info_names_the_methods_an_adapter_cannot_run() {
+    let o = Command::new(exe())
+        .arg("info")
+        .env("WGPU_BACKEND", "gl")
+        .output()
+        .unwrap();
+    let (out, err) = (
+        String::from_utf8_lossy(&o.stdout),
+        String::from_utf8_lossy(&o.stderr),
+    );
+    if err.contains("no GPU adapter found") {
+        tests::skip("bad_inputs info on GL: no GL adapter");
+        return;
+    }
+    assert_eq!(o.status.code(), Some(0), "{err}");
+    assert!(out.contains("largest image of cornell"), "{out}");
+    if limit(&out, "max_storage_buffers_per_shader_stage").is_some_and(|l| l < 20) {
+        assert!(
+            out.contains("  ris: not on this adapter: ") && out.contains("storage buffers"),
+            "{out}"
+        );
+    }
+}
+
 /// `info` lists the methods before it opens an adapter: on a machine without one (here an
 /// adapter name that matches none) the list is printed, then the adapter's error (it needed
 /// the adapter first).
