@@ -899,16 +899,22 @@ fn new_input_cases(tmp: &Path, g: &Path) -> Vec<Case> {
 }
 
 /// `restir-demo info` (with `env`): its stdout, or None when it fails (no such adapter).
-fn info(env: &[(&str, &str)]) -> Option<String> {
+/// `restir-demo info` with `env`: its exit code, stdout and stderr.
+fn run_info(env: &[(&str, &str)]) -> (Option<i32>, String, String) {
     let mut c = Command::new(exe());
     c.arg("info");
     for (k, v) in env {
         c.env(k, v);
     }
-    let o = c.output().ok()?;
-    o.status
-        .success()
-        .then(|| String::from_utf8_lossy(&o.stdout).into_owned())
+    let o = c.output().expect("restir-demo runs");
+    let text = |b: &[u8]| String::from_utf8_lossy(b).into_owned();
+    (o.status.code(), text(&o.stdout), text(&o.stderr))
+}
+
+/// `info`'s stdout when it succeeds with `env`.
+fn info(env: &[(&str, &str)]) -> Option<String> {
+    let (code, out, _) = run_info(env);
+    (code == Some(0)).then_some(out)
 }
 
 fn limit(info: &str, name: &str) -> Option<u64> {
@@ -1903,20 +1909,12 @@ fn check_outputs(c: &Case, out: &Path) -> Vec<String> {
 /// skip.
 #[test]
 fn info_names_the_methods_an_adapter_cannot_run() {
-    let o = Command::new(exe())
-        .arg("info")
-        .env("WGPU_BACKEND", "gl")
-        .output()
-        .unwrap();
-    let (out, err) = (
-        String::from_utf8_lossy(&o.stdout),
-        String::from_utf8_lossy(&o.stderr),
-    );
+    let (code, out, err) = run_info(&[("WGPU_BACKEND", "gl")]);
     if err.contains("no GPU adapter found") {
         tests::skip("bad_inputs info on GL: no GL adapter");
         return;
     }
-    assert_eq!(o.status.code(), Some(0), "{err}");
+    assert_eq!(code, Some(0), "{err}");
     assert!(out.contains("largest image of cornell"), "{out}");
     if limit(&out, "max_storage_buffers_per_shader_stage").is_some_and(|l| l < 20) {
         assert!(
@@ -1931,16 +1929,8 @@ fn info_names_the_methods_an_adapter_cannot_run() {
 /// the adapter first).
 #[test]
 fn info_lists_the_methods_without_an_adapter() {
-    let o = Command::new(exe())
-        .arg("info")
-        .env("WGPU_ADAPTER_NAME", "no-such-adapter")
-        .output()
-        .unwrap();
-    let (out, err) = (
-        String::from_utf8_lossy(&o.stdout),
-        String::from_utf8_lossy(&o.stderr),
-    );
-    assert_eq!(o.status.code(), Some(1), "{err}");
+    let (code, out, err) = run_info(&[("WGPU_ADAPTER_NAME", "no-such-adapter")]);
+    assert_eq!(code, Some(1), "{err}");
     assert!(err.contains("WGPU_ADAPTER_NAME"), "{err}");
     for name in [
         "methods (--method",
