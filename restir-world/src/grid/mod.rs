@@ -11,7 +11,7 @@
 //! | `grid_insert` | find or insert each present item's cell (adaptive size, jittered in the tangent plane, the normal's axis folded into the key where asked), count it in its slot |
 //! | gpu-scan | exclusive scan of the slot counts: each cell's offset in the compact storage |
 //! | `grid_scatter` | each item's index into its cell's run |
-//! | `grid_sort_cells` | each cell's run ordered by item index (images that do not depend on the order atomics ran in) |
+//! | `grid_sort_cells` | each cell's run ordered by item index (images that do not depend on the order atomics ran in), then the stage's [`CellHook`] on it |
 //!
 //! A stage's kernel looks a point up in this frame's grid or last frame's ([`LOOKUP`],
 //! [`lookup_modules`], WGSL `grid_visit`): last frame's table keeps last frame's eye, so the
@@ -39,6 +39,7 @@ pub const WGSL: &str = include_str!("grid.wgsl");
 pub const LOOKUP_WGSL: &str = include_str!("lookup.wgsl");
 const INSERT_WGSL: &str = include_str!("insert.wgsl");
 const SCATTER_WGSL: &str = include_str!("scatter.wgsl");
+const SORT_WGSL: &str = include_str!("sort.wgsl");
 
 /// Errors of the grid.
 #[derive(Debug, thiserror::Error)]
@@ -211,6 +212,54 @@ pub struct GridItems<'a> {
     /// Buffers `grid-items` binds besides the render library's, bound to `buffers`.
     pub bindings: &'static [Buffer],
     pub buffers: Vec<&'a wgpu::Buffer>,
+    /// What the stage does with each cell once its list is sorted (needs
+    /// [`GridSettings::sort_cells`]); `None`: nothing.
+    pub cells: Option<CellHook<'a>>,
+}
+
+/// A stage's work on each cell of the grid, run by the sort pass once the cell's list is final
+/// (a pass and a dispatch saved): its WGSL modules, among them `grid-cells` with `fn
+/// grid_cell_sorted(start: u32, count: u32)`, which reads `grid_cells[start..start + count]`
+/// (the cell's item indices, ascending) and the buffers it binds.
+#[derive(Debug)]
+pub struct CellHook<'a> {
+    pub modules: Vec<WgslModule>,
+    /// Buffers `grid-cells` binds (the sort pass alone), bound to `buffers`.
+    pub bindings: &'static [Buffer],
+    pub buffers: Vec<&'a wgpu::Buffer>,
+}
+
+impl GridItems<'_> {
+    /// The buffers kernel `k` binds for the stage: the items', and for the sort its cells'.
+    fn bindings(&self, k: &KernelDef) -> Vec<Buffer> {
+        let mut b = self.bindings.to_vec();
+        if k.name == SORT.name {
+            b.extend(self.cells.iter().flat_map(|c| c.bindings.iter().copied()));
+        }
+        b
+    }
+
+    /// What [`Self::bindings`] binds for kernel `k`.
+    fn resources(&self, k: &KernelDef) -> Vec<(&'static str, Resource<'_>)> {
+        let names = self.bindings(k).into_iter().map(|(n, _, _)| n);
+        let cells = self.cells.iter().flat_map(|c| c.buffers.iter());
+        let buffers = self
+            .buffers
+            .iter()
+            .chain(cells.filter(|_| k.name == SORT.name));
+        names.zip(buffers.map(|b| Resource::from(*b))).collect()
+    }
+
+    /// The sort's modules with `grid-cells`: the stage's, or one that does nothing.
+    fn cells_modules(&self) -> Vec<WgslModule> {
+        self.cells.as_ref().map_or_else(
+            || {
+                let nothing = "fn grid_cell_sorted(start: u32, count: u32) {}\n";
+                vec![WgslModule::new("grid-cells", &[], nothing)]
+            },
+            |c| c.modules.clone(),
+        )
+    }
 }
 
 const INSERT: KernelDef = KernelDef::new(
@@ -222,23 +271,34 @@ const INSERT: KernelDef = KernelDef::new(
         ("grid_item_slot", "array<vec2<u32>>", Access::ReadWrite),
     ]],
 );
+const SCATTER_BUFFERS: &[Buffer] = &[
+    PARAMS,
+    ("grid_item_slot", "array<vec2<u32>>", Access::Read),
+    ("grid_offsets", "array<u32>", Access::Read),
+    ("grid_counters", "array<u32>", Access::Read),
+    ("grid_cells", "array<u32>", Access::ReadWrite),
+];
 const SCATTER: KernelDef = KernelDef::new(
     "grid-scatter",
-    &["grid_scatter", "grid_sort_cells"],
+    &["grid_scatter"],
     SCATTER_WGSL,
-    &[&[
-        PARAMS,
-        ("grid_item_slot", "array<vec2<u32>>", Access::Read),
-        ("grid_offsets", "array<u32>", Access::Read),
-        ("grid_counters", "array<u32>", Access::Read),
-        ("grid_cells", "array<u32>", Access::ReadWrite),
-    ]],
+    &[SCATTER_BUFFERS],
+);
+const SORT: KernelDef = KernelDef::new(
+    "grid-sort",
+    &["grid_sort_cells"],
+    SORT_WGSL,
+    &[SCATTER_BUFFERS],
 );
 
 /// The build kernel `k`'s group 3: the items' buffers, `k`'s own, and for the insert
 /// gpu-hash's table block.
-fn build_bindings(k: &KernelDef, items: &[Buffer]) -> BindingSet {
-    let own: Vec<Buffer> = items.iter().chain(k.buffers()).copied().collect();
+fn build_bindings(k: &KernelDef, items: &GridItems) -> BindingSet {
+    let own: Vec<Buffer> = items
+        .bindings(k)
+        .into_iter()
+        .chain(k.buffers().copied())
+        .collect();
     let set = BindingSet::of_buffers(k.name, &own);
     match k.name == INSERT.name {
         true => set.block(HASH_BLOCK, gpu_hash::bind_group_layout_entries),
@@ -249,32 +309,33 @@ fn build_bindings(k: &KernelDef, items: &[Buffer]) -> BindingSet {
 /// The build kernel `k`'s modules after the stage's: its bindings, gpu-hash's table role (the
 /// insert) or structs alone, the grid library and the build.
 fn build_modules(k: &KernelDef, items: &GridItems) -> Vec<WgslModule> {
-    let set = build_bindings(k, items.bindings);
+    let set = build_bindings(k, items);
     let at = gpu_hash::wgsl::BindAt {
         group: STAGE_GROUP,
-        first_binding: (items.bindings.len() + k.buffers().count()) as u32,
+        first_binding: (items.bindings(k).len() + k.buffers().count()) as u32,
     };
     let hash = match k.name == INSERT.name {
         true => gpu_hash::wgsl::compose(Some(at), None),
         false => gpu_hash::wgsl::compose(None, None),
     };
     let mut m = items.modules.clone();
+    let mut deps = vec![
+        "grid",
+        "grid-bindings",
+        "grid-constants",
+        "grid-items",
+        "workgroup",
+    ];
+    if k.name == SORT.name {
+        m.extend(items.cells_modules());
+        deps.push("grid-cells");
+    }
     m.extend([
         WgslModule::new("grid-bindings", &[], set.wgsl(STAGE_GROUP)),
         WgslModule::new("grid-constants", &[], constants_wgsl(items.random)),
         WgslModule::new("gpu-hash", &[], hash),
         cell_module(),
-        WgslModule::new(
-            k.name,
-            &[
-                "grid",
-                "grid-bindings",
-                "grid-constants",
-                "grid-items",
-                "workgroup",
-            ],
-            k.source,
-        ),
+        WgslModule::new(k.name, &deps, k.source),
     ]);
     m
 }
@@ -282,12 +343,12 @@ fn build_modules(k: &KernelDef, items: &GridItems) -> Vec<WgslModule> {
 /// The build's kernels for `items`, composed as used (for the workspace's checks), with their
 /// binding sets.
 pub fn kernels(items: &GridItems) -> Vec<ComposedKernel> {
-    [&INSERT, &SCATTER]
+    [&INSERT, &SCATTER, &SORT]
         .iter()
         .map(|k| {
             let source = compose_with_library(Tracer::Bvh, build_modules(k, items));
             let name = format!("restir-world/grid/{} of {}", k.name, items.name);
-            ComposedKernel::stage(name, source, build_bindings(k, items.bindings))
+            ComposedKernel::stage(name, source, build_bindings(k, items))
         })
         .collect()
 }
@@ -337,6 +398,12 @@ impl WorldGrid {
     ) -> Result<Self, GridError> {
         let device = &ctx.device;
         settings.table.validate()?;
+        if items.cells.is_some() && !settings.sort_cells {
+            return Err(GridError::Config(format!(
+                "{}'s cell hook runs in the sort pass: the grid must sort its cells",
+                items.name
+            )));
+        }
         let grid_params = HashGridParams::new(&settings.table, &settings.sizing, eye)?;
         let [t0, t1] = [0, 1].map(|_| HashTable::new(device, &ctx.queue, &grid_params));
         let tables = [t0?, t1?];
@@ -427,12 +494,6 @@ impl WorldGrid {
         ]
     }
 
-    /// The compact cell storage of the grid of parity `p`: each slot's offset and the item
-    /// indices of every cell, run after run.
-    pub fn lists(&self, p: usize) -> (&wgpu::Buffer, &wgpu::Buffer) {
-        (&self.buffers.offsets[p], &self.buffers.cells[p])
-    }
-
     /// Per item of the last build: (slot, index in slot), or a sentinel slot (at or above
     /// [`FIRST_SENTINEL`]) when it is not in the grid.
     pub fn item_slots(&self) -> &wgpu::Buffer {
@@ -503,19 +564,13 @@ impl BuildPasses {
     ) -> Result<Self, GpuError> {
         let kernel = |k: &KernelDef| -> Result<OwnKernel, GpuError> {
             let name = format!("{} {}", items.name, k.name);
-            let set = build_bindings(k, items.bindings);
+            let set = build_bindings(k, items);
             shared.own_kernel(ctx, &name, &set, build_modules(k, items), k.entries)
         };
-        let (insert, scatter) = (kernel(&INSERT)?, kernel(&SCATTER)?);
-        let own = || -> Vec<(&str, Resource)> {
-            let names = items.bindings.iter().map(|(n, _, _)| *n);
-            names
-                .zip(items.buffers.iter().map(|b| Resource::from(*b)))
-                .collect()
-        };
-        let first_hash = (items.bindings.len() + INSERT.buffers().count()) as u32;
+        let insert = kernel(&INSERT)?;
+        let first_hash = (items.bindings(&INSERT).len() + INSERT.buffers().count()) as u32;
         let insert_pass = |p: usize| {
-            let mut res = own();
+            let mut res = items.resources(&INSERT);
             res.extend([
                 ("grid_params", (&b.params).into()),
                 ("grid_item_slot", (&b.item_slot).into()),
@@ -526,8 +581,9 @@ impl BuildPasses {
             ]);
             shared.bound_pass(&ctx.device, &insert, "grid_insert", res, Some(items.count))
         };
-        let scatter_pass = |entry: &str, p: usize| {
-            let mut res = own();
+        // The scatter and the sort bind the same buffers of the grid.
+        let list_pass = |k: &KernelDef, kernel: &OwnKernel, p: usize| {
+            let mut res = items.resources(k);
             res.extend([
                 ("grid_params", (&b.params).into()),
                 ("grid_item_slot", (&b.item_slot).into()),
@@ -535,21 +591,23 @@ impl BuildPasses {
                 ("grid_counters", tables[p].counters().into()),
                 ("grid_cells", (&b.cells[p]).into()),
             ]);
-            shared.bound_pass(&ctx.device, &scatter, entry, res, Some(items.count))
+            shared.bound_pass(&ctx.device, kernel, k.entries[0], res, Some(items.count))
+        };
+        let scatter = kernel(&SCATTER)?;
+        let sort = match settings.sort_cells {
+            true => {
+                let sort = kernel(&SORT)?;
+                Some([list_pass(&SORT, &sort, 0)?, list_pass(&SORT, &sort, 1)?])
+            }
+            false => None,
         };
         Ok(Self {
             insert: [insert_pass(0)?, insert_pass(1)?],
             scatter: [
-                scatter_pass("grid_scatter", 0)?,
-                scatter_pass("grid_scatter", 1)?,
+                list_pass(&SCATTER, &scatter, 0)?,
+                list_pass(&SCATTER, &scatter, 1)?,
             ],
-            sort: match settings.sort_cells {
-                true => Some([
-                    scatter_pass("grid_sort_cells", 0)?,
-                    scatter_pass("grid_sort_cells", 1)?,
-                ]),
-                false => None,
-            },
+            sort,
         })
     }
 }

@@ -1,6 +1,6 @@
 // The world-space grid's build, after the insert and gpu-scan's offsets (restir_world::grid):
 // grid_scatter writes each inserted item's index into the compact cell storage at
-// offsets[slot] + index in slot; grid_sort_cells orders each cell's run by item index.
+// offsets[slot] + index in slot (grid_sort_cells, sort.wgsl, then orders each cell's run).
 
 @compute @workgroup_size(WORKGROUP_SIZE)
 fn grid_scatter(id: Invocation) {
@@ -9,35 +9,5 @@ fn grid_scatter(id: Invocation) {
     let e = grid_item_slot[i];
     if e.x < GRID_FIRST_SENTINEL {
         grid_cells[grid_offsets[e.x] + e.y] = i;
-    }
-}
-
-// One invocation per inserted item whose index in its slot is 0: insertion sort of that
-// cell's list (cells hold a few hundred items at most at the default projected size).
-@compute @workgroup_size(WORKGROUP_SIZE)
-fn grid_sort_cells(id: Invocation) {
-    let i = item_index(id);
-    if i >= grid_params.items { return; }
-    let e = grid_item_slot[i];
-    if e.x >= GRID_FIRST_SENTINEL || e.y != 0u {
-        return;
-    }
-    let start = grid_offsets[e.x];
-    let count = grid_counters[e.x];
-    for (var a = 1u; a < count; a++) {
-        let key = grid_cells[start + a];
-        var b = a;
-        loop {
-            if b == 0u {
-                break;
-            }
-            let prev = grid_cells[start + b - 1u];
-            if prev <= key {
-                break;
-            }
-            grid_cells[start + b] = prev;
-            b -= 1u;
-        }
-        grid_cells[start + b] = key;
     }
 }

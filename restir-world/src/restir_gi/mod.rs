@@ -338,7 +338,7 @@ impl RestirGi {
         };
         let camera = &renderer.gpu_camera();
         let size = size_of::<GiReservoir>();
-        let pool_buffers = PoolBuffers::new(ctx, capacity, size);
+        let pool_buffers = PoolBuffers::new(ctx, (pixels, config.history_frames, size));
         let items = world::grid_items(pixels, Some(&pool_buffers));
         let grid = WorldGrid::new(
             ctx,
@@ -352,9 +352,14 @@ impl RestirGi {
         let history_age = world::history_age_buffer(ctx, capacity);
         let ages = vec![(world::HISTORY_AGE.0, &history_age)];
         let (reuse, debug) = reuse_stage(ctx, renderer, stage, (Some(&grid), ages))?;
-        let setup = (pixels, config.history_frames, size);
         let history = (reuse.history(), history_age);
-        let pool = Pool::new(ctx, &renderer.shared, setup, &pool_buffers, &grid, history)?;
+        let pool = Pool::new(
+            ctx,
+            &renderer.shared,
+            (pixels, size),
+            &pool_buffers,
+            history,
+        )?;
         Ok(Self {
             reuse,
             pixels: renderer.pixels(),
@@ -386,7 +391,7 @@ impl RestirGi {
         self.reuse.encode(f, renderer, parity);
         let history = self.reuse.history();
         let (pool, buffers) = (&w.pool, &w.pool_buffers);
-        f.span("wgi-pool", |f| pool.encode(f, parity, buffers, history))?;
+        f.span("wgi-pool", |f| pool.encode(f, buffers, history))?;
         Ok(())
     }
 

@@ -28,7 +28,7 @@
 //! | `wgi-build` | this frame's grid of the pixels and the pool |
 //! | `wgi-subpath` | (`subpath-k` > 0) each pixel's x2 resamples path samples of its cell |
 //! | `wgi-initial` .. `wgi-persist` | [`crate::screen_reuse`]'s chain |
-//! | `wgi-pool` | the pool's records into the history, then the next pool: flag each cell's first item, gpu-scan, scatter |
+//! | `wgi-pool` | the pool's records into the history, then the next pool: gpu-scan of the items the grid's sort flagged (each cell's first), scatter |
 
 use gpu_hash::{CellSizing, TableConfig};
 use gpu_scan::{Scan, ScanBinding, ScanDescriptor, ScanKind};
@@ -38,7 +38,7 @@ use super::{DEBUG, GiReservoir, INITIAL_WGSL, MAX_M, REUSE_WGSL, SHADE_WGSL, Vis
 use crate::gpu::{
     Access, FrameEncoder, GpuContext, GpuError, Pass, Resource, Tracer, WgslModule, buffers,
 };
-use crate::grid::{self, GridItems, GridSettings, WorldGrid, auto_buckets};
+use crate::grid::{self, CellHook, GridItems, GridSettings, auto_buckets};
 use crate::knobs::{Knobs, Variant};
 use crate::render::{
     Buffer, ComposedKernel, GRID_WORLD_RESTIR_GI, GVertex, KernelDef, STAGE_GROUP, SharedGroups,
@@ -51,7 +51,8 @@ const NEIGHBOURS_WGSL: &str = include_str!("world_neighbours.wgsl");
 const ITEMS_WGSL: &str = include_str!("world_items.wgsl");
 const POOL_WGSL: &str = include_str!("world_pool.wgsl");
 const SUBPATH_WGSL: &str = include_str!("world_subpath.wgsl");
-const POOL_FLAG_WGSL: &str = include_str!("world_pool_flag.wgsl");
+const POOL_PARAMS_WGSL: &str = include_str!("world_pool_params.wgsl");
+const POOL_CELLS_WGSL: &str = include_str!("world_pool_cells.wgsl");
 const POOL_SCATTER_WGSL: &str = include_str!("world_pool_scatter.wgsl");
 
 crate::knobs! {
@@ -212,9 +213,30 @@ const ITEM_BINDINGS: &[Buffer] = &[
     ("wgi_pool_count", "array<u32>", Access::Read),
 ];
 
-/// The grid's items: every pixel's primary vertex, then the pool's records (`pool`: its
-/// buffers, `None` for the kernels' checks).
+/// What the pool's flags, set in the grid's sort pass, bind.
+const CELL_BINDINGS: &[Buffer] = &[
+    POOL_PARAMS,
+    ("wgi_pool_age", "array<u32>", Access::Read),
+    ("wgi_flags", "array<u32>", Access::ReadWrite),
+];
+
+/// The pool's parameters struct, a module of the pool's kernels and of the grid's sort.
+fn params_module() -> WgslModule {
+    WgslModule::new("wgi-pool-params", &[], POOL_PARAMS_WGSL)
+}
+
+/// The grid's items: every pixel's primary vertex, then the pool's records; the grid's sort
+/// flags each cell's first item for the pool (`pool`: its buffers, `None` for the kernels'
+/// checks).
 pub(super) fn grid_items<'a>(pixels: u32, pool: Option<&'a PoolBuffers>) -> GridItems<'a> {
+    let cells = CellHook {
+        modules: vec![
+            params_module(),
+            WgslModule::new("grid-cells", &["wgi-pool-params"], POOL_CELLS_WGSL),
+        ],
+        bindings: CELL_BINDINGS,
+        buffers: pool.map_or_else(Vec::new, |p| vec![&p.params, &p.age, &p.flags]),
+    };
     GridItems {
         name: "world-restir-gi",
         count: grid_item_count(pixels),
@@ -222,6 +244,7 @@ pub(super) fn grid_items<'a>(pixels: u32, pool: Option<&'a PoolBuffers>) -> Grid
         modules: vec![WgslModule::new("grid-items", &["grid"], ITEMS_WGSL)],
         bindings: ITEM_BINDINGS,
         buffers: pool.map_or_else(Vec::new, |p| vec![&p.vertices, &p.count]),
+        cells: Some(cells),
     }
 }
 
@@ -249,19 +272,6 @@ pub(super) const HISTORY_AGE: Buffer = ("wgi_history_age", "array<u32>", Access:
 pub(super) fn history_age_buffer(ctx: &GpuContext, capacity: u32) -> wgpu::Buffer {
     buffers::storage_zeroed(&ctx.device, "wgi history age", u64::from(capacity) * 4)
 }
-const FLAG: KernelDef = KernelDef::new(
-    "wgi-pool-flag",
-    &["wgi_pool_flag"],
-    POOL_FLAG_WGSL,
-    &[&[
-        POOL_PARAMS,
-        ("grid_item_slot", "array<vec2<u32>>", Access::Read),
-        ("grid_offsets", "array<u32>", Access::Read),
-        ("grid_cells", "array<u32>", Access::Read),
-        HISTORY_AGE,
-        ("wgi_flags", "array<u32>", Access::ReadWrite),
-    ]],
-);
 const SCATTER: KernelDef = KernelDef::new(
     "wgi-pool-scatter",
     &["wgi_pool_scatter"],
@@ -269,7 +279,7 @@ const SCATTER: KernelDef = KernelDef::new(
     &[&[
         POOL_PARAMS,
         HISTORY_AGE,
-        ("wgi_flags", "array<u32>", Access::Read),
+        ("wgi_flags", "array<u32>", Access::ReadWrite),
         ("wgi_positions", "array<u32>", Access::Read),
         ("wgi_history_reservoirs", "array<u32>", Access::Read),
         ("wgi_history_vertices", "array<u32>", Access::Read),
@@ -288,11 +298,12 @@ fn pool_modules(k: &KernelDef) -> Vec<WgslModule> {
         grid::FIRST_SENTINEL
     );
     vec![
+        params_module(),
         WgslModule::new("wgi-pool-bindings", &[], k.bindings().wgsl(STAGE_GROUP)),
         WgslModule::new("wgi-pool-constants", &[], constants),
         WgslModule::new(
             "wgi-pool",
-            &["wgi-pool-bindings", "wgi-pool-constants"],
+            &["wgi-pool-params", "wgi-pool-bindings", "wgi-pool-constants"],
             POOL_WGSL,
         ),
         WgslModule::new(k.name, &["wgi-pool", "workgroup"], k.source),
@@ -304,18 +315,19 @@ fn pool_modules(k: &KernelDef) -> Vec<WgslModule> {
 pub fn kernels() -> Vec<ComposedKernel> {
     let mut k = STAGE.composed();
     k.extend(grid::kernels(&grid_items(0, None)));
-    k.extend([&FLAG, &SCATTER].map(|d| {
-        let source = compose_with_library(Tracer::Bvh, pool_modules(d));
-        let name = format!("restir-world/restir_gi/{}", d.name);
-        ComposedKernel::stage(name, source, d.bindings())
-    }));
+    let source = compose_with_library(Tracer::Bvh, pool_modules(&SCATTER));
+    let name = format!("restir-world/restir_gi/{}", SCATTER.name);
+    k.push(ComposedKernel::stage(name, source, SCATTER.bindings()));
     k
 }
 
 /// The pool's records (reservoirs, vertices, ages) and count, written by its scatter and read
-/// by the next frame's grid build and history.
+/// by the next frame's grid build and history; its parameters, and the flags of the items it
+/// keeps, which the grid's sort sets and its scatter reads and clears.
 #[derive(Debug)]
 pub struct PoolBuffers {
+    params: wgpu::Buffer,
+    flags: wgpu::Buffer,
     reservoirs: wgpu::Buffer,
     vertices: wgpu::Buffer,
     age: wgpu::Buffer,
@@ -324,11 +336,32 @@ pub struct PoolBuffers {
 }
 
 impl PoolBuffers {
-    /// A pool of up to `capacity` records of `reservoir_size`-byte reservoirs.
-    pub(super) fn new(ctx: &GpuContext, capacity: u32, reservoir_size: usize) -> Self {
+    /// The pool of a frame of `pixels` keeping records up to `max_age` frames, whose records
+    /// are `reservoir_size`-byte reservoirs.
+    pub(super) fn new(
+        ctx: &GpuContext,
+        (pixels, max_age, reservoir_size): (u32, u32, usize),
+    ) -> Self {
+        let capacity = pool_capacity(pixels);
+        let items = grid_item_count(pixels);
+        let params = PoolParams {
+            pixels,
+            items,
+            capacity,
+            max_age,
+            reservoir_words: (reservoir_size / 4) as u32,
+            _pad: [0; 3],
+        };
         let n = u64::from(capacity);
         let zeroed = |label: &str, size: u64| buffers::storage_zeroed(&ctx.device, label, size);
         Self {
+            params: buffers::with_usage(
+                &ctx.device,
+                "wgi pool params",
+                &[params],
+                wgpu::BufferUsages::UNIFORM,
+            ),
+            flags: zeroed("wgi pool flags", u64::from(items) * 4),
             reservoirs: zeroed("wgi pool reservoirs", n * reservoir_size as u64),
             vertices: zeroed("wgi pool vertices", n * size_of::<GVertex>() as u64),
             age: zeroed("wgi pool age", n * 4),
@@ -345,87 +378,67 @@ impl PoolBuffers {
     }
 
     pub(super) fn bytes(&self) -> u64 {
-        [&self.reservoirs, &self.vertices, &self.age, &self.count]
-            .map(wgpu::Buffer::size)
-            .iter()
-            .sum()
+        [
+            &self.flags,
+            &self.reservoirs,
+            &self.vertices,
+            &self.age,
+            &self.count,
+        ]
+        .map(wgpu::Buffer::size)
+        .iter()
+        .sum()
     }
 }
 
-/// The pool's passes and the buffers they need beyond [`PoolBuffers`]: the history's ages,
-/// the flags and their scan.
+/// The pool's passes and the buffers they need beyond [`PoolBuffers`]: the history's ages and
+/// the flags' scan.
 #[derive(Debug)]
 pub struct Pool {
     history_age: wgpu::Buffer,
-    flags: wgpu::Buffer,
     positions: wgpu::Buffer,
     scan: Scan,
     scan_binding: ScanBinding,
-    /// The flag pass per grid parity (it reads that frame's cell lists).
-    flag: [Pass; 2],
     scatter: Pass,
-    _params: wgpu::Buffer,
     pixels: u32,
     reservoir_size: usize,
 }
 
 impl Pool {
-    /// The pool of a frame of `pixels` keeping records up to `max_age` frames, whose
-    /// records are `reservoir_size`-byte reservoirs: `buffers` (the grid's items read them),
-    /// `grid` the grid they enter and `history` the stage's temporal sources (reservoirs,
+    /// The passes of the pool in `buffers` for a frame of `pixels` whose records are
+    /// `reservoir_size`-byte reservoirs; `history`: the stage's temporal sources (reservoirs,
     /// vertices) with the ages of its pool's records ([`history_age_buffer`]).
     pub(super) fn new(
         ctx: &GpuContext,
         shared: &SharedGroups,
-        (pixels, max_age, reservoir_size): (u32, u32, usize),
+        (pixels, reservoir_size): (u32, usize),
         buffers: &PoolBuffers,
-        grid: &WorldGrid,
         (history, history_age): (screen_reuse::History<'_>, wgpu::Buffer),
     ) -> Result<Self, ScreenReuseError> {
         let device = &ctx.device;
         let items = grid_item_count(pixels);
-        let capacity = pool_capacity(pixels);
-        let params = PoolParams {
-            pixels,
-            items,
-            capacity,
-            max_age,
-            reservoir_words: (reservoir_size / 4) as u32,
-            _pad: [0; 3],
-        };
-        let params_buf = buffers::with_usage(
-            device,
-            "wgi pool params",
-            &[params],
-            wgpu::BufferUsages::UNIFORM,
-        );
-        let zeroed = |label: &str, size: u64| buffers::storage_zeroed(device, label, size);
-        let flags = zeroed("wgi pool flags", u64::from(items) * 4);
-        let positions = zeroed("wgi pool positions", u64::from(items) * 4);
+        let positions = buffers::storage_zeroed(device, "wgi pool positions", u64::from(items) * 4);
         let scan = Scan::new(device, &ScanDescriptor::for_device(device, items.max(1)))?;
-        let scan_binding =
-            scan.bind(device, &flags, &positions, items, ScanKind::Exclusive, None)?;
-        let kernel = |k: &KernelDef| {
-            let label = format!("world-restir-gi {}", k.name);
-            shared.own_kernel(ctx, &label, &k.bindings(), pool_modules(k), k.entries)
-        };
-        let (flag_k, scatter_k) = (kernel(&FLAG)?, kernel(&SCATTER)?);
-        let flag = |p: usize| {
-            let (offsets, cells) = grid.lists(p);
-            let res: Vec<(&str, Resource)> = vec![
-                ("wgi_pool_params", (&params_buf).into()),
-                ("grid_item_slot", grid.item_slots().into()),
-                ("grid_offsets", offsets.into()),
-                ("grid_cells", cells.into()),
-                ("wgi_history_age", (&history_age).into()),
-                ("wgi_flags", (&flags).into()),
-            ];
-            shared.bound_pass(device, &flag_k, "wgi_pool_flag", res, Some(items))
-        };
+        let scan_binding = scan.bind(
+            device,
+            &buffers.flags,
+            &positions,
+            items,
+            ScanKind::Exclusive,
+            None,
+        )?;
+        let label = format!("world-restir-gi {}", SCATTER.name);
+        let scatter_k = shared.own_kernel(
+            ctx,
+            &label,
+            &SCATTER.bindings(),
+            pool_modules(&SCATTER),
+            SCATTER.entries,
+        )?;
         let res: Vec<(&str, Resource)> = vec![
-            ("wgi_pool_params", (&params_buf).into()),
+            ("wgi_pool_params", (&buffers.params).into()),
             ("wgi_history_age", (&history_age).into()),
-            ("wgi_flags", (&flags).into()),
+            ("wgi_flags", (&buffers.flags).into()),
             ("wgi_positions", (&positions).into()),
             ("wgi_history_reservoirs", history.reservoirs.into()),
             ("wgi_history_vertices", history.vertices.into()),
@@ -437,28 +450,23 @@ impl Pool {
         ];
         let scatter =
             shared.bound_pass(device, &scatter_k, "wgi_pool_scatter", res, Some(items))?;
-        let flag = [flag(0)?, flag(1)?];
         Ok(Self {
             history_age,
-            flags,
             positions,
             scan,
             scan_binding,
-            flag,
             scatter,
-            _params: params_buf,
             pixels,
             reservoir_size,
         })
     }
 
-    /// Records the pool's step of a frame whose grid has parity `parity`, after the stage's
-    /// persist copies: the pool the grid was built with into the history after the pixels'
-    /// records, then the next pool.
+    /// Records the pool's step of a frame, after the stage's persist copies: the pool the
+    /// frame's grid was built with (and flagged) into the history after the pixels' records,
+    /// then the next pool.
     pub(super) fn encode(
         &self,
         f: &mut FrameEncoder,
-        parity: usize,
         buffers: &PoolBuffers,
         history: screen_reuse::History<'_>,
     ) -> Result<(), ScreenReuseError> {
@@ -470,7 +478,6 @@ impl Pool {
         );
         f.copy(&buffers.vertices, history.pool_vertices);
         f.copy(&buffers.age, &self.history_age);
-        f.dispatch(&self.flag[parity]);
         f.scan(&self.scan, &self.scan_binding)?;
         f.dispatch(&self.scatter);
         Ok(())
@@ -478,7 +485,7 @@ impl Pool {
 
     /// Bytes of its buffers (the pool's own excluded).
     pub(super) fn bytes(&self) -> u64 {
-        [&self.history_age, &self.flags, &self.positions]
+        [&self.history_age, &self.positions]
             .map(wgpu::Buffer::size)
             .iter()
             .sum()

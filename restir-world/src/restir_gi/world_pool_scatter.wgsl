@@ -13,7 +13,9 @@ fn wgi_pool_scatter(id: Invocation) {
         wgi_pool_count[1] = wanted;
     }
     let k = wgi_positions[i];
-    if wgi_flags[i] == 0u || k >= p.capacity {
+    let kept = wgi_flags[i] != 0u;
+    wgi_flags[i] = 0u;
+    if !kept || k >= p.capacity {
         return;
     }
     for (var w = 0u; w < p.reservoir_words; w++) {

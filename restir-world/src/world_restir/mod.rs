@@ -430,6 +430,7 @@ fn grid_items(params: Option<&wgpu::Buffer>, count: u32) -> GridItems<'_> {
         modules,
         bindings: &[PARAMS],
         buffers: params.into_iter().collect(),
+        cells: None,
     }
 }
 
