@@ -2,7 +2,10 @@
 // library, its buffers at group 3 (denoise::BINDINGS). Per pixel, two signals are filtered
 // apart: the direct and the indirect light, each demodulated by the primary vertex's albedo
 // (illumination = (frame - emission) / albedo) and remodulated at the end, so that texture
-// detail never enters the filter.
+// detail never enters the filter. At a glossy vertex (dn_glossy) the albedo is its BRDF's
+// directional albedo towards the eye, the spatial filter stays within the lobe's footprint on
+// the screen and does not mix surfaces of different roughness, so that a reflection keeps
+// the sharpness its lobe gives it.
 //
 // Passes (denoise::Denoiser records them under one span, `denoise`):
 // - denoise_temporal: demodulates this frame, reprojects the pixel's primary hit through last
@@ -75,6 +78,50 @@ fn dn_demodulate(c: vec3<f32>, albedo: vec3<f32>) -> vec3<f32> {
 fn dn_albedo(albedo: vec3<f32>) -> vec3<f32> {
     return select(vec3<f32>(0.0), albedo, albedo > vec3<f32>(DN_MIN_ALBEDO));
 }
+
+// Whether primary vertex g is glossy (never without glossy materials: RENDER_GLOSSY false).
+fn dn_glossy(g: GVertex) -> bool {
+    return RENDER_GLOSSY && g.material != 0u;
+}
+
+// The albedo pixel g's light is demodulated by: its base colour where diffuse; where glossy,
+// its BRDF's directional albedo towards the eye (specular and diffuse lobes, from the
+// compensation tables), so that the filter sees the light the lobe averages, not the lobe's
+// Fresnel and energy (its base colour where the shading normal faces away from the eye).
+fn dn_demodulating_albedo(g: GVertex) -> vec3<f32> {
+    if !dn_glossy(g) {
+        return g.albedo;
+    }
+    let wo = normalize(render_params.camera.eye - g.position);
+    if !(dot(g.shading, wo) > 0.0) {
+        return g.albedo;
+    }
+    return brdf_albedo(render_vertex_brdf(g), g.shading, wo);
+}
+
+// Perceptual roughness of primary vertex g for the filter's roughness stop: 1 where diffuse.
+fn dn_roughness(g: GVertex) -> f32 {
+    return select(1.0, render_vertex_brdf(g).roughness, dn_glossy(g));
+}
+
+// The screen radius in pixels of glossy vertex g's lobe: its width alpha = roughness^2 in
+// radians, seen from the eye with the reflected surface as far from g as the eye is (a
+// pixel spans 2 |up| / height radians), times the knob lobe_scale; a diffuse vertex's is
+// unbounded (and every vertex's where lobe_scale is 0). The a-trous levels whose step
+// exceeds it leave g's pixel as it is.
+fn dn_lobe_pixels(g: GVertex) -> f32 {
+    let scale = denoise_params.knobs.lobe_scale;
+    if !dn_glossy(g) || scale == 0.0 {
+        return 3.0e38;
+    }
+    let r = max(render_vertex_brdf(g).roughness, BRDF_MIN_ROUGHNESS);
+    let cam = render_params.camera;
+    return scale * r * r * f32(cam.height) / (2.0 * length(cam.up));
+}
+
+// How fast the a-trous weight falls with the roughness difference of two pixels (log2 per
+// unit): 0.1 apart keeps a third, 0.5 apart 1/256 (a mirror beside a rough wall).
+const DN_ROUGHNESS_STOP: f32 = 16.0;
 
 fn dn_pack_normal(n: vec3<f32>) -> u32 {
     return pack2x16snorm(sampling_oct_encode(n));
@@ -191,7 +238,8 @@ fn dn_clamp(x: i32, y: i32, h: DnPair) -> DnPair {
             if render_gbuffer[j].prim == BVH_NO_HIT {
                 continue;
             }
-            let c = dn_input(j, render_unpack_vertex(render_gbuffer[j]).albedo, render_unpack_vertex(render_gbuffer[j]).emission);
+            let q = render_unpack_vertex(render_gbuffer[j]);
+            let c = dn_input(j, dn_demodulating_albedo(q), q.emission);
             m1[0] += c[0];
             m2[0] += c[0] * c[0];
             m1[1] += c[1];
@@ -222,7 +270,7 @@ fn denoise_temporal(id: Invocation) {
         dn_dst[i] = DnPair();
         return;
     }
-    let cur = dn_input(i, g.albedo, g.emission);
+    let cur = dn_input(i, dn_demodulating_albedo(g), g.emission);
     let lum = vec2<f32>(render_luminance(cur[0]), render_luminance(cur[1]));
     let m = vec4<f32>(lum.x, lum.x * lum.x, lum.y, lum.y * lum.y);
     var h = dn_reproject(i, g);
@@ -345,8 +393,8 @@ fn denoise_atrous(id: Invocation) {
     let c = dn_src[i];
     let s = dn_state[i];
     var out = c;
-    if s.normal != DN_NO_SURFACE {
-        let g = render_unpack_vertex(render_gbuffer[i]);
+    let g = render_unpack_vertex(render_gbuffer[i]);
+    if s.normal != DN_NO_SURFACE && f32(dn_pass.step) <= dn_lobe_pixels(g) {
         let cam = render_params.camera;
         let pixel = dn_pixel_size(dot(g.position - cam.eye, cam.forward));
         let x = i32(i % cam.width);
@@ -366,6 +414,7 @@ fn denoise_atrous(id: Invocation) {
         }
         let inv_z = DN_LOG2E / (knobs.phi_depth * pixel * f32(step) + 1e-20);
         let l_p = vec2<f32>(render_luminance(c.direct.xyz), render_luminance(c.indirect.xyz));
+        let r_p = dn_roughness(g);
         var sum_d = vec4<f32>(0.0);
         var sum_i = vec4<f32>(0.0);
         var w_d = 0.0;
@@ -388,6 +437,10 @@ fn denoise_atrous(id: Invocation) {
                     // Per pixel of offset: a diagonal neighbour is sqrt(2) steps away.
                     let per = select(1.0, 0.70710678, dx != 0 && dy != 0);
                     e_geometry = knobs.phi_normal * log2(cos_n) - plane * inv_z * per;
+                    if RENDER_GLOSSY {
+                        let r_q = dn_roughness(render_unpack_vertex(render_gbuffer[j]));
+                        e_geometry -= DN_ROUGHNESS_STOP * abs(r_p - r_q);
+                    }
                 }
                 let q = dn_src[j];
                 let l_q = vec2<f32>(render_luminance(q.direct.xyz), render_luminance(q.indirect.xyz));
@@ -424,7 +477,7 @@ fn denoise_modulate(id: Invocation) {
         out.direct = render_direct_frame[i];
     } else {
         let c = dn_src[i];
-        let a = dn_albedo(g.albedo);
+        let a = dn_albedo(dn_demodulating_albedo(g));
         out.direct = vec4<f32>(g.emission + a * c.direct.xyz, 0.0);
         out.indirect = vec4<f32>(a * c.indirect.xyz, 0.0);
     }

@@ -59,6 +59,13 @@ crate::knobs! {
         [gpu] depth_threshold: f32 = 0.01, "depth-threshold", 0.0..=f32::MAX;
         /// ... and with shading normals' cosine at least this (default 0.9).
         [gpu] normal_threshold: f32 = 0.9, "normal-threshold", -1.0..=1.0;
+        /// A glossy pixel takes the a-trous levels whose step is at most this many times its
+        /// lobe's radius on the screen (WGSL `dn_lobe_pixels`), so that a reflection is not
+        /// blurred far beyond what its roughness blurs it (default 4; 0: every level, as a
+        /// diffuse pixel). Measured on `glossy` (128x128, 16 frames, seed 1, ris / restir-gi
+        /// denoised relMSE): 0: 0.60 / 0.50, 1: 0.98 / 0.80 (too little filtering: residual
+        /// noise), 2: 0.63 / 0.48, 4: 0.55 / 0.44, 8: 0.59 / 0.49, 16: 0.61 / 0.51.
+        [gpu] lobe_scale: f32 = 4.0, "lobe-scale", 0.0..=f32::MAX;
     }
 }
 
@@ -394,6 +401,7 @@ impl Denoiser {
         }
         ctx.queue.submit([encoder.finish()]);
         let gbuffer = renderer.read_gbuffer(ctx)?;
+        let eye = renderer.gpu_camera().eye;
         let direct = renderer
             .read(ctx, crate::images::Readback::LastFrame)?
             .direct;
@@ -401,15 +409,21 @@ impl Denoiser {
             .iter()
             .map(|c| {
                 let pairs: Vec<DnPair> = buffers::read(ctx, c)?;
-                Ok(remodulate(&pairs, &gbuffer, &direct))
+                Ok(remodulate(&pairs, &gbuffer, &direct, eye))
             })
             .collect()
     }
 }
 
 /// albedo x (direct + indirect illumination) + emission per pixel (WGSL `denoise_modulate`'s
-/// twin, both signals summed); the raw direct frame where the camera ray escaped.
-fn remodulate(pairs: &[DnPair], gbuffer: &[GVertex], direct: &[[f32; 3]]) -> Vec<[f32; 3]> {
+/// twin, both signals summed; the albedo [`demodulating_albedo`]'s); the raw direct frame where
+/// the camera ray escaped.
+fn remodulate(
+    pairs: &[DnPair],
+    gbuffer: &[GVertex],
+    direct: &[[f32; 3]],
+    eye: glam::Vec3,
+) -> Vec<[f32; 3]> {
     gbuffer
         .iter()
         .zip(pairs)
@@ -418,10 +432,24 @@ fn remodulate(pairs: &[DnPair], gbuffer: &[GVertex], direct: &[[f32; 3]]) -> Vec
             if g.prim == crate::trace::NO_HIT {
                 return *d;
             }
+            let albedo = demodulating_albedo(g, eye);
             [0, 1, 2].map(|c| {
-                let a = if g.albedo[c] > 1e-3 { g.albedo[c] } else { 0.0 };
+                let a = if albedo[c] > 1e-3 { albedo[c] } else { 0.0 };
                 g.emission[c] + a * (p.direct[c] + p.indirect[c])
             })
         })
         .collect()
+}
+
+/// Twin of WGSL `dn_demodulating_albedo`: the base colour of a diffuse vertex, a glossy one's
+/// directional albedo towards `eye` (its base colour where its shading normal faces away).
+fn demodulating_albedo(g: &GVertex, eye: glam::Vec3) -> [f32; 3] {
+    let s = g.brdf();
+    let position = glam::Vec3::from(g.position);
+    let (n, wo) = (g.shading_normal(), (eye - position).normalize());
+    if s.diffuse || !(n.dot(wo) > 0.0) {
+        return g.albedo;
+    }
+    let a = crate::brdf::Brdf::new(crate::brdf::tables()).albedo(&s, n.as_dvec3(), wo.as_dvec3());
+    a.as_vec3().to_array()
 }

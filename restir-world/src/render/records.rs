@@ -40,6 +40,28 @@ pub struct GVertex {
 
 const _: () = assert!(size_of::<GVertex>() == 64);
 
+impl GVertex {
+    /// The unit shading normal (twin of WGSL `render_unpack_vertex`'s).
+    pub fn shading_normal(&self) -> glam::Vec3 {
+        if self.shading[0] == SHADING_FLAT {
+            return glam::Vec3::from(self.normal);
+        }
+        oct_decode(glam::Vec2::from(self.shading))
+    }
+
+    /// The vertex's BRDF (twin of WGSL `render_vertex_brdf`): its base colour and material
+    /// word unpacked.
+    pub fn brdf(&self) -> crate::brdf::BrdfSurface {
+        let m = self.material;
+        crate::brdf::BrdfSurface {
+            base: glam::Vec3::from(self.albedo).as_dvec3(),
+            metallic: f64::from(((m >> 16) & 255) as f32 / 255.0),
+            roughness: f64::from((m & 65535) as f32 / 65535.0),
+            diffuse: (m >> 24) == 0,
+        }
+    }
+}
+
 /// [`GVertex::shading`]'s first coordinate where the shading normal is the geometric normal
 /// (WGSL `RENDER_SHADING_FLAT`).
 pub const SHADING_FLAT: f32 = 2.0;
@@ -105,6 +127,18 @@ pub fn oct_encode(d: glam::Vec3) -> glam::Vec2 {
         if p.y >= 0.0 { 1.0 } else { -1.0 },
     );
     (glam::Vec2::ONE - glam::Vec2::new(p.y.abs(), p.x.abs())) * s
+}
+
+/// The unit direction of octahedral coordinates `e` (twin of WGSL `sampling_oct_decode`).
+pub fn oct_decode(e: glam::Vec2) -> glam::Vec3 {
+    let mut d = glam::Vec3::new(e.x, e.y, 1.0 - e.x.abs() - e.y.abs());
+    if d.z < 0.0 {
+        let s = |v: f32| if v >= 0.0 { 1.0 } else { -1.0 };
+        let (x, y) = (d.x, d.y);
+        d.x = (1.0 - y.abs()) * s(x);
+        d.y = (1.0 - x.abs()) * s(y);
+    }
+    d.normalize()
 }
 
 /// A unit tangent as the GPU keeps it: its octahedral coordinates ([`oct_encode`]) as two
