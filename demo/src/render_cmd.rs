@@ -31,8 +31,9 @@ pub struct AnimArgs {
     /// Dolly: fraction of the eye-target distance travelled over the animation.
     #[arg(long, default_value_t = 0.3)]
     dolly_fraction: f32,
-    /// Also write the debug views (cells, M heat map, overflow mask) of the last frame, for
-    /// methods with a hash grid.
+    /// Also write the last frame's debug views the method draws (TAG-debug-VIEW.png: a hash
+    /// grid's cells, M and overflow; path reuse's M, rejected and refused reconnections,
+    /// temporal history; the cache's; the denoiser's).
     #[arg(long)]
     debug_views: bool,
     /// Also write the last frame denoised (TAG-denoised.exr/png; SVGF after the method), with
@@ -213,6 +214,7 @@ fn debug_views(
         (DebugView::DenoiseVariance, "debug-denoise-variance"),
         (DebugView::History, "debug-history"),
         (DebugView::HistoryAge, "debug-history-age"),
+        (DebugView::Refused, "debug-refused"),
     ] {
         // Each method draws the views it has.
         let Some(px) = m.debug_image(ctx, view)? else {

@@ -111,10 +111,12 @@ pub enum Shown {
     History,
     /// Debug view: how old world-restir-gi's temporal neighbour's sample is.
     HistoryAge,
+    /// Debug view: why path reuse refused each pixel's reconnections.
+    Refused,
 }
 
 impl Shown {
-    const ALL: [(Shown, &'static str); 15] = [
+    const ALL: [(Shown, &'static str); 16] = [
         (Shown::Denoised, "denoised (last frame)"),
         (Shown::Combined, "combined (accumulated)"),
         (Shown::Direct, "direct"),
@@ -130,6 +132,7 @@ impl Shown {
         (Shown::DenoiseVariance, "debug: denoiser variance"),
         (Shown::History, "debug: temporal history's origin"),
         (Shown::HistoryAge, "debug: temporal history's age"),
+        (Shown::Refused, "debug: why reconnections were refused"),
     ];
 
     fn debug(self) -> Option<DebugView> {
@@ -145,6 +148,7 @@ impl Shown {
             Shown::CacheSamples => Some(DebugView::CacheSamples),
             Shown::History => Some(DebugView::History),
             Shown::HistoryAge => Some(DebugView::HistoryAge),
+            Shown::Refused => Some(DebugView::Refused),
             _ => None,
         }
     }

@@ -745,3 +745,57 @@ fn knob_errors_and_debug_views() {
         }
     }
 }
+
+/// Guards the refusal view (`DebugView::Refused`: why path reuse refused a pixel's
+/// reconnections), which no other check reads: on cornell-glossy (32x32, 4 frames, seed 1) at
+/// the defaults, restir-gi and world-restir-gi mark exactly the pixels whose primary vertex is
+/// glossy as too smooth to take part (`min-roughness` 1: grey), and some diffuse pixels as
+/// seeing a secondary vertex too smooth to reconnect to (`x2-min-roughness` 0.5: the metal
+/// blocks and the polished floor; blue); with both knobs at 0 neither reason shows. The
+/// shift's and the visibility's refusals (red, green) show on some pixel either way.
+#[test]
+fn refusal_view_names_the_reason() {
+    use restir_world::render::DebugView;
+    let ctx = gpu::context();
+    let (s, cam) = tests::scenes::builtin_square("cornell-glossy", 32, Default::default());
+    for method in ["restir-gi", "world-restir-gi"] {
+        for knobs in ["", ":min-roughness=0+x2-min-roughness=0"] {
+            let spec = format!("{method}{knobs}");
+            let mut m = gpu::build(&spec, &s, &cam, gpu::planted(1, Planted::None));
+            gpu::render(&mut m, 4);
+            let gbuffer = m.renderer().read_gbuffer(ctx).expect("G-buffer");
+            let img = m
+                .debug_image(ctx, DebugView::Refused)
+                .unwrap()
+                .expect("view");
+            let x1: Vec<bool> = img.iter().map(|p| *p == [0.5; 3]).collect();
+            let count = |c: usize| img.iter().filter(|p| p[c] == 1.0).count();
+            let glossy = gbuffer
+                .iter()
+                .map(|v| v.prim != restir_world::trace::NO_HIT && v.material != 0)
+                .collect::<Vec<_>>();
+            let (x2, shift, occluded) = (count(2), count(0), count(1));
+            eprintln!(
+                "{spec}: x1 too smooth {}, x2 too smooth {x2}, shift {shift}, occluded {occluded} \
+                 of {} pixels ({} glossy)",
+                x1.iter().filter(|&&b| b).count(),
+                img.len(),
+                glossy.iter().filter(|&&b| b).count()
+            );
+            match knobs {
+                "" => {
+                    assert_eq!(x1, glossy, "{spec}: x1 refusals are not the glossy pixels");
+                    assert!(x2 > 0, "{spec}: no x2 refused");
+                }
+                _ => assert!(
+                    x1.iter().all(|&b| !b) && x2 == 0,
+                    "{spec}: a roughness refusal at roughness 0"
+                ),
+            }
+            assert!(
+                shift + occluded > 0,
+                "{spec}: no shift or visibility refusal"
+            );
+        }
+    }
+}

@@ -447,7 +447,8 @@ fn demodulating_albedo(g: &GVertex, eye: glam::Vec3) -> [f32; 3] {
     let s = g.brdf();
     let position = glam::Vec3::from(g.position);
     let (n, wo) = (g.shading_normal(), (eye - position).normalize());
-    if s.diffuse || !(n.dot(wo) > 0.0) {
+    // NaN (a degenerate normal) takes the base colour too, as the WGSL's `!(cos > 0)`.
+    if s.diffuse || n.dot(wo).partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) {
         return g.albedo;
     }
     let a = crate::brdf::Brdf::new(crate::brdf::tables()).albedo(&s, n.as_dvec3(), wo.as_dvec3());

@@ -201,7 +201,7 @@ impl PartialEq for MethodSettings {
 impl MethodSettings {
     /// The debug views a method of these settings draws ([`FrameMethod::debug_image`]):
     /// world-restir's grid, the reservoirs' M (world-restir, restir-gi, world-restir-gi),
-    /// the rejected reconnections (restir-gi, world-restir-gi), the temporal neighbours' origin
+    /// the rejected reconnections and why (restir-gi, world-restir-gi), the temporal neighbours' origin
     /// and age (world-restir-gi), the cache's and the denoiser's.
     pub fn debug_views(&self) -> Vec<render::DebugView> {
         use render::DebugView as V;
@@ -211,7 +211,7 @@ impl MethodSettings {
             .filter(|v| match v {
                 V::Cells | V::Overflow => self.world.is_some(),
                 V::M => self.world.is_some() || paths,
-                V::Rejected => paths,
+                V::Rejected | V::Refused => paths,
                 V::History | V::HistoryAge => self.wgi.is_some(),
                 V::CacheRadiance | V::CacheAge | V::CacheSamples => self.cache.is_some(),
                 V::DenoiseHistory | V::DenoiseVariance => self.denoise.is_some(),

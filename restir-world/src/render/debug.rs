@@ -33,11 +33,17 @@ pub enum DebugView {
     /// resampled it: heat map from 1 (blue, last frame's pixel) to `history-frames` + 2 (red,
     /// the oldest pooled record); black: none merged.
     HistoryAge = 10,
+    /// Why path reuse refused a pixel's reconnections (restir-gi, world-restir-gi): grey its
+    /// primary vertex is too smooth to take part (`min-roughness`); otherwise colours added,
+    /// blue its own secondary vertex too smooth to reconnect to (`x2-min-roughness`), red a
+    /// neighbour's shift refused (Jacobian out of range or x2 facing away), green the selected
+    /// sample occluded; black: nothing refused.
+    Refused = 11,
 }
 
 impl DebugView {
     /// Every view.
-    pub const ALL: [DebugView; 11] = [
+    pub const ALL: [DebugView; 12] = [
         Self::Cells,
         Self::M,
         Self::Overflow,
@@ -49,6 +55,7 @@ impl DebugView {
         Self::DenoiseVariance,
         Self::History,
         Self::HistoryAge,
+        Self::Refused,
     ];
 
     /// Whether the denoiser draws this view.

@@ -2,7 +2,7 @@
 // = the radiance leaving it that the indirect passes recorded (render_path_radiance). The GI
 // ray was drawn by x1's path step (the cosine density about the primary's shading normal, or
 // its BRDF's), so W = 1 / pdf (one RIS candidate). M = 1; a GI ray that escaped or found no
-// light gives W = 0. Writes screen_out; clears gi_debug. An x1 the reuse does not take
+// light gives W = 0. Writes screen_out; clears gi_debug but for its refusal flags (GI_REFUSED_X1, _X2). An x1 the reuse does not take
 // (gi_reuses: glossy below min-roughness) holds no reservoir (M = 0: no neighbour merges it,
 // and gi-shade gives it the pixel's own path); an x2 it does not take (gi_takes_x2: glossy
 // below x2-min-roughness) is no sample (W = 0, M = 1, as an escaped ray), and gi-shade adds
@@ -16,10 +16,16 @@ fn screen_initial(id: Invocation) {
     let g = render_primary_vertex(i);
     var out: GiReservoir;
     if g.prim == BVH_NO_HIT || !gi_reuses(g) {
+        if g.prim != BVH_NO_HIT {
+            gi_debug[i] = GI_REFUSED_X1;
+        }
         screen_out[i] = out;
         return;
     }
     let x2 = render_unpack_vertex(render_secondary[i]);
+    if x2.prim != BVH_NO_HIT && !gi_takes_x2(x2) {
+        gi_debug[i] = GI_REFUSED_X2;
+    }
     var sample: GiSample;
     var packed = PackedReservoir(0.0, 1u);
     if x2.prim != BVH_NO_HIT && gi_takes_x2(x2) {

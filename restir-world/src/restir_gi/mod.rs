@@ -436,6 +436,20 @@ impl RestirGi {
             .collect())
     }
 
+    /// Per pixel of the last frame, why its reconnections were refused ([`Refusals`]).
+    pub fn refusals(&self, ctx: &GpuContext) -> Result<Vec<Refusals>, GpuError> {
+        Ok(self
+            .debug_words(ctx)?
+            .iter()
+            .map(|w| Refusals {
+                x1_smooth: w & (1 << 28) != 0,
+                x2_smooth: w & (1 << 29) != 0,
+                shift: w & (1 << 30) != 0,
+                occluded: w & (1 << 31) != 0,
+            })
+            .collect())
+    }
+
     /// Per pixel of the last frame, where world-restir-gi's temporal neighbour came from;
     /// `None` for restir-gi.
     pub fn history_origins(
@@ -508,6 +522,18 @@ impl RestirGi {
                     })
                     .collect(),
             ),
+            DebugView::Refused => Some(
+                self.refusals(ctx)?
+                    .iter()
+                    .map(|r| {
+                        let on = |b: bool| if b { 1.0f32 } else { 0.0 };
+                        match r.x1_smooth {
+                            true => [0.5; 3],
+                            false => [on(r.shift), on(r.occluded), on(r.x2_smooth)],
+                        }
+                    })
+                    .collect(),
+            ),
             DebugView::HistoryAge => {
                 let most = self.world.as_ref().map_or(1, |w| w.history_frames + 2);
                 self.history_ages(ctx)?.map(|ages| {
@@ -532,6 +558,21 @@ impl RestirGi {
             _ => None,
         })
     }
+}
+
+/// Why path reuse refused a pixel's reconnections in the last frame (WGSL `GI_REFUSED_*`,
+/// [`RestirGi::refusals`], [`DebugView::Refused`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct Refusals {
+    /// Its primary vertex is glossy below `min-roughness`: it takes no part in the reuse.
+    pub x1_smooth: bool,
+    /// Its own secondary vertex is glossy below `x2-min-roughness`: no reconnection vertex.
+    pub x2_smooth: bool,
+    /// A neighbour's shift to it was refused (Jacobian out of range, x2 facing away; with
+    /// `visibility=on` also occluded).
+    pub shift: bool,
+    /// The selected sample was occluded (`visibility=selected` or `final`).
+    pub occluded: bool,
 }
 
 /// Where a pixel's temporal neighbour came from (world-restir-gi, [`RestirGi::history_origins`]).

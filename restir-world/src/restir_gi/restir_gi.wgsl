@@ -177,6 +177,16 @@ fn gi_has_sample(r: GiReservoir) -> bool {
     return gi_m(r) > 0u && r.ucw > 0.0;
 }
 
+// gi_debug's refusal flags (DebugView::Refused; bits 0-15 count the merged neighbours and the
+// rejected reconnections, 16-27 world-restir-gi's temporal origin and age): the pixel's x1 is
+// too smooth to take part (min-roughness), its own x2 too smooth to reconnect to
+// (x2-min-roughness), a neighbour's shift was refused (Jacobian out of range, x2 facing away;
+// with visibility=on also occluded), the selected sample was occluded (selected, final).
+const GI_REFUSED_X1: u32 = 0x10000000u;
+const GI_REFUSED_X2: u32 = 0x20000000u;
+const GI_REFUSED_SHIFT: u32 = 0x40000000u;
+const GI_REFUSED_OCCLUDED: u32 = 0x80000000u;
+
 // Whether the reuse takes primary vertex g as an x1 (holds a path sample there): a diffuse one,
 // or a glossy one at knobs.min_roughness or rougher (half the packed roughness' step below: a
 // material at the knob's value is taken). Its x2 is one gi_takes_x2 takes.

@@ -11,7 +11,7 @@
 // receiver's own sample), `final` traces only that one. Combination
 // (knobs.combine): the reservoir crate's reuse_* with the shift's Jacobian kept apart
 // (reuse_neighbour_shifted), by the one merge loop (reuse_merge). Adds the merged neighbours and the rejected
-// reconnections (shift or visibility failed) to gi_debug.
+// reconnections (shift or visibility failed) to gi_debug, and flags why (GI_REFUSED_*).
 
 const SCREEN_STREAM_TEMPORAL: u32 = STREAM_GI_TEMPORAL;
 const SCREEN_STREAM_SPATIAL: u32 = STREAM_GI_SPATIAL;
@@ -125,5 +125,7 @@ fn screen_merge(i: u32, own: GiReservoir, g: GVertex, temporal: bool, nb: Screen
     }
     let rejected = r.rejected + select(0u, 1u, end.occluded);
     gi_debug[i] += nb.k | (rejected << 8u);
+    gi_debug[i] |= select(0u, GI_REFUSED_SHIFT, r.rejected > 0u)
+        | select(0u, GI_REFUSED_OCCLUDED, end.occluded);
     return gi_reweighted(out, end.stored);
 }
