@@ -1447,14 +1447,15 @@ fn cases(tmp: &Path, gen_dir: &Path) -> Vec<Case> {
             "--dolly-fraction -1e38: frame 1's camera is not valid",
         ),
         // Issue 38: restir-gi's debug views at 1x1 failed ("image of 1x1 needs 1 pixels, has
-        // 4": a padded buffer read whole).
+        // 4": a padded buffer read whole). 9 files: the 6 images and its views M, rejected and
+        // refused.
         case_of(
             "38-debug-views-1x1",
             gpu_render("1x1", &["--debug-views", "--animation", "orbit"]),
             0,
             "",
         )
-        .after(|out| expect_files(out, 8)),
+        .after(|out| expect_files(out, 9)),
         // Issue 38: the debug views were written before the images, so a failed image write
         // left them behind (a directory planted at the last image's name makes it fail).
         case_of(
