@@ -361,8 +361,8 @@ fn motion_and_cuts_stay_finite() {
 /// seed 1) the mirror's pixels (roughness 0: a lobe far narrower than a pixel) leave every
 /// a-trous iteration exactly as they entered it, while most diffuse pixels are filtered; and
 /// the CPU twin of the remodulation (glossy pixels by their directional albedo) gives the GPU's
-/// denoised frame. Control: `lobe-scale=0` (every level at every pixel: the denoiser before glossy surfaces had
-/// their own rule) changes most of the mirror's pixels. What the bound buys on `glossy`
+/// denoised frame. Control: `lobe-scale=0` (every level at every pixel: the denoiser before
+/// glossy surfaces had their own rule) changes most of the mirror's pixels. What the bound buys on `glossy`
 /// (128x128, 16 frames, denoised relMSE, ris / restir-gi): 0.55 / 0.44 against 0.60 / 0.50
 /// without it; docs/results-notes.md.
 #[test]

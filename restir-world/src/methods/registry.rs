@@ -201,8 +201,8 @@ impl PartialEq for MethodSettings {
 impl MethodSettings {
     /// The debug views a method of these settings draws ([`FrameMethod::debug_image`]):
     /// world-restir's grid, the reservoirs' M (world-restir, restir-gi, world-restir-gi),
-    /// the rejected reconnections and why (restir-gi, world-restir-gi), the temporal neighbours' origin
-    /// and age (world-restir-gi), the cache's and the denoiser's.
+    /// the rejected reconnections and why (restir-gi, world-restir-gi), the temporal
+    /// neighbours' origin and age (world-restir-gi), the cache's and the denoiser's.
     pub fn debug_views(&self) -> Vec<render::DebugView> {
         use render::DebugView as V;
         let paths = self.gi.is_some() || self.wgi.is_some();

@@ -2,7 +2,8 @@
 // = the radiance leaving it that the indirect passes recorded (render_path_radiance). The GI
 // ray was drawn by x1's path step (the cosine density about the primary's shading normal, or
 // its BRDF's), so W = 1 / pdf (one RIS candidate). M = 1; a GI ray that escaped or found no
-// light gives W = 0. Writes screen_out; clears gi_debug but for its refusal flags (GI_REFUSED_X1, _X2). An x1 the reuse does not take
+// light gives W = 0. Writes screen_out; clears gi_debug but for its refusal flags
+// (GI_REFUSED_X1, GI_REFUSED_X2). An x1 the reuse does not take
 // (gi_reuses: glossy below min-roughness) holds no reservoir (M = 0: no neighbour merges it,
 // and gi-shade gives it the pixel's own path); an x2 it does not take (gi_takes_x2: glossy
 // below x2-min-roughness) is no sample (W = 0, M = 1, as an escaped ray), and gi-shade adds

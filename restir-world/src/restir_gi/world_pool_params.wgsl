@@ -1,4 +1,5 @@
-// World-space ReSTIR GI's pool parameters (world_pool.wgsl; Rust twin: restir_gi::world::PoolParams).
+// World-space ReSTIR GI's pool parameters (world_pool.wgsl; Rust twin:
+// restir_gi::world::PoolParams).
 
 struct WgiPoolParams {
     pixels: u32,
